@@ -1,0 +1,84 @@
+"""One DDS participant per process, configured like a ROS 2 process.
+
+- Domain: `ROS_DOMAIN_ID` (default 0), or an explicit id.
+- Network interface: `GO2VLM_IFACE` or the `interface` argument (`lo` for a local sim, the robot's
+  interface such as `eth0` or `enp3s0` for a real Go2). If neither is given and `CYCLONEDDS_URI` is
+  set, Cyclone's own configuration is used unchanged, so a seed-style setup keeps working.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import threading
+
+from cyclonedds.domain import Domain, DomainParticipant
+from cyclonedds.topic import Topic
+
+_lock = threading.Lock()
+_participants: dict[int, tuple[DomainParticipant, Domain | None]] = {}
+_topics: dict[tuple[int, str, str], Topic] = {}
+
+_IFACE_RE = re.compile(r"^[A-Za-z0-9_.:\-]{1,32}$")
+
+
+def domain_id_from_env() -> int:
+    raw = os.environ.get("ROS_DOMAIN_ID", "0").strip() or "0"
+    try:
+        value = int(raw)
+    except ValueError:
+        raise ValueError(f"ROS_DOMAIN_ID={raw!r} is not an integer (0..232)") from None
+    if not 0 <= value <= 232:
+        raise ValueError(f"ROS_DOMAIN_ID={value} is outside 0..232")
+    return value
+
+
+def cyclone_config(interface: str) -> str:
+    """Cyclone XML that binds to one interface, as the seed's CYCLONEDDS_URI does with `lo`."""
+    if not _IFACE_RE.match(interface):
+        raise ValueError(f"network interface {interface!r} is not a valid interface name")
+    return (
+        '<CycloneDDS><Domain id="any"><General><Interfaces>'
+        f'<NetworkInterface name="{interface}" priority="default" multicast="default"/>'
+        "</Interfaces></General></Domain></CycloneDDS>"
+    )
+
+
+def participant(domain_id: int | None = None, interface: str | None = None) -> DomainParticipant:
+    """The process-wide participant for a domain (created on first use)."""
+    did = domain_id_from_env() if domain_id is None else domain_id
+    iface = interface or os.environ.get("GO2VLM_IFACE") or None
+    with _lock:
+        if did in _participants:
+            return _participants[did][0]
+        dom = Domain(did, cyclone_config(iface)) if iface else None
+        dp = DomainParticipant(did)
+        _participants[did] = (dp, dom)
+        return dp
+
+
+def topic(dp: DomainParticipant, name: str, msg_type: type) -> Topic:
+    """A cached Topic, so that many nodes in one process share one DDS topic entity."""
+    key = (id(dp), name, msg_type.__idl_typename__)
+    with _lock:
+        t = _topics.get(key)
+        if t is None:
+            t = Topic(dp, name, msg_type)
+            _topics[key] = t
+        return t
+
+
+def dds_topic_name(ros_topic: str) -> str:
+    """`/camera/image_raw` -> `rt/camera/image_raw` (ROS 2's DDS topic prefix)."""
+    name = ros_topic.strip()
+    if not name or name == "/":
+        raise ValueError(f"topic name {ros_topic!r} is empty")
+    if not name.startswith("/"):
+        name = "/" + name
+    if "//" in name or name.endswith("/") or not re.match(r"^[/A-Za-z0-9_~{}]+$", name):
+        raise ValueError(f"topic name {ros_topic!r} is not a valid ROS 2 topic name")
+    return "rt" + name
+
+
+def ros_topic_name(dds_name: str) -> str | None:
+    return dds_name[2:] if dds_name.startswith("rt/") else None

@@ -1,0 +1,272 @@
+"""The node runtime: publishers, subscriptions, timers, parameters and logging, one executor thread
+per node.
+
+A subscription callback and the node's timers run on the node's own thread, one at a time, as in
+rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises
+is logged (rate-limited) and counted; the node keeps running. Work that takes long (VLM inference)
+belongs on a worker thread that the node starts itself, so that the newest message always wins.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, fields, is_dataclass
+from typing import Any, ClassVar, Generic, TypeVar
+
+from cyclonedds.core import GuardCondition, InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds.internal import InvalidSample
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.util import duration
+
+from ..msgs.builtin_interfaces import Time
+from ..msgs.std_msgs import Header
+from . import domain
+from .log import Logger
+from .qos import QOS_DEFAULT, QosProfile
+
+M = TypeVar("M")
+
+
+@dataclass
+class NoParams:
+    """A node without parameters."""
+
+
+class Publisher(Generic[M]):
+    def __init__(self, node: Node, msg_type: type[M], topic: str, qos: QosProfile) -> None:
+        self.topic = topic
+        self.msg_type = msg_type
+        self.qos = qos
+        dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
+        self._writer = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
+        self.count = 0
+
+    def publish(self, msg: M) -> None:
+        self._writer.write(msg)
+        self.count += 1
+
+    @property
+    def matched(self) -> int:
+        """How many readers are matched (a readiness check before publishing)."""
+        return len(self._writer.get_matched_subscriptions())
+
+    @property
+    def guid(self) -> Any:
+        return self._writer.guid
+
+    def close(self) -> None:
+        self._writer = None  # type: ignore[assignment]
+
+
+class Subscription(Generic[M]):
+    def __init__(
+        self, node: Node, msg_type: type[M], topic: str, callback: Callable[[M], None], qos: QosProfile
+    ) -> None:
+        self.topic = topic
+        self.msg_type = msg_type
+        self.qos = qos
+        self.callback = callback
+        dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
+        self._reader = DataReader(node.participant, dds_topic, qos=qos.to_dds())
+        self.condition = ReadCondition(self._reader, SampleState.Any | ViewState.Any | InstanceState.Any)
+        self.count = 0
+
+    def take(self) -> list[M]:
+        samples = self._reader.take(N=64)
+        out = [s for s in samples if not isinstance(s, InvalidSample)]
+        self.count += len(out)
+        return out
+
+    @property
+    def guid(self) -> Any:
+        return self._reader.guid
+
+    @property
+    def publisher_count(self) -> int:
+        return len(self._reader.get_matched_publications())
+
+
+@dataclass
+class Timer:
+    period_s: float
+    callback: Callable[[], None]
+    next_due: float
+    cancelled: bool = False
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+class Node:
+    """Base class of every go2vlm node. Subclasses set `name`, `Config` and build their
+    publishers, subscriptions and timers in `__init__`; `close()` releases their own resources."""
+
+    name: ClassVar[str] = "node"
+    Config: ClassVar[type] = NoParams
+
+    def __init__(
+        self,
+        config: Any = None,
+        *,
+        node_name: str | None = None,
+        remap: dict[str, str] | None = None,
+        domain_id: int | None = None,
+        interface: str | None = None,
+    ) -> None:
+        self.node_name = node_name or self.name
+        self.config = config if config is not None else self.Config()
+        self.remap = dict(remap or {})
+        self.log = Logger(self.node_name)
+        self.participant = domain.participant(domain_id, interface)
+        self.counters: dict[str, int] = {}
+        self.publishers: list[Publisher[Any]] = []
+        self.subscriptions: list[Subscription[Any]] = []
+        self._timers: list[Timer] = []
+        self._lock = threading.RLock()
+        self._waitset = WaitSet(self.participant)
+        self._guard = GuardCondition(self.participant)
+        self._waitset.attach(self._guard)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- graph -------------------------------------------------------------------------------
+    def resolve(self, topic: str) -> str:
+        name = topic if topic.startswith("/") else "/" + topic
+        return self.remap.get(name, self.remap.get(topic, name))
+
+    def create_publisher(self, msg_type: type[M], topic: str, qos: QosProfile = QOS_DEFAULT) -> Publisher[M]:
+        pub = Publisher(self, msg_type, self.resolve(topic), qos)
+        self.publishers.append(pub)
+        return pub
+
+    def create_subscription(
+        self,
+        msg_type: type[M],
+        topic: str,
+        callback: Callable[[M], None],
+        qos: QosProfile = QOS_DEFAULT,
+    ) -> Subscription[M]:
+        sub = Subscription(self, msg_type, self.resolve(topic), callback, qos)
+        with self._lock:
+            self.subscriptions.append(sub)
+            self._waitset.attach(sub.condition)
+        self._wake()
+        return sub
+
+    def create_timer(self, period_s: float, callback: Callable[[], None]) -> Timer:
+        if not period_s > 0:
+            raise ValueError(f"timer period must be positive, got {period_s}")
+        timer = Timer(period_s, callback, time.monotonic() + period_s)
+        with self._lock:
+            self._timers.append(timer)
+        self._wake()
+        return timer
+
+    # -- helpers -----------------------------------------------------------------------------
+    def now(self) -> float:
+        """Wall-clock seconds since the epoch (ROS time without use_sim_time)."""
+        return time.time()
+
+    def stamp(self, t: float | None = None) -> Time:
+        return Time.from_sec(self.now() if t is None else t)
+
+    def header(self, frame_id: str = "", t: float | None = None) -> Header:
+        return Header(stamp=self.stamp(t), frame_id=frame_id)
+
+    def count(self, name: str, n: int = 1) -> int:
+        self.counters[name] = self.counters.get(name, 0) + n
+        return self.counters[name]
+
+    def params(self) -> dict[str, Any]:
+        cfg = self.config
+        return {f.name: getattr(cfg, f.name) for f in fields(cfg)} if is_dataclass(cfg) else {}
+
+    # -- execution ---------------------------------------------------------------------------
+    def _wake(self) -> None:
+        self._guard.set(True)
+
+    def spin_once(self, timeout_s: float = 0.1) -> None:
+        """Wait for data or the next timer (at most `timeout_s`), then run what is due."""
+        with self._lock:
+            timers = [t for t in self._timers if not t.cancelled]
+        now = time.monotonic()
+        wait = timeout_s
+        if timers:
+            wait = max(0.0, min(wait, min(t.next_due for t in timers) - now))
+        if wait > 0:
+            self._waitset.wait(duration(seconds=wait))
+        self._guard.take()
+        with self._lock:
+            subs = list(self.subscriptions)
+        for sub in subs:
+            if self._stop.is_set():
+                return
+            try:
+                msgs = sub.take()
+            except Exception as exc:  # malformed bytes from the wire: count, keep going
+                self.count("deserialize_errors")
+                self.log.throttled("error", 2.0, f"cannot decode a message on {sub.topic}: {exc}")
+                continue
+            for msg in msgs:
+                self._call(sub.callback, msg, sub.topic)
+        now = time.monotonic()
+        for t in timers:
+            if not t.cancelled and now >= t.next_due:
+                # Skip missed periods rather than bursting to catch up.
+                t.next_due = max(t.next_due + t.period_s, now)
+                self._call(t.callback, None, "timer")
+
+    def _call(self, fn: Callable[..., None], arg: Any, where: str) -> None:
+        try:
+            fn() if arg is None and where == "timer" else fn(arg)
+        except Exception as exc:
+            self.count("callback_errors")
+            self.log.throttled(
+                "error", 2.0, f"callback for {where} failed: {type(exc).__name__}: {exc}", key=f"cb:{where}"
+            )
+
+    def start(self) -> Node:
+        """Run the executor on a background thread."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._run, name=f"node:{self.node_name}", daemon=True)
+            self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.spin_once(0.2)
+
+    def spin(self) -> None:
+        """Run the executor on the calling thread until `shutdown()`."""
+        self._run()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def close(self) -> None:
+        """Release the node's own resources (worker threads, devices). Override as needed."""
+
+    def shutdown(self, timeout_s: float = 2.0) -> None:
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._wake()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout_s)
+        try:
+            self.close()
+        except Exception as exc:
+            self.log.error(f"close failed: {exc}")
+        with self._lock:
+            for sub in self.subscriptions:
+                try:
+                    self._waitset.detach(sub.condition)
+                except Exception:
+                    pass
+            self.subscriptions.clear()
+            self.publishers.clear()
+            self._timers.clear()

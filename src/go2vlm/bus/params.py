@@ -1,0 +1,225 @@
+"""Typed node parameters: a dataclass per node, filled from defaults, a ROS 2 params file and
+`--param name=value` overrides, validated once at start-up.
+
+    @dataclass
+    class FollowerConfig:
+        kp_angular: float = param(0.8, help="P gain on the horizontal error", min=0.0)
+
+A bad value is a `ParamError` naming the node, the parameter, the value and what was expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+__all__ = ["ParamError", "param", "build_config", "load_params_file", "parse_overrides", "describe_params"]
+
+
+class ParamError(ValueError):
+    """A parameter value that is missing, of the wrong type or out of range."""
+
+
+def param(
+    default: Any = dataclasses.MISSING,
+    *,
+    help: str = "",
+    choices: Iterable[Any] | None = None,
+    min: float | None = None,
+    max: float | None = None,
+) -> Any:
+    """Declare a parameter. A callable default (e.g. `list`) is used as a factory."""
+    meta = {"help": help, "choices": tuple(choices) if choices is not None else None, "min": min, "max": max}
+    if default in (list, dict, tuple):
+        return dataclasses.field(default_factory=default, metadata=meta)
+    if isinstance(default, (list, dict)):
+        value = default
+        return dataclasses.field(default_factory=lambda: type(value)(value), metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _parse_scalar(text: str) -> Any:
+    try:
+        return yaml.safe_load(text) if text.strip() else ""
+    except yaml.YAMLError:
+        return text
+
+
+def _is_optional(tp: Any) -> tuple[bool, Any]:
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(args) == 1 and len(typing.get_args(tp)) == 2:
+            return True, args[0]
+    return False, tp
+
+
+def coerce(value: Any, tp: Any, where: str) -> Any:
+    """Convert `value` to the annotated type `tp` or raise ParamError."""
+    optional, inner = _is_optional(tp)
+    if value is None:
+        if optional:
+            return None
+        raise ParamError(f"{where}: null is not allowed (expected {_type_name(tp)})")
+    tp = inner
+    origin = typing.get_origin(tp)
+    if origin in (list, tuple):
+        (item_tp, *_) = typing.get_args(tp) or (Any,)
+        if isinstance(value, str):
+            parsed = _parse_scalar(value)
+            value = parsed if isinstance(parsed, list) else [v.strip() for v in value.split(",") if v.strip()]
+        if not isinstance(value, (list, tuple)):
+            raise ParamError(f"{where}: {value!r} is not a list (expected {_type_name(tp)})")
+        items = [coerce(v, item_tp, f"{where}[{i}]") for i, v in enumerate(value)]
+        return items if origin is list else tuple(items)
+    if origin is dict or tp is dict:
+        if isinstance(value, str):
+            value = _parse_scalar(value)
+        if not isinstance(value, dict):
+            raise ParamError(f"{where}: {value!r} is not a mapping")
+        return dict(value)
+    if tp is Any:
+        return value
+    if tp is bool:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.strip().lower() in ("true", "false", "1", "0", "yes", "no", "on", "off"):
+            return value.strip().lower() in ("true", "1", "yes", "on")
+        if isinstance(value, int) and value in (0, 1):
+            return bool(value)
+        raise ParamError(f"{where}: {value!r} is not a bool (expected true or false)")
+    if tp is int:
+        if isinstance(value, bool):
+            raise ParamError(f"{where}: {value!r} is not an int")
+        if isinstance(value, str):
+            value = _parse_scalar(value)
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise ParamError(f"{where}: {value!r} is not an int")
+        return value
+    if tp is float:
+        if isinstance(value, str):
+            parsed = _parse_scalar(value)
+            value = parsed if isinstance(parsed, (int, float)) else value
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParamError(f"{where}: {value!r} is not a number")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ParamError(f"{where}: {value!r} is not a finite number")
+        return value
+    if tp is str:
+        if isinstance(value, (dict, list)):
+            raise ParamError(f"{where}: {value!r} is not a string")
+        return str(value)
+    raise ParamError(f"{where}: unsupported parameter type {_type_name(tp)}")
+
+
+def _type_name(tp: Any) -> str:
+    return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
+
+
+def _validate(field: dataclasses.Field, value: Any, where: str) -> None:
+    meta = field.metadata
+    choices, lo, hi = meta.get("choices"), meta.get("min"), meta.get("max")
+    if choices is not None and value is not None and value not in choices:
+        raise ParamError(f"{where}: {value!r} is not one of {list(choices)}")
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if lo is not None and value < lo:
+            raise ParamError(f"{where}: {value!r} is below the minimum {lo}")
+        if hi is not None and value > hi:
+            raise ParamError(f"{where}: {value!r} is above the maximum {hi}")
+
+
+def build_config(config_cls: type, values: Mapping[str, Any], node: str = "node") -> Any:
+    """Instantiate `config_cls` from raw values (strings or YAML types), validating every field."""
+    if not dataclasses.is_dataclass(config_cls):
+        raise TypeError(f"{config_cls!r} is not a dataclass")
+    hints = typing.get_type_hints(config_cls)
+    fields = {f.name: f for f in dataclasses.fields(config_cls)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ParamError(
+            f"node {node!r}: unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(fields))}"
+        )
+    kwargs = {}
+    for name, raw in values.items():
+        kwargs[name] = coerce(raw, hints[name], f"node {node!r}: parameter {name!r}")
+    try:
+        cfg = config_cls(**kwargs)
+    except ParamError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ParamError(f"node {node!r}: {exc}") from None
+    for name, field in fields.items():
+        _validate(field, getattr(cfg, name), f"node {node!r}: parameter {name!r}")
+    check: Callable[[], None] | None = getattr(cfg, "validate", None)
+    if check is not None:
+        try:
+            check()
+        except ParamError:
+            raise
+        except ValueError as exc:
+            raise ParamError(f"node {node!r}: {exc}") from None
+    return cfg
+
+
+def load_params_file(path: str | Path, node: str) -> dict[str, Any]:
+    """Parameters for `node` from a ROS 2 params file (`node: {ros__parameters: {...}}`, `/**` too)."""
+    p = Path(path)
+    try:
+        doc = yaml.safe_load(p.read_text()) or {}
+    except FileNotFoundError:
+        raise ParamError(f"params file {str(p)!r} does not exist") from None
+    except yaml.YAMLError as exc:
+        raise ParamError(f"params file {str(p)!r} is not valid YAML: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ParamError(f"params file {str(p)!r}: top level must be a mapping of node names")
+    out: dict[str, Any] = {}
+    for key in ("/**", "**", node, "/" + node):
+        section = doc.get(key)
+        if section is None:
+            continue
+        if not isinstance(section, dict) or not isinstance(section.get("ros__parameters", {}), dict):
+            raise ParamError(f"params file {str(p)!r}: section {key!r} must hold 'ros__parameters: {{...}}'")
+        out.update(section.get("ros__parameters", {}))
+    return out
+
+
+def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
+    """`["kp=0.5", "labels=[a, b]"]` -> {"kp": 0.5, "labels": ["a", "b"]}."""
+    out: dict[str, Any] = {}
+    for item in items:
+        if "=" not in item:
+            raise ParamError(f"--param {item!r}: expected name=value")
+        name, _, raw = item.partition("=")
+        name = name.strip()
+        if not name.isidentifier():
+            raise ParamError(f"--param {item!r}: {name!r} is not a parameter name")
+        out[name] = _parse_scalar(raw)
+    return out
+
+
+def describe_params(config_cls: type) -> list[tuple[str, str, str, str]]:
+    """(name, type, default, help) rows for `--help` and docs."""
+    hints = typing.get_type_hints(config_cls)
+    rows = []
+    for f in dataclasses.fields(config_cls):
+        if f.default is not dataclasses.MISSING:
+            default = repr(f.default)
+        elif f.default_factory is not dataclasses.MISSING:
+            default = repr(f.default_factory())
+        else:
+            default = "(required)"
+        help_text = f.metadata.get("help", "")
+        if f.metadata.get("choices"):
+            help_text += f" [{'|'.join(map(str, f.metadata['choices']))}]"
+        rows.append((f.name, _type_name(hints[f.name]), default, help_text))
+    return rows

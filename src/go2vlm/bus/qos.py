@@ -1,0 +1,47 @@
+"""The ROS 2 QoS profiles, spelled out for cyclonedds.
+
+Cyclone's own defaults are not ROS's (its readers default to best-effort, its writers to keep-last
+1), so every entity we create gets one of these profiles explicitly. XCDR1 is forced because that
+is what rmw_cyclonedds_cpp and rmw_fastrtps_cpp put on the wire.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cyclonedds.core import Policy, Qos
+from cyclonedds.util import duration
+
+
+@dataclass(frozen=True)
+class QosProfile:
+    reliable: bool = True
+    transient_local: bool = False
+    depth: int = 10
+
+    def to_dds(self) -> Qos:
+        reliability = (
+            Policy.Reliability.Reliable(duration(milliseconds=100))
+            if self.reliable
+            else Policy.Reliability.BestEffort
+        )
+        durability = Policy.Durability.TransientLocal if self.transient_local else Policy.Durability.Volatile
+        return Qos(
+            reliability,
+            durability,
+            Policy.History.KeepLast(self.depth),
+            Policy.DataRepresentation(use_cdrv0_representation=True),
+        )
+
+    def describe(self) -> str:
+        rel = "reliable" if self.reliable else "best-effort"
+        dur = "transient-local" if self.transient_local else "volatile"
+        return f"{rel}, {dur}, keep-last {self.depth}"
+
+
+# rclpy's qos_profile_default / qos_profile_sensor_data / a latched (transient-local) profile.
+QOS_DEFAULT = QosProfile(reliable=True, transient_local=False, depth=10)
+QOS_SENSOR = QosProfile(reliable=False, transient_local=False, depth=5)
+QOS_LATCHED = QosProfile(reliable=True, transient_local=True, depth=1)
+
+PROFILES = {"default": QOS_DEFAULT, "sensor": QOS_SENSOR, "latched": QOS_LATCHED}

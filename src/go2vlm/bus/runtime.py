@@ -1,0 +1,68 @@
+"""Running nodes: in the foreground with clean SIGINT/SIGTERM shutdown, or in the background for
+tests and the launcher."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from types import FrameType
+
+from .node import Node
+
+
+class ShutdownRequested:
+    """Set by SIGINT/SIGTERM; wait on it instead of sleeping."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+        self.signal: int | None = None
+
+    def install(self) -> None:
+        def handler(signum: int, _frame: FrameType | None) -> None:
+            self.signal = signum
+            self.event.set()
+
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, handler)
+            signal.signal(signal.SIGTERM, handler)
+
+
+def spin(
+    nodes: Sequence[Node],
+    *,
+    until: Callable[[], bool] | None = None,
+    duration_s: float | None = None,
+    shutdown: ShutdownRequested | None = None,
+) -> None:
+    """Run `nodes` until SIGINT/SIGTERM, `until()` is true or `duration_s` passes, then shut all down."""
+    stop = shutdown or ShutdownRequested()
+    if shutdown is None:
+        stop.install()
+    for node in nodes:
+        node.start()
+    elapsed = 0.0
+    try:
+        while not stop.event.is_set():
+            if until is not None and until():
+                break
+            if duration_s is not None and elapsed >= duration_s:
+                break
+            stop.event.wait(0.05)
+            elapsed += 0.05
+    finally:
+        for node in reversed(nodes):
+            node.shutdown()
+
+
+@contextmanager
+def running(*nodes: Node) -> Iterator[tuple[Node, ...]]:
+    """`with running(a, b): ...` runs the nodes on background threads for the block."""
+    for node in nodes:
+        node.start()
+    try:
+        yield nodes
+    finally:
+        for node in reversed(nodes):
+            node.shutdown()

@@ -1,0 +1,58 @@
+"""`go2vlm` command line: one entry point, one subcommand module per verb."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from ..bus import Logger, ParamError
+
+# verb -> module with `add_parser(subparsers)`; each sets `func` on its parser.
+COMMANDS = {
+    "run": "go2vlm.cli.run",
+    "launch": "go2vlm.cli.launch",
+    "topic": "go2vlm.cli.topic",
+    "sim": "go2vlm.cli.sim",
+    "demo": "go2vlm.cli.demo",
+    "go2": "go2vlm.cli.go2",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="go2vlm",
+        description="Make a Unitree Go2 see with a VLM and act on it. ROS 2 on the wire, no ROS install.",
+    )
+    parser.add_argument("--log-level", default=None, help="debug, info, warn or error (env GO2VLM_LOG_LEVEL)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for module in COMMANDS.values():
+        try:
+            mod = importlib.import_module(module)
+        except ImportError as exc:
+            if exc.name and exc.name.startswith("go2vlm.cli"):
+                continue  # verb not built yet
+            raise
+        mod.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.log_level:
+        Logger.set_level(args.log_level)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except ParamError as exc:
+        print(f"go2vlm: parameter error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

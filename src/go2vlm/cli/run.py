@@ -1,0 +1,83 @@
+"""`go2vlm run NODE [--param name=value ...] [--params-file F] [--remap from:=to ...]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+
+from ..bus import describe_params, parse_overrides, spin
+from ..launch.registry import NODES, make_node, node_class
+
+
+def parse_remaps(items: list[str]) -> dict[str, str]:
+    out = {}
+    for item in items:
+        src, sep, dst = item.partition(":=")
+        if not sep or not src or not dst:
+            raise SystemExit(f"go2vlm: --remap {item!r}: expected /from:=/to")
+        out[src if src.startswith("/") else "/" + src] = dst if dst.startswith("/") else "/" + dst
+    return out
+
+
+def nodes_help() -> str:
+    lines = ["nodes:"]
+    for name in NODES:
+        try:
+            cls = node_class(name)
+        except Exception as exc:  # a node whose optional extra is missing still gets listed
+            lines.append(f"  {name}  (unavailable: {exc})")
+            continue
+        module_doc = sys.modules[cls.__module__].__doc__ or cls.__doc__ or ""
+        lines.append(f"\n  {name}  ({cls.__module__}.{cls.__name__})")
+        for line in textwrap.dedent(module_doc).strip().splitlines():
+            lines.append("    " + line)
+        rows = describe_params(cls.Config)
+        if rows:
+            lines.append("    parameters (name: type = default  help):")
+            for pname, ptype, pdefault, phelp in rows:
+                lines.append(f"      {pname}: {ptype} = {pdefault}  {phelp}".rstrip())
+    return "\n".join(lines)
+
+
+class _NodesHelp(argparse.RawDescriptionHelpFormatter):
+    pass
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "run",
+        help="run one node",
+        description="Run one node by name. `go2vlm run --help` lists the nodes with topics and parameters.",
+        formatter_class=_NodesHelp,
+    )
+    add_node_args(p)
+    p.add_argument("node", help=f"one of: {', '.join(NODES)}")
+    p.set_defaults(func=run)
+    # The node list imports every node module; build it only when help is asked for.
+    p.format_help = lambda: argparse.ArgumentParser.format_help(p) + "\n" + nodes_help()  # type: ignore[method-assign]
+
+
+def add_node_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="set a parameter")
+    p.add_argument("--params-file", default=None, help="ROS 2 params YAML file")
+    p.add_argument("--remap", "-r", action="append", default=[], metavar="FROM:=TO", help="remap a topic")
+    p.add_argument("--name", default=None, help="node name (default: the node kind)")
+    p.add_argument("--interface", default=None, help="network interface, e.g. lo or eth0 (env GO2VLM_IFACE)")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+
+
+def run(args: argparse.Namespace) -> int:
+    node = make_node(
+        args.node,
+        params=parse_overrides(args.param),
+        params_file=args.params_file,
+        node_name=args.name,
+        remap=parse_remaps(args.remap),
+        domain_id=args.domain,
+        interface=args.interface,
+    )
+    node.log.info(f"running (params: {node.params()})")
+    spin([node], duration_s=args.duration)
+    return 0

@@ -1,0 +1,47 @@
+"""Node names -> classes, imported lazily so that `go2vlm run follower` never imports torch."""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from ..bus import Node, build_config, load_params_file
+
+NODES: dict[str, str] = {
+    "test_pattern": "go2vlm.sources.test_pattern:TestPatternNode",
+    "video_source": "go2vlm.sources.video_source:VideoSourceNode",
+    "color_detector": "go2vlm.perception.color_detector:ColorDetectorNode",
+    "vlm": "go2vlm.perception.vlm.node:VlmNode",
+    "follower": "go2vlm.behavior.follower:FollowerNode",
+    "commander": "go2vlm.behavior.commander:CommanderNode",
+    "safety": "go2vlm.safety.gate:SafetyGateNode",
+    "sim": "go2vlm.sim.node:SimNode",
+    "go2": "go2vlm.robots.go2.driver:Go2DriverNode",
+}
+
+
+def node_class(name: str) -> type[Node]:
+    if name not in NODES:
+        raise ValueError(f"unknown node {name!r}; available: {', '.join(sorted(NODES))}")
+    module, _, cls = NODES[name].partition(":")
+    return getattr(importlib.import_module(module), cls)
+
+
+def make_node(
+    kind: str,
+    *,
+    params: dict[str, Any] | None = None,
+    params_file: str | None = None,
+    node_name: str | None = None,
+    remap: dict[str, str] | None = None,
+    **kwargs: Any,
+) -> Node:
+    """Build a node the way `go2vlm run` and `go2vlm launch` do: file params, then overrides."""
+    cls = node_class(kind)
+    name = node_name or cls.name
+    values: dict[str, Any] = {}
+    if params_file:
+        values.update(load_params_file(params_file, name))
+    values.update(params or {})
+    config = build_config(cls.Config, values, node=name)
+    return cls(config, node_name=name, remap=remap, **kwargs)

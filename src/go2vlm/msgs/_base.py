@@ -1,0 +1,32 @@
+"""Shared helpers for declaring ROS 2 messages as cyclonedds IDL structs.
+
+ROS 2 maps `pkg/msg/Name` to the DDS type `pkg::msg::dds_::Name_`; every struct here declares that
+name explicitly so that rmw_cyclonedds_cpp and rmw_fastrtps_cpp peers match our topics.
+uint8 fields are declared as `types.byte` (or `bytes` for uint8[]): a cyclonedds-11 `uint8` type
+object makes Cyclone 0.10.x peers, the Go2's own DDS stack among them, segfault on discovery.
+"""
+
+from __future__ import annotations
+
+from dataclasses import field
+from typing import Any
+
+from cyclonedds.idl import IdlStruct
+
+__all__ = ["IdlStruct", "default", "ros_typename", "REGISTRY", "register"]
+
+# DDS type name -> class, so tools can find a type from discovery data.
+REGISTRY: dict[str, type[IdlStruct]] = {}
+
+def ros_typename(ros_type: str) -> str:
+    """`sensor_msgs/msg/Image` -> `sensor_msgs::msg::dds_::Image_`."""
+    pkg, kind, name = ros_type.split("/")
+    return f"{pkg}::{kind}::dds_::{name}_"
+
+def register(cls: type[IdlStruct]) -> type[IdlStruct]:
+    REGISTRY[cls.__idl_typename__] = cls
+    return cls
+
+def default(factory: Any) -> Any:
+    """A dataclass field whose default is a fresh `factory()` (nested structs, lists)."""
+    return field(default_factory=factory)

@@ -1,0 +1,12 @@
+"""rosgraph_msgs/msg: Clock."""
+
+from dataclasses import dataclass
+
+from ._base import IdlStruct, default, register
+from .builtin_interfaces import Time
+
+
+@register
+@dataclass
+class Clock(IdlStruct, typename="rosgraph_msgs::msg::dds_::Clock_"):
+    clock: Time = default(Time)

@@ -1,0 +1,93 @@
+"""Helpers for tests that run go2vlm nodes and tools as real processes over real DDS."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+GO2VLM = [sys.executable, "-m", "go2vlm"]
+
+
+def env() -> dict[str, str]:
+    e = dict(os.environ)
+    e.setdefault("PYTHONUNBUFFERED", "1")
+    return e
+
+
+class Procs:
+    def __init__(self) -> None:
+        self.procs: list[subprocess.Popen[str]] = []
+
+    def start(self, *args: str, **kw: Any) -> subprocess.Popen[str]:
+        """`procs.start("run", "follower", "--param", "kp_angular=0.5")`."""
+        p = subprocess.Popen(
+            [*GO2VLM, *args],
+            stdout=kw.pop("stdout", subprocess.PIPE),
+            stderr=kw.pop("stderr", subprocess.STDOUT),
+            text=True,
+            env=env(),
+            **kw,
+        )
+        self.procs.append(p)
+        return p
+
+    def stop(self, p: subprocess.Popen[str], sig: int = signal.SIGINT, timeout: float = 5.0) -> int:
+        if p.poll() is None:
+            p.send_signal(sig)
+            try:
+                p.wait(timeout)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        return p.returncode
+
+    def stop_all(self) -> None:
+        for p in reversed(self.procs):
+            self.stop(p)
+
+
+def echo_json(topic: str, count: int = 1, timeout: float = 20.0, msg_type: str | None = None) -> list[dict]:
+    """Run `go2vlm topic echo --json` in a subprocess and return the messages."""
+    cmd = [*GO2VLM, "topic", "echo", topic, "--json", "--count", str(count), "--timeout", str(timeout)]
+    if msg_type:
+        cmd.insert(5, msg_type)
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 20, env=env())
+    if out.returncode != 0:
+        raise AssertionError(f"echo {topic} failed ({out.returncode}): {out.stderr[-2000:]}")
+    return [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+
+
+def wait_for(pred: Callable[[], bool], timeout: float = 10.0, period: float = 0.05) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if pred():
+            return True
+        time.sleep(period)
+    return pred()
+
+
+class Recorder:
+    """Collects messages from an in-process subscription with their receive times."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple[float, Any]] = []
+        self.lock = threading.Lock()
+
+    def __call__(self, msg: Any) -> None:
+        with self.lock:
+            self.items.append((time.monotonic(), msg))
+
+    def msgs(self) -> list[Any]:
+        with self.lock:
+            return [m for _, m in self.items]
+
+    def __len__(self) -> int:
+        with self.lock:
+            return len(self.items)
