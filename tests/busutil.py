@@ -57,7 +57,7 @@ def echo_json(topic: str, count: int = 1, timeout: float = 20.0, msg_type: str |
     """Run `go2vlm topic echo --json` in a subprocess and return the messages."""
     cmd = [*GO2VLM, "topic", "echo", topic, "--json", "--count", str(count), "--timeout", str(timeout)]
     if msg_type:
-        cmd.insert(5, msg_type)
+        cmd.insert(6, msg_type)
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout + 20, env=env())
     if out.returncode != 0:
         raise AssertionError(f"echo {topic} failed ({out.returncode}): {out.stderr[-2000:]}")

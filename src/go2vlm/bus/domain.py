@@ -10,10 +10,14 @@ from __future__ import annotations
 
 import os
 import re
+import socket
 import threading
 
+from cyclonedds.core import DDSException
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.topic import Topic
+
+from .params import ParamError
 
 _lock = threading.Lock()
 _participants: dict[int, tuple[DomainParticipant, Domain | None]] = {}
@@ -27,16 +31,16 @@ def domain_id_from_env() -> int:
     try:
         value = int(raw)
     except ValueError:
-        raise ValueError(f"ROS_DOMAIN_ID={raw!r} is not an integer (0..232)") from None
+        raise ParamError(f"ROS_DOMAIN_ID={raw!r} is not an integer (0..232)") from None
     if not 0 <= value <= 232:
-        raise ValueError(f"ROS_DOMAIN_ID={value} is outside 0..232")
+        raise ParamError(f"ROS_DOMAIN_ID={value} is outside 0..232")
     return value
 
 
 def cyclone_config(interface: str) -> str:
     """Cyclone XML that binds to one interface, as the seed's CYCLONEDDS_URI does with `lo`."""
     if not _IFACE_RE.match(interface):
-        raise ValueError(f"network interface {interface!r} is not a valid interface name")
+        raise ParamError(f"network interface {interface!r} is not a valid interface name")
     return (
         '<CycloneDDS><Domain id="any"><General><Interfaces>'
         f'<NetworkInterface name="{interface}" priority="default" multicast="default"/>'
@@ -51,10 +55,33 @@ def participant(domain_id: int | None = None, interface: str | None = None) -> D
     with _lock:
         if did in _participants:
             return _participants[did][0]
-        dom = Domain(did, cyclone_config(iface)) if iface else None
+        if not 0 <= did <= 232:
+            raise ParamError(f"DDS domain {did} is outside 0..232")
+        dom = _domain(did, iface) if iface else None
         dp = DomainParticipant(did)
         _participants[did] = (dp, dom)
         return dp
+
+
+def _interfaces() -> list[str]:
+    try:
+        return [name for _, name in socket.if_nameindex()]
+    except OSError:
+        return []
+
+
+def _domain(did: int, iface: str) -> Domain:
+    """Cyclone bound to `iface`; a missing interface is a clear ParamError (a ValueError), not a
+    bare DDS_RETCODE_ERROR."""
+    config = cyclone_config(iface)
+    known = _interfaces()
+    hint = f"; this machine has: {', '.join(known)}" if known else ""
+    if known and iface not in known and not re.match(r"^\d+\.\d+\.\d+\.\d+$", iface):
+        raise ParamError(f"network interface {iface!r} does not exist (GO2VLM_IFACE / --interface){hint}")
+    try:
+        return Domain(did, config)
+    except DDSException as exc:
+        raise ParamError(f"cannot start DDS on network interface {iface!r}: {exc}{hint}") from None
 
 
 def topic(dp: DomainParticipant, name: str, msg_type: type) -> Topic:

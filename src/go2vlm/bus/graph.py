@@ -31,7 +31,8 @@ def discover(wait_s: float = 1.0, own: bool = False) -> dict[str, TopicInfo]:
     while True:
         for reader, is_pub in ((pubs, True), (subs, False)):
             for ep in reader.take(N=256):
-                if not hasattr(ep, "topic_name"):
+                # Samples of endpoints that went away carry no topic name.
+                if not isinstance(getattr(ep, "topic_name", None), str):
                     continue
                 if not own and ep.participant_key == me:
                     continue

@@ -23,7 +23,7 @@ from cyclonedds.util import duration
 
 from ..msgs.builtin_interfaces import Time
 from ..msgs.std_msgs import Header
-from . import domain
+from . import discovery_info, domain
 from .log import Logger
 from .qos import QOS_DEFAULT, QosProfile
 
@@ -131,6 +131,7 @@ class Node:
         self._waitset.attach(self._guard)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        discovery_info.node_added(self)  # so `ros2 node list` sees us
 
     # -- graph -------------------------------------------------------------------------------
     def resolve(self, topic: str) -> str:
@@ -140,6 +141,7 @@ class Node:
     def create_publisher(self, msg_type: type[M], topic: str, qos: QosProfile = QOS_DEFAULT) -> Publisher[M]:
         pub = Publisher(self, msg_type, self.resolve(topic), qos)
         self.publishers.append(pub)
+        discovery_info.endpoint_added(self, pub.guid, is_reader=False)
         return pub
 
     def create_subscription(
@@ -153,6 +155,7 @@ class Node:
         with self._lock:
             self.subscriptions.append(sub)
             self._waitset.attach(sub.condition)
+        discovery_info.endpoint_added(self, sub.guid, is_reader=True)
         self._wake()
         return sub
 
@@ -255,6 +258,7 @@ class Node:
             return
         self._stop.set()
         self._wake()
+        discovery_info.node_removed(self)
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout_s)
         try:

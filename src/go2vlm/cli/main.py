@@ -13,6 +13,7 @@ COMMANDS = {
     "run": "go2vlm.cli.run",
     "launch": "go2vlm.cli.launch",
     "topic": "go2vlm.cli.topic",
+    "node": "go2vlm.cli.node",
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
     "go2": "go2vlm.cli.go2",

@@ -69,6 +69,12 @@ def add_node_args(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        node_class(args.node)
+    except ValueError as exc:  # unknown node name: a message, not a traceback
+        raise SystemExit(f"go2vlm: {exc}") from None
+    except ImportError as exc:
+        raise SystemExit(f"go2vlm: node {args.node!r} cannot be loaded: {exc}") from None
     node = make_node(
         args.node,
         params=parse_overrides(args.param),

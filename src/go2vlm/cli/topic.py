@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import signal
 import statistics
 import sys
 import threading
@@ -60,6 +61,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.set_defaults(func=cmd_pub)
 
 
+def _stop_on_sigterm() -> None:
+    """SIGTERM (a launcher, `timeout`, `kill`) ends a tool as cleanly as Ctrl-C does."""
+
+    def handler(_signum: int, _frame: object) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, handler)
+
+
 def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -> tuple[type, QosProfile]:
     """The message class and a compatible reader QoS, from the arguments or from discovery."""
     profile = PROFILES.get(qos, QOS_DEFAULT)
@@ -106,6 +117,7 @@ class _Collector(Node):
 
 
 def cmd_echo(args: argparse.Namespace) -> int:
+    _stop_on_sigterm()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     done = threading.Event()
     seen = 0
@@ -140,6 +152,7 @@ def cmd_echo(args: argparse.Namespace) -> int:
 
 
 def cmd_hz(args: argparse.Namespace) -> int:
+    _stop_on_sigterm()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     stamps: list[float] = []
     lock = threading.Lock()
@@ -187,6 +200,7 @@ def parse_message(cls: type, text: str) -> Any:
 
 
 def cmd_pub(args: argparse.Namespace) -> int:
+    _stop_on_sigterm()
     cls = lookup_type(args.type)
     msg = parse_message(cls, args.values)
     if not args.rate > 0 or not math.isfinite(args.rate):

@@ -11,12 +11,33 @@ from __future__ import annotations
 from dataclasses import field
 from typing import Any
 
-from cyclonedds.idl import IdlStruct
+from cyclonedds.idl import IdlStruct, types
+from cyclonedds.idl._xt_builder import XTBuilder
 
 __all__ = ["IdlStruct", "default", "ros_typename", "REGISTRY", "register"]
 
 # DDS type name -> class, so tools can find a type from discovery data.
 REGISTRY: dict[str, type[IdlStruct]] = {}
+
+def _describe_bytes_as_octet_sequence() -> None:
+    """cyclonedds 11 (de)serializes a `bytes` field as one block, but its XTypes builder cannot
+    describe `bytes`, so creating a topic of such a type fails. On the wire `bytes` is exactly a
+    sequence<octet>; describe it as one."""
+    original = XTBuilder._xt_type_identifier.__func__  # type: ignore[attr-defined]
+    if getattr(original, "_go2vlm_bytes", False):
+        return
+
+    octets = types.sequence[types.byte].__metadata__[0]  # the bare `sequence` descriptor
+
+    def type_identifier(cls: Any, name: str, entity: Any, minimal: bool) -> Any:
+        return original(cls, name, octets if entity is bytes else entity, minimal)
+
+    type_identifier._go2vlm_bytes = True  # type: ignore[attr-defined]
+    XTBuilder._xt_type_identifier = classmethod(type_identifier)  # type: ignore[method-assign]
+
+
+_describe_bytes_as_octet_sequence()
+
 
 def ros_typename(ros_type: str) -> str:
     """`sensor_msgs/msg/Image` -> `sensor_msgs::msg::dds_::Image_`."""

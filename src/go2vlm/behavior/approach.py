@@ -1,0 +1,206 @@
+"""Approach control for "go to <object>": how far is the box in the image, and which Twist brings
+the robot to `stop_distance` from it.
+
+Distance (camera -> the object's near surface) from one pinhole camera, no depth sensor:
+
+1. Bottom edge (size-free): objects stand on the floor, the camera is `camera_height` above it and
+   looks level (plus `camera_pitch`, + = down). The image row v of the object's lowest visible point
+   is a ray `beta = atan((v - cy) / fy) + pitch` below the horizon, meeting the floor at
+   `h / tan(beta)`. For a box or a cylinder that point is the near edge of its footprint; for a
+   ball the silhouette bottom and its angular radius give the centre distance in closed form
+   (D = h / (sin a - sin(a - beta))). Usable while the bottom is in the picture.
+2. Apparent size: box width W = d * (tan a2 - tan a1) (its left/right edge rays a1, a2); cylinder and
+   ball radius r from the half-angle a: d_centre = r / sin a. Each bottom-edge reading *calibrates*
+   the object's size (median of the readings), so when the robot is so close that the bottom leaves
+   the picture (the Go2 head camera sits 0.36 m up: floor visible from ~0.65 m ahead at 58 deg fovy),
+   the size carries the estimate. Before any calibration the configured `default_sizes` are used.
+3. An object cut by both the left and right image borders cannot be measured: if it fills most of
+   the width it is reported as at distance 0 ("fills the view") -- stopping early is the safe side.
+
+The robot-centric distance used for the goal is base -> surface = camera -> surface + the camera's
+forward offset from the base (`camera_forward`, Go2: 0.327 m).
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass, field
+
+__all__ = ["ApproachParams", "CameraModel", "RangeEstimator", "RangeReading", "approach_command", "normalized_target"]
+
+# Go2 head camera as modelled in go2vlm.sim (go2_model.HEAD_CAMERA_POS, standing height 0.32 m).
+GO2_CAMERA_HEIGHT_M = 0.363
+GO2_CAMERA_FORWARD_M = 0.327
+# Sizes of the seed world's objects (vision_test): ball radius, box face width, cylinder radius.
+DEFAULT_SIZES = {"ball": 0.5, "box": 1.0, "cylinder": 0.3}
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    @classmethod
+    def from_k(cls, width: int, height: int, k: list[float] | tuple[float, ...]) -> CameraModel:
+        """From CameraInfo.k (row-major 3x3). Raises ValueError for an unusable K."""
+        if width <= 0 or height <= 0:
+            raise ValueError(f"camera size {width}x{height} is not positive")
+        fx, fy, cx, cy = float(k[0]), float(k[4]), float(k[2]), float(k[5])
+        if not all(math.isfinite(v) for v in (fx, fy, cx, cy)) or fx <= 0 or fy <= 0:
+            raise ValueError(f"camera K has fx={fx}, fy={fy}, cx={cx}, cy={cy}; fx and fy must be positive")
+        return cls(width, height, fx, fy, cx, cy)
+
+    @classmethod
+    def from_hfov(cls, width: int, height: int, hfov_rad: float) -> CameraModel:
+        f = (width / 2.0) / math.tan(hfov_rad / 2.0)
+        return cls(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
+
+    def scaled_to(self, width: int, height: int) -> CameraModel:
+        """The same camera at another image size (CameraInfo and images may disagree)."""
+        if (width, height) == (self.width, self.height):
+            return self
+        sx, sy = width / self.width, height / self.height
+        return CameraModel(width, height, self.fx * sx, self.fy * sy, self.cx * sx, self.cy * sy)
+
+
+@dataclass(frozen=True)
+class RangeReading:
+    distance: float | None  # camera -> near surface (m); None: cannot tell
+    method: str  # bottom | size | default_size | fills_view | none
+
+
+@dataclass
+class RangeEstimator:
+    """Per-target distance estimate with online size calibration (reset it for a new target)."""
+
+    shape: str | None  # ball | box | cylinder | None (treated as a box: a flat face)
+    camera_height: float = GO2_CAMERA_HEIGHT_M
+    camera_pitch: float = 0.0  # rad, + = looking down
+    default_sizes: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_SIZES))
+    border_px: int = 3
+    _sizes: list[float] = field(default_factory=list)
+
+    @property
+    def size(self) -> float:
+        """The calibrated size (median of bottom-edge readings), else the default for the shape."""
+        if self._sizes:
+            return statistics.median(self._sizes[-15:])
+        return float(self.default_sizes.get(self.shape or "box", DEFAULT_SIZES["box"]))
+
+    @property
+    def calibrated(self) -> bool:
+        return bool(self._sizes)
+
+    def estimate(self, xyxy: tuple[float, float, float, float], cam: CameraModel) -> RangeReading:
+        x1, y1, x2, y2 = xyxy
+        b = self.border_px
+        clip_l, clip_r = x1 <= b, x2 >= cam.width - 1 - b
+        bottom_visible = y2 < cam.height - 1 - b
+        a1 = math.atan((x1 - cam.cx) / cam.fx)
+        a2 = math.atan((x2 - cam.cx) / cam.fx)
+        half = max(1e-4, (a2 - a1) / 2.0)
+        width_ok = not (clip_l or clip_r)
+        shape = self.shape or "box"
+        beta = math.atan((y2 - cam.cy) / cam.fy) + self.camera_pitch if bottom_visible else 0.0
+        if bottom_visible and beta > 0.02:
+            h = self.camera_height
+            if shape == "ball" and width_ok:
+                d_centre3 = h / max(1e-6, math.sin(half) - math.sin(half - beta))
+                r = d_centre3 * math.sin(half)
+                elev = half - beta
+                dist = d_centre3 * math.cos(elev) - r
+                self._calibrate(r)
+                return RangeReading(max(0.0, dist), "bottom")
+            if shape == "ball":  # cut at the sides: the bottom tangent ray plus the known radius
+                dist = _ball_from_bottom(beta, self.size, h)
+                return RangeReading(dist, "size" if self.calibrated else "default_size")
+            dist = h / math.tan(beta)
+            if width_ok and shape == "cylinder":
+                s = math.sin(half)
+                self._calibrate(dist * s / max(1e-6, 1.0 - s))
+            elif width_ok and shape == "box":
+                self._calibrate(dist * (math.tan(a2) - math.tan(a1)))
+            return RangeReading(dist, "bottom")
+        if width_ok:
+            method = "size" if self.calibrated else "default_size"
+            size = self.size
+            if shape == "box":
+                return RangeReading(size / max(1e-6, math.tan(a2) - math.tan(a1)), method)
+            d_centre = size / math.sin(half)
+            if shape == "ball":
+                dz = size - self.camera_height
+                d_centre = math.sqrt(max(0.0, d_centre * d_centre - dz * dz))
+            return RangeReading(max(0.0, d_centre - size), method)
+        if (x2 - x1) >= 0.8 * cam.width:
+            return RangeReading(0.0, "fills_view")
+        return RangeReading(None, "none")
+
+    def _calibrate(self, size: float) -> None:
+        if math.isfinite(size) and size > 0.01:
+            self._sizes.append(size)
+            del self._sizes[:-31]
+
+
+@dataclass(frozen=True)
+class ApproachParams:
+    stop_distance: float = 0.8  # base -> surface (m)
+    tolerance: float = 0.05
+    kp_linear: float = 0.8
+    kp_angular: float = 1.5
+    max_linear: float = 0.4
+    min_linear: float = 0.08  # below this the gait barely moves: creep at least this fast
+    max_angular: float = 0.8
+    align_start: float = 0.15  # |x| where forward speed starts to drop
+    align_stop: float = 0.4  # |x| where the robot only turns
+
+
+def normalized_target(xyxy: tuple[float, float, float, float], width: int, height: int) -> tuple[float, float, float]:
+    """/detected_target's convention: x, y from the image centre in [-1, 1], z = radius / (w/2), with
+    radius = half the box's larger side."""
+    x1, y1, x2, y2 = xyxy
+    half_w, half_h = width / 2.0, height / 2.0
+    cx, cy = (x1 + x2) / 2.0, (y1 + y2) / 2.0
+    radius = max(x2 - x1, y2 - y1) / 2.0
+    return (cx - half_w) / half_w, (cy - half_h) / half_h, radius / half_w
+
+
+def approach_command(x: float, distance_base: float | None, p: ApproachParams) -> tuple[float, float, bool]:
+    """(linear.x, angular.z, reached) towards a target at normalised offset `x` whose surface is
+    `distance_base` metres from the robot's base (None: unknown -> turn only)."""
+    wz = max(-p.max_angular, min(p.max_angular, -p.kp_angular * x))
+    if distance_base is None:
+        return 0.0, wz, False
+    err = distance_base - p.stop_distance
+    if err <= p.tolerance:
+        return 0.0, 0.0, True
+    ax = abs(x)
+    align = 1.0 if ax <= p.align_start else max(0.0, (p.align_stop - ax) / (p.align_stop - p.align_start))
+    vx = min(p.max_linear, max(p.min_linear, p.kp_linear * err)) * align
+    return vx, wz, False
+
+
+def _ball_from_bottom(beta: float, r: float, h: float) -> float:
+    """Camera -> surface of a ball of radius r whose silhouette bottom is `beta` below the horizon
+    (bisection on the centre distance D: the tangent ray's elevation asin(r/D) - beta must point at
+    the centre's height r - h)."""
+    lo, hi = r * 1.0001, 100.0
+
+    def f(d: float) -> float:
+        return d * math.sin(math.asin(min(1.0, r / d)) - beta) - (r - h)
+
+    if f(lo) * f(hi) > 0:
+        return max(0.0, h / math.tan(beta))
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if f(lo) * f(mid) <= 0:
+            hi = mid
+        else:
+            lo = mid
+    d = 0.5 * (lo + hi)
+    elev = math.asin(min(1.0, r / d)) - beta
+    return max(0.0, d * math.cos(elev) - r)

@@ -1,0 +1,126 @@
+"""follower: turns towards the detected target and walks up to it (the second seed's follower.py).
+
+Topics
+  subscribes  /detected_target     geometry_msgs/PointStamped: x = horizontal offset -1..1, z = size
+  publishes   /follower/cmd_vel    geometry_msgs/Twist at rate_hz (20 Hz); the safety gate turns it
+                                   into /cmd_vel
+
+Control law, per target (the seed's numbers are the defaults):
+  angular.z = clamp(-kp_angular * x - kd_angular * dx/dt, +-max_angular)
+  linear.x  = clamp(kp_linear * (1 - z), 0, max_linear) while |x| < align_threshold, else 0
+              (forward only: it turns first, then walks)
+The command drops to zero once no target has arrived for lost_timeout_s (1.0 s); that zero goes out
+at once, not at the next 20 Hz tick. Optional, off by default (the seed's troubleshooting table
+against oscillation): a D term on x (kd_angular) and a first-order low-pass on the output
+(filter_alpha: weight of the new command per tick, 1.0 = no filtering).
+A target with NaN/inf or absurd values is dropped with a rate-limited error and counted in
+`bad_targets`; it does not refresh the target, so the robot stops on the timeout as if none came.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+from go2vlm.bus import QOS_DEFAULT, Node, param
+from go2vlm.msgs.geometry_msgs import PointStamped, Twist, Vector3
+
+__all__ = ["FollowerConfig", "FollowerNode", "follow_command"]
+
+# Beyond these a "normalised" target is garbage, not a far-off-centre target.
+MAX_ABS_XY = 2.0
+MAX_SIZE = 10.0
+
+
+@dataclass
+class FollowerConfig:
+    kp_angular: float = param(0.8, help="P gain from horizontal offset x to angular.z", min=0.0, max=20.0)
+    kp_linear: float = param(0.3, help="P gain from (1 - size) to linear.x", min=0.0, max=20.0)
+    max_linear: float = param(0.5, help="linear.x ceiling (m/s); the safety gate limits again", min=0.0, max=3.8)
+    max_angular: float = param(1.0, help="|angular.z| ceiling (rad/s)", min=0.0, max=4.0)
+    align_threshold: float = param(0.2, help="walk only while |x| is below this", min=0.0, max=1.0)
+    lost_timeout_s: float = param(1.0, help="stop when no target came for this long", min=0.01, max=60.0)
+    rate_hz: float = param(20.0, help="command publishing rate", min=1.0, max=200.0)
+    kd_angular: float = param(0.0, help="D gain on dx/dt (s); 0 = off", min=0.0, max=10.0)
+    filter_alpha: float = param(1.0, help="low-pass weight of the new command per tick; 1 = off", min=0.01, max=1.0)
+
+
+def _clamp(v: float, lo: float, hi: float) -> float:
+    return max(lo, min(hi, v))
+
+
+def follow_command(x: float, size: float, cfg: FollowerConfig, dx_dt: float = 0.0) -> tuple[float, float]:
+    """(linear.x, angular.z) for a target at normalised offset `x` with normalised size `size`."""
+    angular = _clamp(-cfg.kp_angular * x - cfg.kd_angular * dx_dt, -cfg.max_angular, cfg.max_angular)
+    linear = cfg.kp_linear * (1.0 - size) if abs(x) < cfg.align_threshold else 0.0
+    return _clamp(linear, 0.0, cfg.max_linear), angular
+
+
+class FollowerNode(Node):
+    name = "follower"
+    Config = FollowerConfig
+
+    def __init__(self, config: FollowerConfig | None = None, **kwargs: object) -> None:
+        super().__init__(config, **kwargs)  # type: ignore[arg-type]
+        self.cmd_pub = self.create_publisher(Twist, "/follower/cmd_vel", QOS_DEFAULT)
+        self.create_subscription(PointStamped, "/detected_target", self.on_target, QOS_DEFAULT)
+        self._last_target: float | None = None  # monotonic receive time
+        self._last_x: float | None = None
+        self._goal = (0.0, 0.0)  # linear.x, angular.z from the latest target
+        self._cmd = (0.0, 0.0)  # what goes out (after the optional low-pass)
+        self._lost = True
+        self.create_timer(1.0 / self.config.rate_hz, self.tick)
+        self.create_timer(0.01, self._watchdog)
+
+    def on_target(self, msg: PointStamped) -> None:
+        p = msg.point
+        x, y, z = p.x, p.y, p.z
+        if not all(math.isfinite(v) for v in (x, y, z)) or abs(x) > MAX_ABS_XY or abs(y) > MAX_ABS_XY:
+            self._reject(f"x={x}, y={y}, z={z}")
+            return
+        if not 0.0 <= z <= MAX_SIZE:
+            self._reject(f"size z={z} is outside 0..{MAX_SIZE}")
+            return
+        now = time.monotonic()
+        dx_dt = 0.0
+        if self.config.kd_angular > 0 and self._last_x is not None and self._last_target is not None:
+            dx_dt = (x - self._last_x) / max(now - self._last_target, 1e-3)
+        self._goal = follow_command(x, z, self.config, dx_dt)
+        self._last_target, self._last_x = now, x
+        if self._lost:
+            self.log.info(f"target acquired at x={x:+.3f}, size={z:.3f}")
+        self._lost = False
+
+    def _reject(self, what: str) -> None:
+        n = self.count("bad_targets")
+        self.log.throttled("error", 2.0, f"dropping an invalid /detected_target ({n} so far): {what}", key="bad")
+
+    def _check_lost(self) -> bool:
+        """True when the target just became lost; the command is then zero."""
+        if self._lost:
+            return False
+        if self._last_target is None or time.monotonic() - self._last_target >= self.config.lost_timeout_s:
+            self._lost = True
+            self._goal = self._cmd = (0.0, 0.0)
+            self._last_x = None
+            self.log.throttled("info", 2.0, "target lost, stopping", key="lost")
+            return True
+        return False
+
+    def _watchdog(self) -> None:
+        if self._check_lost():
+            self._publish()
+
+    def tick(self) -> None:
+        self._check_lost()
+        if not self._lost:
+            a = self.config.filter_alpha
+            self._cmd = (
+                a * self._goal[0] + (1 - a) * self._cmd[0],
+                a * self._goal[1] + (1 - a) * self._cmd[1],
+            )
+        self._publish()
+
+    def _publish(self) -> None:
+        self.cmd_pub.publish(Twist(linear=Vector3(x=self._cmd[0]), angular=Vector3(z=self._cmd[1])))

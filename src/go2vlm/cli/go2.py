@@ -1,0 +1,229 @@
+"""`go2vlm go2 stand|sit|rise|damp|recover|standdown|hello|balance|stop|move X Y Z|state`: talk to a Go2
+(or the sim's Unitree bridge) directly over Unitree's sport RPC, for bring-up and checks.
+
+`move` is a bring-up tool, not a control path: it is capped at CLI_LIMITS and `--duration` (max
+10 s), always ends with StopMove (also on Ctrl-C), refuses to start while /emergency_stop is
+latched, and Damps and exits if the e-stop is pressed while it runs. Autonomous motion goes through
+the safety gate and the `go2` driver.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from typing import Any
+
+POSTURES = ("stand", "balance", "sit", "rise", "standdown", "damp", "recover", "hello", "stop")
+CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
+MAX_MOVE_S = 10.0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "go2",
+        help="command a Go2 (or the sim) over Unitree's sport RPC",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--interface", default=None, help="network interface to the robot, e.g. enp3s0 (lo for a sim)")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain (the Go2 uses 0; default ROS_DOMAIN_ID or 0)")
+    p.add_argument("--timeout", type=float, default=3.0, help="seconds to find the robot and for each answer")
+    verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
+    for name in POSTURES:
+        v = verbs.add_parser(name, help=f"sport: {name}")
+        v.set_defaults(func=cmd_posture, posture=name)
+    mv = verbs.add_parser("move", help="walk at X m/s, Y m/s, Z rad/s for --duration seconds, then StopMove")
+    mv.add_argument("x", type=float)
+    mv.add_argument("y", type=float)
+    mv.add_argument("z", type=float)
+    mv.add_argument("--duration", type=float, default=1.0, help=f"seconds (max {MAX_MOVE_S:g})")
+    mv.add_argument("--rate", type=float, default=20.0, help="Move requests per second")
+    mv.set_defaults(func=cmd_move)
+    st = verbs.add_parser("state", help="print rt/sportmodestate")
+    st.add_argument("--count", "-n", type=int, default=1, help="samples to print (0: until Ctrl-C)")
+    st.add_argument("--json", action="store_true", help="full message as one JSON object per line")
+    st.set_defaults(func=cmd_state)
+
+
+class _Session:
+    """A node with a sport client and an /emergency_stop listener, spinning in the background."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        from ..bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile
+        from ..msgs.std_msgs import Bool, String
+        from ..robots.go2 import protocol as p
+        from ..robots.go2.client import RpcClient
+
+        self.p = p
+        self.node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
+        self._estop: dict[str, bool] = {}
+        # The e-stop as the gate and the driver see it (they latch it; /emergency_stop false does
+        # not release), plus the raw topic for setups without them. All QoS, so any publisher matches.
+        best_effort = QosProfile(reliable=False, transient_local=False, depth=10)
+        for qos in (QOS_LATCHED, QOS_DEFAULT, best_effort):
+            self.node.create_subscription(Bool, "/emergency_stop", self._on_estop, qos)
+        for topic in ("/safety/status", "/go2/status"):
+            self.node.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
+        self.sport = RpcClient(self.node, p.SPORT_SERVICE, timeout_s=args.timeout)
+        self.node.start()
+        self.timeout = args.timeout
+
+    def _on_estop(self, msg: Any) -> None:
+        if msg.data:
+            self._estop["/emergency_stop"] = True
+
+    def _on_status(self, topic: str, msg: Any) -> None:
+        try:
+            self._estop[topic] = bool(json.loads(msg.data).get("estop"))
+        except (ValueError, AttributeError):
+            pass
+
+    @property
+    def estop(self) -> bool:
+        statuses = [v for k, v in self._estop.items() if k != "/emergency_stop"]
+        if statuses:  # the gate/driver know about releases; the raw topic keeps a stale `true`
+            return any(statuses)
+        return self._estop.get("/emergency_stop", False)
+
+    def connect(self) -> bool:
+        if self.sport.wait_for_server(self.timeout):
+            time.sleep(0.2)  # let a latched /emergency_stop arrive before deciding anything
+            return True
+        print(
+            f"go2vlm go2: no Go2 sport service found within {self.timeout:g} s. Is the robot on, on this network "
+            "interface (--interface, e.g. enp3s0 for 192.168.123.x, lo for a local sim) and DDS domain 0?",
+            file=sys.stderr,
+        )
+        return False
+
+    def call(self, api: int) -> bool:
+        result = self.sport.call(api)
+        name = self.p.SPORT_API_NAMES.get(api, str(api))
+        if not result.ok:
+            print(f"go2vlm go2: {name} failed: {result.describe()}", file=sys.stderr)
+            return False
+        print(f"{name}: ok")
+        return True
+
+    def close(self) -> None:
+        self.node.shutdown()
+
+
+def cmd_posture(args: argparse.Namespace) -> int:
+    s = _Session(args)
+    try:
+        if not s.connect():
+            return 1
+        if s.estop and args.posture not in s.p.ESTOP_ALLOWED:
+            msg = f"go2vlm go2: refused {args.posture!r}: /emergency_stop is latched; release it first"
+            print(msg, file=sys.stderr)
+            return 3
+        for api in s.p.COMMANDS[args.posture]:
+            if not s.call(api):
+                return 1
+        return 0
+    finally:
+        s.close()
+
+
+def _clamp(v: float, limit: float) -> float:
+    return max(-limit, min(limit, v))
+
+
+def cmd_move(args: argparse.Namespace) -> int:
+    import math
+
+    values = (args.x, args.y, args.z)
+    if not all(math.isfinite(v) for v in values):
+        print(f"go2vlm go2 move: {values} must be finite numbers", file=sys.stderr)
+        return 2
+    if not 0 < args.duration <= MAX_MOVE_S:
+        print(f"go2vlm go2 move: --duration must be in (0, {MAX_MOVE_S:g}] s", file=sys.stderr)
+        return 2
+    if not 1.0 <= args.rate <= 100.0:
+        print("go2vlm go2 move: --rate must be in [1, 100] Hz", file=sys.stderr)
+        return 2
+    vx, vy, vz = (_clamp(v, lim) for v, lim in zip(values, CLI_LIMITS, strict=True))
+    if (vx, vy, vz) != values:
+        print(f"go2vlm go2 move: clamped to the CLI limits {CLI_LIMITS}: ({vx}, {vy}, {vz})", file=sys.stderr)
+    s = _Session(args)
+    p = s.p
+    try:
+        if not s.connect():
+            return 1
+        if s.estop:
+            print("go2vlm go2 move: refused: /emergency_stop is latched; release it first", file=sys.stderr)
+            return 3
+        end = time.monotonic() + args.duration
+        sent = 0
+        try:
+            while time.monotonic() < end:
+                if s.estop:
+                    print("go2vlm go2 move: emergency stop pressed: Damp", file=sys.stderr)
+                    s.call(p.DAMP)
+                    return 3
+                s.sport.send_noreply(p.MOVE, {"x": vx, "y": vy, "z": vz})
+                sent += 1
+                time.sleep(1.0 / args.rate)
+        finally:
+            if not s.estop:
+                s.call(p.STOP_MOVE)
+        print(f"Move: {sent} requests over {args.duration:g} s")
+        return 0
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        s.close()
+
+
+def cmd_state(args: argparse.Namespace) -> int:
+    import threading
+
+    from ..bus import Node
+    from ..msgs.convert import to_dict
+    from ..msgs.unitree import SportModeState
+    from ..robots.go2 import protocol as p
+    from ..robots.go2.driver import SPORT_MODES
+
+    node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
+    got: list[Any] = []
+    done = threading.Event()
+
+    def on_state(msg: Any) -> None:
+        if done.is_set():
+            return
+        got.append(msg)
+        if args.json:
+            print(json.dumps(to_dict(msg)), flush=True)
+        else:
+            pos = ", ".join(f"{v:.3f}" for v in msg.position)
+            vel = ", ".join(f"{v:.3f}" for v in msg.velocity)
+            rpy = ", ".join(f"{v:.3f}" for v in msg.imu_state.rpy)
+            mode = SPORT_MODES.get(int(msg.mode), str(int(msg.mode)))
+            print(
+                f"mode {mode}  position [{pos}]  velocity [{vel}]  yaw_speed {msg.yaw_speed:.3f}  rpy [{rpy}]  "
+                f"body_height {msg.body_height:.3f}  error_code {msg.error_code}",
+                flush=True,
+            )
+        if args.count and len(got) >= args.count:
+            done.set()
+
+    node.create_subscription(SportModeState, p.SPORT_STATE_TOPIC, on_state, p.QOS_UNITREE_READER)
+    node.start()
+    try:
+        deadline = time.monotonic() + args.timeout
+        while not done.is_set():
+            if not got and time.monotonic() > deadline:
+                print(
+                    f"go2vlm go2 state: no rt/sportmodestate within {args.timeout:g} s (check --interface, domain 0)",
+                    file=sys.stderr,
+                )
+                return 1
+            done.wait(0.05)
+        return 0
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        node.shutdown()

@@ -1,0 +1,48 @@
+"""`go2vlm launch FILE [--processes] [--duration S]`: start a set of nodes from a YAML launch file."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "launch",
+        help="start a set of nodes from a launch file",
+        description=(
+            "Start the nodes of a YAML launch file (a path, or a packaged name such as follow_test_pattern). "
+            "One process by default, each node on its own thread; --processes runs each node as its own "
+            "`go2vlm run` child. Ctrl-C or SIGTERM stops everything."
+        ),
+    )
+    p.add_argument("file", nargs="?", help="launch file path or packaged name")
+    p.add_argument("--processes", action="store_true", help="one child process per node")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..launch.launcher import LaunchError, available, load_launch, run_in_process, run_processes
+
+    if args.list:
+        for name in available():
+            print(name)
+        return 0
+    if not args.file:
+        print(f"go2vlm launch: give a launch file; packaged: {', '.join(available())}", file=sys.stderr)
+        return 2
+    try:
+        path, entries = load_launch(args.file)
+    except LaunchError as exc:
+        print(f"go2vlm launch: {exc}", file=sys.stderr)
+        return 2
+    print(f"[launch] {path}: {', '.join(f'{e.name} ({e.kind})' for e in entries)}", flush=True)
+    try:
+        if args.processes:
+            return run_processes(entries, args.duration, log_level=args.log_level)
+        return run_in_process(entries, args.duration)
+    except ImportError as exc:  # a node whose optional extra (sim, vlm) is not installed
+        print(f"go2vlm launch: a node cannot be loaded: {exc}", file=sys.stderr)
+        return 2

@@ -1,0 +1,66 @@
+"""`go2vlm node list [-v]`: the nodes on the bus, ours and ROS 2's, as `ros2 node list` shows them.
+
+Read from `ros_discovery_info`, which every ROS 2 process (and every go2vlm process) publishes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("node", help="list nodes (like `ros2 node list`)")
+    verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
+    ls = verbs.add_parser("list", help="nodes seen on the bus")
+    ls.add_argument("--wait", type=float, default=1.5, help="discovery time in seconds")
+    ls.add_argument("-v", "--verbose", action="store_true", help="also show each node's topics")
+    ls.set_defaults(func=cmd_list)
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
+    from cyclonedds.sub import DataReader
+
+    from ..bus import QOS_LATCHED, domain
+    from ..bus.discovery_info import TOPIC
+    from ..msgs.rmw_dds_common import ParticipantEntitiesInfo
+
+    dp = domain.participant()
+    reader = DataReader(dp, domain.topic(dp, TOPIC, ParticipantEntitiesInfo), qos=QOS_LATCHED.to_dds())
+    pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
+    subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
+    latest: dict[bytes, ParticipantEntitiesInfo] = {}  # per participant, the newest announcement wins
+    topics: dict[bytes, str] = {}
+    deadline = time.monotonic() + args.wait
+    while True:
+        for s in reader.take(N=64):
+            if isinstance(s, ParticipantEntitiesInfo):
+                latest[s.gid.to_bytes()] = s
+        for r in (pubs, subs):
+            for ep in r.take(N=256):
+                if isinstance(getattr(ep, "topic_name", None), str):
+                    topics[ep.key.bytes] = ep.topic_name
+        if time.monotonic() >= deadline:
+            break
+        time.sleep(0.05)
+    rows = []
+    for info in latest.values():
+        for n in info.node_entities_info_seq:
+            ns = n.node_namespace.rstrip("/")
+            full = f"{ns}/{n.node_name}"
+            rows.append(
+                (
+                    full,
+                    [topics.get(g.to_bytes(), "?") for g in n.reader_gid_seq],
+                    [topics.get(g.to_bytes(), "?") for g in n.writer_gid_seq],
+                )
+            )
+    for full, readers, writers in sorted(rows):
+        print(full)
+        if args.verbose:
+            for title, names in (("Subscribers", readers), ("Publishers", writers)):
+                print(f"  {title}:")
+                for name in sorted(names):
+                    print(f"    {name[2:] if name.startswith('rt/') else name}")
+    return 0

@@ -1,0 +1,77 @@
+"""`go2vlm sim [--world NAME] [--duration S] [--rtf X | --fast] [--viewer] [--mode dynamic|kinematic]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from ..bus import ShutdownRequested, parse_overrides
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "sim",
+        help="run the simulated Go2 (MuJoCo) on ROS 2 topics",
+        description=(
+            "Run the `sim` node: a MuJoCo Go2 publishing /camera/image_raw, /odom, /imu, /joint_states, /tf, "
+            "/clock, /sim/ground_truth and /sim/status, driven by /cmd_vel. Headless by default (EGL, OSMesa "
+            "fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
+        ),
+    )
+    p.add_argument("--world", default="follow_ball", help="vision_test, follow_ball, obstacles or an .xml path")
+    p.add_argument("--mode", default="dynamic", choices=("dynamic", "kinematic"), help="physics mode")
+    speed = p.add_mutually_exclusive_group()
+    speed.add_argument("--rtf", type=float, default=1.0, help="target real-time factor (default 1.0)")
+    speed.add_argument("--fast", action="store_true", help="run as fast as possible")
+    p.add_argument("--duration", type=float, default=None, help="stop after this many sim seconds")
+    p.add_argument("--viewer", action="store_true", help="open MuJoCo's interactive viewer (needs a display)")
+    p.add_argument("--unitree", action="store_true", help="also serve the Unitree DDS protocol")
+    p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="any sim parameter")
+    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import os
+
+    if args.viewer:
+        if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            print(
+                "go2vlm sim: --viewer needs a display (DISPLAY or WAYLAND_DISPLAY is not set); running headless.",
+                file=sys.stderr,
+            )
+            args.viewer = False
+        else:
+            # The interactive viewer uses GLFW; offscreen cameras then share that backend.
+            os.environ.setdefault("MUJOCO_GL", "glfw")
+    from ..launch.registry import make_node
+
+    params = {"world": args.world, "mode": args.mode, "rtf": args.rtf, "fast": args.fast, "viewer": args.viewer}
+    if args.unitree:
+        params["unitree"] = True
+    params.update(parse_overrides(args.param))
+    node = make_node("sim", params=params, domain_id=args.domain, interface=args.interface)
+    stop = ShutdownRequested()
+    stop.install()
+    node.start()
+    target = "as fast as possible" if node.config.fast else f"target real-time factor {node.config.rtf:g}"
+    print(
+        f"go2vlm sim: world {node.config.world!r}, {node.config.mode} physics, {target}. Ctrl-C stops.", file=sys.stderr
+    )
+    next_print = time.monotonic() + 2.0
+    try:
+        while not stop.event.wait(0.1):
+            if args.duration is not None and node.sim_time >= args.duration:
+                break
+            if time.monotonic() >= next_print:
+                next_print += 5.0
+                print(f"go2vlm sim: sim time {node.sim_time:7.1f} s  real-time factor {node.rtf:.2f}", file=sys.stderr)
+    finally:
+        node.shutdown()
+    fell = getattr(node, "fell_reported", False)
+    print(
+        f"go2vlm sim: stopped at sim time {node.sim_time:.1f} s{' (the robot fell)' if fell else ''}", file=sys.stderr
+    )
+    return 0

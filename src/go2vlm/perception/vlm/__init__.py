@@ -1,0 +1,27 @@
+"""VLM perception: Qwen2.5-VL looks at camera frames; answers and grounded boxes go on the bus.
+
+Light to import: torch/transformers/openai load only when a backend is created.
+
+* :mod:`.node` -- the ``vlm`` node (``go2vlm run vlm --param model=DIR``)
+* :mod:`.backend`, :mod:`.hf_backend`, :mod:`.openai_backend` -- in-process or OpenAI-compatible server
+* :mod:`.parse` -- untrusted model output -> boxes, with counters
+* :mod:`.geometry` -- Qwen smart resize, coordinate conventions
+* :mod:`.tiny` -- a tiny real Qwen2.5-VL checkpoint built offline, for tests and benchmarks
+"""
+
+from go2vlm.perception.vlm.geometry import CoordSystem, smart_resize, visual_tokens
+from go2vlm.perception.vlm.parse import Box, ParseResult, finalize_boxes, parse_grounding
+from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt
+
+__all__ = [
+    "DEFAULT_PROMPT",
+    "Box",
+    "CoordSystem",
+    "ParseResult",
+    "build_prompt",
+    "detect_prompt",
+    "finalize_boxes",
+    "parse_grounding",
+    "smart_resize",
+    "visual_tokens",
+]

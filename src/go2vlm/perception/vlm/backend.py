@@ -1,0 +1,133 @@
+"""What a VLM backend is: settings in, (image, prompt) -> answer text + geometry + timings out.
+
+Two implementations: ``transformers`` (the model in this process, :mod:`.hf_backend`)
+and ``openai`` (any OpenAI-compatible chat-completions server, :mod:`.openai_backend`).
+Both return the size of the image the model actually saw, so boxes can be mapped back
+to camera pixels the same way (:mod:`.geometry`).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem
+
+__all__ = [
+    "API_KEY_ENV",
+    "Backend",
+    "BackendError",
+    "BackendSettings",
+    "Generation",
+    "Secret",
+    "VlmOutOfMemory",
+    "make_backend",
+    "resolve_api_key",
+]
+
+API_KEY_ENV = ("GO2VLM_API_KEY", "OPENAI_API_KEY")
+
+
+class Secret(str):
+    """A string that prints as ``***`` (repr, str, format), so a key never reaches a log line.
+
+    ``reveal()`` gives the real value to the one place that needs it (the HTTP client).
+    """
+
+    __slots__ = ()
+
+    def __repr__(self) -> str:
+        return "'***'" if self else "''"
+
+    def __str__(self) -> str:
+        return "***" if self else ""
+
+    def __format__(self, spec: str) -> str:
+        return str(self)
+
+    def reveal(self) -> str:
+        return str.__str__(self)
+
+
+def resolve_api_key(param_value: str | None) -> Secret:
+    """The API key: the parameter if set, else ``$GO2VLM_API_KEY``, else ``$OPENAI_API_KEY``."""
+    if param_value:
+        return Secret(param_value.reveal() if isinstance(param_value, Secret) else param_value)
+    for name in API_KEY_ENV:
+        value = os.environ.get(name)
+        if value:
+            return Secret(value)
+    return Secret("")
+
+
+class BackendError(RuntimeError):
+    """Inference failed in a way the node reports and survives (server down, bad reply, ...)."""
+
+    counter = "backend_errors"
+
+
+class VlmOutOfMemory(BackendError):
+    """CUDA ran out of memory; the message says what to change."""
+
+    counter = "oom_errors"
+
+
+@dataclass
+class BackendSettings:
+    model: str
+    backend: str = "transformers"
+    dtype: str = "auto"  # auto|fp16|bf16|fp32
+    device: str = "auto"  # auto|cuda|cpu|cuda:N
+    quantization: str = "none"  # none|nf4|int8
+    max_pixels: int = DEFAULT_MAX_PIXELS
+    min_pixels: int = DEFAULT_MIN_PIXELS
+    max_new_tokens: int = 256
+    min_new_tokens: int = 0  # benchmarks: force a fixed number of generated tokens (random weights)
+    coords: str = "auto"  # auto|resized_pixels|norm_1000
+    base_url: str = "http://127.0.0.1:8000/v1"
+    api_key: Secret = field(default_factory=lambda: Secret(""))
+    timeout_s: float = 30.0
+    retries: int = 2
+    jpeg_quality: int = 90
+
+
+@dataclass
+class Generation:
+    """One answer, with what is needed to interpret it."""
+
+    text: str
+    original_hw: tuple[int, int]
+    resized_hw: tuple[int, int]  # the image the model saw (H', W')
+    coords: CoordSystem
+    visual_tokens: int = 0
+    prompt_tokens: int = 0
+    new_tokens: int = 0
+    # milliseconds: preprocess, prefill (to first token), decode (the rest), total
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+class Backend(Protocol):
+    name: str
+    description: str  # model/device/dtype summary for status
+
+    def load(self) -> None: ...
+
+    def generate(self, rgb: np.ndarray, prompt: str) -> Generation: ...
+
+    def close(self) -> None: ...
+
+
+def make_backend(settings: BackendSettings) -> Backend:
+    """The backend named by ``settings.backend`` (imports its heavy dependencies lazily)."""
+    if settings.backend == "transformers":
+        from go2vlm.perception.vlm.hf_backend import TransformersBackend
+
+        return TransformersBackend(settings)
+    if settings.backend == "openai":
+        from go2vlm.perception.vlm.openai_backend import OpenAIBackend
+
+        return OpenAIBackend(settings)
+    raise ValueError(f"unknown backend {settings.backend!r}; use 'transformers' or 'openai'")

@@ -1,0 +1,264 @@
+"""``transformers`` backend: Qwen2.5-VL (and Qwen2-VL / Qwen3-VL) in this process.
+
+Loads a local directory or hub id with ``AutoProcessor`` and
+``Qwen2_5_VLForConditionalGeneration`` (``AutoModelForImageTextToText`` for the other
+Qwen-VL families), picks dtype/device, optionally quantizes with bitsandbytes (nf4
+with double quantization as in the seed article, or int8), and reports where the
+time went: preprocess, prefill (to the first token), decode.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory
+from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for, visual_tokens
+
+__all__ = ["TransformersBackend", "configure_cuda_allocator", "resolve_device", "resolve_dtype"]
+
+_DTYPES = {"fp16": "float16", "float16": "float16", "bf16": "bfloat16", "bfloat16": "bfloat16", "fp32": "float32"}
+
+
+def configure_cuda_allocator() -> None:
+    """Expandable segments before the first CUDA allocation: less fragmentation, fewer OOMs
+    when image sizes (and so activation shapes) change from frame to frame. Respects a user's
+    own setting (either spelling)."""
+    if "PYTORCH_CUDA_ALLOC_CONF" not in os.environ and "PYTORCH_ALLOC_CONF" not in os.environ:
+        os.environ["PYTORCH_CUDA_ALLOC_CONF"] = "expandable_segments:True"
+
+
+def resolve_device(device: str) -> str:
+    import torch
+
+    if device in ("", "auto"):
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        raise BackendError(f"device={device!r} but torch sees no CUDA GPU (torch {torch.__version__})")
+    return device
+
+
+def resolve_dtype(dtype: str, device: str) -> Any:
+    """auto: bf16 on GPUs that have it, else fp16 on GPU; fp32 on CPU (fp16 matmuls are slow there)."""
+    import torch
+
+    if dtype in ("", "auto"):
+        if device.startswith("cuda"):
+            return torch.bfloat16 if torch.cuda.is_bf16_supported() else torch.float16
+        return torch.float32
+    name = _DTYPES.get(dtype)
+    if name is None:
+        raise BackendError(f"dtype={dtype!r}: use auto, fp16, bf16 or fp32")
+    return getattr(torch, name)
+
+
+def _quantization_config(quantization: str, device: str, dtype: Any) -> Any:
+    import torch
+
+    if quantization in ("", "none"):
+        return None
+    if quantization not in ("nf4", "int8"):
+        raise BackendError(f"quantization={quantization!r}: use none, nf4 or int8")
+    if not device.startswith("cuda"):
+        raise BackendError(f"quantization={quantization} needs a CUDA GPU (bitsandbytes); device is {device!r}")
+    if importlib.util.find_spec("bitsandbytes") is None:
+        raise BackendError(f"quantization={quantization} needs bitsandbytes: pip install bitsandbytes")
+    from transformers import BitsAndBytesConfig
+
+    if quantization == "int8":
+        return BitsAndBytesConfig(load_in_8bit=True)
+    # The seed's settings: 4-bit NF4 weights, double quantization of the scales, fp16 compute
+    # (bf16 where the dtype says so; fp32 compute would throw away the speed).
+    compute = dtype if dtype in (torch.float16, torch.bfloat16) else torch.float16
+    return BitsAndBytesConfig(
+        load_in_4bit=True,
+        bnb_4bit_quant_type="nf4",
+        bnb_4bit_use_double_quant=True,
+        bnb_4bit_compute_dtype=compute,
+    )
+
+
+def _is_oom(exc: BaseException) -> bool:
+    import torch
+
+    oom_type = getattr(torch, "OutOfMemoryError", None) or getattr(torch.cuda, "OutOfMemoryError", None)
+    if oom_type is not None and isinstance(exc, oom_type):
+        return True
+    return isinstance(exc, RuntimeError) and "out of memory" in str(exc).lower()
+
+
+def oom_error(settings: BackendSettings, exc: BaseException, where: str) -> VlmOutOfMemory:
+    hints = []
+    if settings.quantization in ("", "none"):
+        hints.append("load 4-bit with quantization=nf4 (about 1/3 of the fp16 weight memory)")
+    hints.append(f"lower max_pixels (now {settings.max_pixels}; visual tokens = max_pixels/784)")
+    hints.append("lower max_new_tokens, or free the GPU (a simulator renderer shares it)")
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return VlmOutOfMemory(f"CUDA out of memory during {where}: {first}. Try: " + "; ".join(hints))
+
+
+class _FirstTokenClock:
+    """A logits processor that only notes when it is first called: that is the end of prefill."""
+
+    def __init__(self, sync: Any) -> None:
+        self.sync = sync
+        self.first: float | None = None
+
+    def __call__(self, input_ids: Any, scores: Any) -> Any:
+        if self.first is None:
+            self.sync()
+            self.first = time.perf_counter()
+        return scores
+
+
+class TransformersBackend:
+    name = "transformers"
+
+    def __init__(self, settings: BackendSettings) -> None:
+        self.settings = settings
+        self.model: Any = None
+        self.processor: Any = None
+        self.device = ""
+        self.dtype: Any = None
+        self.model_type = ""
+        self.coords = CoordSystem.RESIZED_PIXELS
+        self.description = f"transformers:{settings.model}"
+
+    def load(self) -> None:
+        configure_cuda_allocator()
+        import torch
+        from transformers import AutoConfig, AutoProcessor
+
+        s = self.settings
+        if not s.model:
+            raise BackendError("parameter model is empty: give a local checkpoint directory or a hub id")
+        self.device = resolve_device(s.device)
+        self.dtype = resolve_dtype(s.dtype, self.device)
+        quant = _quantization_config(s.quantization, self.device, self.dtype)
+        try:
+            config = AutoConfig.from_pretrained(s.model)
+        except (OSError, ValueError) as exc:
+            raise BackendError(f"cannot read a model config from {s.model!r}: {exc}") from exc
+        self.model_type = str(getattr(config, "model_type", ""))
+        self.coords = CoordSystem(s.coords) if s.coords not in ("", "auto") else coord_system_for(self.model_type)
+        if self.model_type == "qwen2_5_vl":
+            from transformers import Qwen2_5_VLForConditionalGeneration as model_cls
+        else:
+            from transformers import AutoModelForImageTextToText as model_cls
+        kwargs: dict[str, Any] = {"dtype": self.dtype}
+        if quant is not None:
+            kwargs["quantization_config"] = quant
+        if self.device.startswith("cuda"):
+            kwargs["device_map"] = {"": self.device}
+        try:
+            self.processor = AutoProcessor.from_pretrained(s.model)
+            self.model = model_cls.from_pretrained(s.model, **kwargs)
+        except Exception as exc:
+            if _is_oom(exc):
+                self._free()
+                raise oom_error(s, exc, "model loading") from exc
+            raise
+        if not self.device.startswith("cuda"):
+            self.model.to(self.device)
+        self.model.eval()
+        q = "" if s.quantization in ("", "none") else f", {s.quantization}"
+        self.description = (
+            f"transformers:{s.model} ({self.model_type}, {self.device}, {str(self.dtype).replace('torch.', '')}{q})"
+        )
+        if self.device.startswith("cuda"):
+            torch.cuda.reset_peak_memory_stats()
+
+    def _free(self) -> None:
+        import gc
+
+        import torch
+
+        gc.collect()
+        if torch.cuda.is_available():
+            torch.cuda.empty_cache()
+
+    def _sync(self) -> None:
+        if self.device.startswith("cuda"):
+            import torch
+
+            torch.cuda.synchronize()
+
+    def generate(self, rgb: np.ndarray, prompt: str) -> Generation:
+        if self.model is None:
+            raise BackendError("model not loaded")
+        import torch
+        from PIL import Image
+        from transformers import LogitsProcessorList
+
+        s = self.settings
+        t0 = time.perf_counter()
+        image = Image.fromarray(np.ascontiguousarray(rgb))
+        messages = [{"role": "user", "content": [{"type": "image"}, {"type": "text", "text": prompt}]}]
+        text = self.processor.apply_chat_template(messages, tokenize=False, add_generation_prompt=True)
+        inputs = self.processor(
+            text=[text],
+            images=[image],
+            return_tensors="pt",
+            size={"shortest_edge": s.min_pixels, "longest_edge": s.max_pixels},
+        )
+        grid = inputs["image_grid_thw"][0].tolist()  # (t, h/14, w/14)
+        patch = int(getattr(self.processor.image_processor, "patch_size", 14))
+        resized_hw = (int(grid[1]) * patch, int(grid[2]) * patch)
+        inputs = inputs.to(self.model.device)
+        prompt_len = int(inputs["input_ids"].shape[1])
+        self._sync()
+        t1 = time.perf_counter()
+        clock = _FirstTokenClock(self._sync)
+        try:
+            with torch.inference_mode():
+                out = self.model.generate(
+                    **inputs,
+                    max_new_tokens=s.max_new_tokens,
+                    min_new_tokens=min(s.min_new_tokens, s.max_new_tokens) or None,
+                    do_sample=False,
+                    logits_processor=LogitsProcessorList([clock]),
+                )
+            self._sync()
+        except Exception as exc:
+            if _is_oom(exc):
+                del inputs
+                self._free()
+                raise oom_error(s, exc, "generation") from exc
+            raise
+        t2 = time.perf_counter()
+        new_ids = out[0, prompt_len:]
+        answer = self.processor.tokenizer.decode(new_ids, skip_special_tokens=True)
+        t3 = time.perf_counter()
+        first = clock.first if clock.first is not None else t2
+        return Generation(
+            text=answer,
+            original_hw=(int(rgb.shape[0]), int(rgb.shape[1])),
+            resized_hw=resized_hw,
+            coords=self.coords,
+            visual_tokens=visual_tokens(resized_hw),
+            prompt_tokens=prompt_len,
+            new_tokens=int(new_ids.shape[0]),
+            timings_ms={
+                "preprocess": (t1 - t0) * 1e3,
+                "prefill": (first - t1) * 1e3,
+                "decode": (t2 - first) * 1e3,
+                "detokenize": (t3 - t2) * 1e3,
+                "total": (t3 - t0) * 1e3,
+            },
+        )
+
+    def peak_memory_bytes(self) -> int:
+        if not self.device.startswith("cuda"):
+            return 0
+        import torch
+
+        return int(torch.cuda.max_memory_allocated())
+
+    def close(self) -> None:
+        self.model = None
+        self.processor = None
+        self._free()

@@ -1,0 +1,350 @@
+"""vlm: a vision-language model (Qwen2.5-VL) looks at the camera and says what it sees.
+
+Topics
+  subscribes  <image_topic> (default /camera/image_raw)  sensor_msgs/Image, sensor-data QoS
+  publishes   /vlm/detection   std_msgs/String            the model's answer text (length-capped)
+              /vlm/detections  vision_msgs/Detection2DArray  mode=detect: boxes in the ORIGINAL
+                               image's pixels, class_id = label, score = the model's score or 1.0,
+                               header = the source image's header (stamp and frame_id)
+              /vlm/status      std_msgs/String (JSON, every status_period_s): model, backend, mode,
+                               state, latency_ms of the last inference, result_age_ms, frames
+                               received/dropped/processed, error and parse counters
+
+Freshness: the image callback only stores the newest frame; a worker thread runs inference on
+the newest frame at most every period_s. Frames replaced before the worker got to them are
+dropped and counted. Every result carries its source frame's stamp; result_age_ms is
+now - source stamp when the result is published.
+
+Backends: transformers (the model in this process; nf4/int8 via bitsandbytes) or openai (any
+OpenAI-compatible server: vLLM, SGLang, Ollama, llama.cpp, `transformers serve`). The API key
+comes from api_key or $GO2VLM_API_KEY / $OPENAI_API_KEY and is never logged or reported.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import Counter
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node, param
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.image import image_to_numpy
+from go2vlm.msgs.sensor_msgs import Image
+from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.vision_msgs import (
+    BoundingBox2D,
+    Detection2D,
+    Detection2DArray,
+    ObjectHypothesis,
+    ObjectHypothesisWithPose,
+    Point2D,
+)
+from go2vlm.msgs.vision_msgs import Pose2D as VPose2D
+from go2vlm.perception.vlm.backend import (
+    Backend,
+    BackendError,
+    BackendSettings,
+    Generation,
+    Secret,
+    VlmOutOfMemory,
+    make_backend,
+)
+from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
+from go2vlm.perception.vlm.latest import LatestSlot, Stamped
+from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding, sanitize_text
+from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt
+
+__all__ = ["VlmConfig", "VlmNode", "detections_msg", "image_to_rgb"]
+
+TOPIC_TEXT = "/vlm/detection"
+TOPIC_DETECTIONS = "/vlm/detections"
+TOPIC_STATUS = "/vlm/status"
+MAX_ANSWER_CHARS = 8192
+
+
+@dataclass
+class VlmConfig:
+    model: str = param("", help="local checkpoint dir or hub id (openai: the served model name)")
+    backend: str = param("transformers", choices=("transformers", "openai"))
+    prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the seed's scene-description prompt)")
+    mode: str = param("describe", choices=("describe", "detect"), help="detect: Qwen grounding JSON -> boxes")
+    labels: list[str] = param(list, help="detect: object categories to ground (empty: all objects)")
+    max_pixels: int = param(DEFAULT_MAX_PIXELS, help="max H'*W' after smart resize; visual tokens = /784", min=784)
+    min_pixels: int = param(DEFAULT_MIN_PIXELS, help="min H'*W' after smart resize", min=784)
+    max_new_tokens: int = param(256, help="generation budget per frame", min=1, max=8192)
+    dtype: str = param("auto", choices=("auto", "fp16", "bf16", "fp32"))
+    device: str = param("auto", help="auto, cpu, cuda or cuda:N")
+    quantization: str = param("none", choices=("none", "nf4", "int8"), help="bitsandbytes, CUDA only")
+    period_s: float = param(1.0, help="min time between inference starts", min=0.0)
+    image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
+    max_age_s: float = param(0.0, help="skip frames older than this (receive time) at pickup; 0: off", min=0.0)
+    coords: str = param("auto", choices=("auto", "resized_pixels", "norm_1000"), help="box convention override")
+    base_url: str = param("http://127.0.0.1:8000/v1", help="openai: server URL")
+    api_key: str = param("", help="openai: key (prefer $GO2VLM_API_KEY / $OPENAI_API_KEY); never logged")
+    timeout_s: float = param(30.0, help="openai: request timeout", min=0.1)
+    retries: int = param(2, help="openai: retries on connection errors/5xx, with backoff", min=0, max=10)
+    status_period_s: float = param(1.0, help="period of /vlm/status", min=0.05)
+
+    def __post_init__(self) -> None:
+        # Mask the key in every repr/str (the CLI logs the parameters at start-up).
+        if not isinstance(self.api_key, Secret):
+            self.api_key = Secret(self.api_key or "")
+
+    def validate(self) -> None:
+        if not self.model.strip():
+            raise ValueError("parameter 'model' is required (checkpoint dir, hub id or served model name)")
+        if self.min_pixels > self.max_pixels:
+            raise ValueError(f"min_pixels ({self.min_pixels}) must not exceed max_pixels ({self.max_pixels})")
+        dev = self.device
+        if not (dev in ("auto", "cpu", "cuda") or (dev.startswith("cuda:") and dev[5:].isdigit())):
+            raise ValueError(f"parameter 'device': {dev!r} is not auto, cpu, cuda or cuda:N")
+
+    def backend_settings(self) -> BackendSettings:
+        return BackendSettings(
+            model=self.model,
+            backend=self.backend,
+            dtype=self.dtype,
+            device=self.device,
+            quantization=self.quantization,
+            max_pixels=self.max_pixels,
+            min_pixels=self.min_pixels,
+            max_new_tokens=self.max_new_tokens,
+            coords=self.coords,
+            base_url=self.base_url,
+            api_key=Secret(self.api_key),
+            timeout_s=self.timeout_s,
+            retries=self.retries,
+        )
+
+
+def image_to_rgb(msg: Image) -> np.ndarray:
+    """Any supported encoding as (H, W, 3) uint8 RGB. Raises ValueError on a bad image."""
+    arr = image_to_numpy(msg)
+    enc = msg.encoding
+    if arr.dtype == np.uint16:
+        arr = (arr >> 8).astype(np.uint8)
+    if arr.ndim == 2:
+        return np.repeat(arr[:, :, None], 3, axis=2)
+    if enc in ("bgr8", "bgra8"):
+        return np.ascontiguousarray(arr[:, :, 2::-1])
+    return np.ascontiguousarray(arr[:, :, :3])
+
+
+def _stamp_sec(stamp: Time) -> float:
+    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
+
+
+def detections_msg(boxes: list[Box], header: Header) -> Detection2DArray:
+    """Boxes (original pixels) -> Detection2DArray with the source image's header."""
+    dets = []
+    for i, b in enumerate(boxes):
+        x1, y1, x2, y2 = b.box
+        dets.append(
+            Detection2D(
+                header=Header(stamp=Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec), frame_id=header.frame_id),
+                results=[
+                    ObjectHypothesisWithPose(
+                        # VLM grounding has no calibrated confidence: 1.0 means "reported", unless it gave one
+                        hypothesis=ObjectHypothesis(class_id=b.label, score=1.0 if b.score is None else b.score)
+                    )
+                ],
+                bbox=BoundingBox2D(
+                    center=VPose2D(position=Point2D(x=(x1 + x2) / 2.0, y=(y1 + y2) / 2.0), theta=0.0),
+                    size_x=x2 - x1,
+                    size_y=y2 - y1,
+                ),
+                id=str(i),
+            )
+        )
+    return Detection2DArray(header=header, detections=dets)
+
+
+class VlmNode(Node):
+    """The ``vlm`` node; its contract (topics, parameters, freshness) is the module docstring."""
+
+    name = "vlm"
+    Config = VlmConfig
+
+    def __init__(self, config: VlmConfig, *, backend: Backend | None = None, **kwargs: Any) -> None:
+        super().__init__(config, **kwargs)
+        self.config: VlmConfig
+        cfg = self.config
+        self.prompt = build_prompt(cfg.mode, cfg.prompt, cfg.labels)
+        self.backend: Backend = backend if backend is not None else make_backend(cfg.backend_settings())
+        self.slot: LatestSlot[Image] = LatestSlot()
+        self._stats = threading.Lock()
+        self.state = "loading"
+        self.last_error = ""
+        self.errors: Counter[str] = Counter()
+        self.parse_counters: Counter[str] = Counter()
+        self.inferences = 0
+        self.last_gen: Generation | None = None
+        self.last_latency_ms: dict[str, float] = {}
+        self.last_result_age_ms: float | None = None
+        self.last_source_stamp: float | None = None
+        self.last_source_seq = 0
+        self.last_detections = 0
+        self.pub_text = self.create_publisher(String, TOPIC_TEXT, QOS_DEFAULT)
+        self.pub_dets = self.create_publisher(Detection2DArray, TOPIC_DETECTIONS, QOS_DEFAULT)
+        self.pub_status = self.create_publisher(String, TOPIC_STATUS, QOS_DEFAULT)
+        self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
+        self.create_timer(cfg.status_period_s, self.publish_status)
+        self.log.info(
+            f"{self.backend.name} backend, model {cfg.model}, mode {cfg.mode}, "
+            f"max_pixels {cfg.max_pixels} (<= {cfg.max_pixels // (QWEN_FACTOR * QWEN_FACTOR)} visual tokens), "
+            f"listening on {self.resolve(cfg.image_topic)}"
+        )
+        self._halt = threading.Event()
+        self._worker = threading.Thread(target=self._work, name=f"{self.node_name}:inference", daemon=True)
+        self._worker.start()
+
+    # -- subscription: never blocks ------------------------------------------------------------
+    def on_image(self, msg: Image) -> None:
+        self.slot.put(msg)
+
+    # -- worker --------------------------------------------------------------------------------
+    def _bump(self, name: str, n: int = 1) -> None:
+        with self._stats:
+            self.errors[name] += n
+
+    def _work(self) -> None:
+        try:
+            self.backend.load()
+        except Exception as exc:  # noqa: BLE001 - reported on /vlm/status, node stays up
+            with self._stats:
+                self.state = "error"
+                self.last_error = f"load failed: {type(exc).__name__}: {exc}"
+                self.errors["load_errors"] += 1
+            self.log.error(f"cannot load the model: {type(exc).__name__}: {exc}")
+            return
+        with self._stats:
+            self.state = "ready"
+        self.log.info(f"model ready: {self.backend.description}")
+        next_start = 0.0
+        while not self._halt.is_set():
+            wait = next_start - time.monotonic()
+            if wait > 0:
+                self._halt.wait(wait)
+                continue
+            frame = self.slot.take(timeout_s=0.2)
+            if frame is None:
+                continue
+            cfg = self.config
+            if cfg.max_age_s > 0 and time.monotonic() - frame.received_mono > cfg.max_age_s:
+                self._bump("stale_frames")
+                continue
+            next_start = time.monotonic() + cfg.period_s
+            self._infer(frame)
+
+    def _infer(self, frame: Stamped[Image]) -> None:
+        msg = frame.item
+        try:
+            rgb = image_to_rgb(msg)
+        except ValueError as exc:
+            self._bump("bad_images")
+            self.log.throttled("warning", 5.0, f"dropping a bad image: {exc}", key="bad_image")
+            return
+        try:
+            gen = self.backend.generate(rgb, self.prompt)
+        except VlmOutOfMemory as exc:
+            self._record_error(exc.counter, str(exc))
+            self.log.throttled("error", 10.0, str(exc), key="oom")
+            return
+        except BackendError as exc:
+            self._record_error(exc.counter, str(exc))
+            self.log.throttled("error", 5.0, f"inference failed: {exc}", key="backend")
+            return
+        except Exception as exc:  # noqa: BLE001 - a model bug must not kill the robot's perception node
+            self._record_error("inference_errors", f"{type(exc).__name__}: {exc}")
+            self.log.throttled("error", 5.0, f"inference failed: {type(exc).__name__}: {exc}", key="infer")
+            return
+        self._publish(frame, gen)
+
+    def _record_error(self, counter: str, text: str) -> None:
+        with self._stats:
+            self.errors[counter] += 1
+            self.last_error = text[:500]
+
+    def _publish(self, frame: Stamped[Image], gen: Generation) -> None:
+        t0 = time.perf_counter()
+        cfg = self.config
+        src = frame.item.header
+        header = Header(stamp=Time(sec=src.stamp.sec, nanosec=src.stamp.nanosec), frame_id=src.frame_id)
+        counters: Counter[str] = Counter()
+        text = sanitize_text(gen.text, MAX_ANSWER_CHARS, counters)
+        boxes: list[Box] = []
+        if cfg.mode == "detect":
+            parsed = parse_grounding(gen.text, labels=cfg.labels)
+            counters.update(parsed.counters)
+            boxes = finalize_boxes(
+                parsed.boxes,
+                coords=gen.coords,
+                resized_hw=gen.resized_hw,
+                original_hw=gen.original_hw,
+                counters=counters,
+            )
+        self.pub_text.publish(String(data=text))
+        if cfg.mode == "detect":
+            self.pub_dets.publish(detections_msg(boxes, header))
+        post_ms = (time.perf_counter() - t0) * 1e3
+        src_t = _stamp_sec(src.stamp) if (src.stamp.sec or src.stamp.nanosec) else frame.received_wall
+        age_ms = (self.now() - src_t) * 1e3
+        with self._stats:
+            self.inferences += 1
+            self.parse_counters.update(counters)
+            self.last_gen = gen
+            self.last_latency_ms = {k: round(v, 2) for k, v in gen.timings_ms.items()}
+            self.last_latency_ms["postprocess"] = round(post_ms, 2)
+            self.last_result_age_ms = round(age_ms, 1)
+            self.last_source_stamp = src_t
+            self.last_source_seq = frame.seq
+            self.last_detections = len(boxes)
+        self.log.debug(f"answer ({gen.timings_ms.get('total', 0.0):.0f} ms, age {age_ms:.0f} ms): {text[:80]!r}")
+
+    # -- status --------------------------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        cfg = self.config
+        with self._stats:
+            gen = self.last_gen
+            last_age = None if self.last_source_stamp is None else round((self.now() - self.last_source_stamp) * 1e3, 1)
+            return {
+                "node": self.node_name,
+                "model": cfg.model,
+                "backend": cfg.backend,
+                "backend_detail": self.backend.description,
+                "mode": cfg.mode,
+                "state": self.state,
+                "last_error": self.last_error,
+                "latency_ms": dict(self.last_latency_ms),
+                "result_age_ms": self.last_result_age_ms,
+                "last_result_age_ms": last_age,
+                "source_stamp": self.last_source_stamp,
+                "source_seq": self.last_source_seq,
+                "frames_received": self.slot.received,
+                "frames_dropped": self.slot.dropped,
+                "frames_processed": self.slot.taken,
+                "inferences": self.inferences,
+                "detections": self.last_detections,
+                "visual_tokens": gen.visual_tokens if gen else None,
+                "resized_hw": list(gen.resized_hw) if gen else None,
+                "errors": dict(self.errors),
+                "parse": dict(self.parse_counters),
+            }
+
+    def publish_status(self) -> None:
+        self.pub_status.publish(String(data=json.dumps(self.status(), ensure_ascii=False)))
+
+    def close(self) -> None:
+        self._halt.set()
+        self.slot.close()
+        # Generation cannot be interrupted; a daemon worker finishing its frame is harmless.
+        self._worker.join(timeout=5.0)
+        try:
+            self.backend.close()
+        except Exception as exc:  # noqa: BLE001
+            self.log.warning(f"backend close failed: {exc}")

@@ -1,0 +1,416 @@
+"""go2: drives a real Unitree Go2 (or the simulator's Unitree bridge) over Unitree's own DDS protocol.
+
+Subscribes:
+  /cmd_vel                 geometry_msgs/Twist  from the safety gate; sent as sport Move (1008) at
+                                                `move_rate_hz`; a zero (or stale, `cmd_timeout_s`)
+                                                command sends StopMove (1003) once per transition
+  /emergency_stop          std_msgs/Bool        true -> Damp (1001), latched: no Move, no standing up
+                                                until released; false does NOT release (as the safety gate)
+  /emergency_stop/release  std_msgs/String      data == `release_token` ("RELEASE") releases; the robot
+                                                stays damped until "recover" or "stand", and Move resumes
+                                                only after /cmd_vel has gone through zero
+  /go2/command             std_msgs/String      stand | balance | sit | rise | standdown | damp |
+                                                recover | hello | stop
+  rt/sportmodestate        unitree_go/SportModeState_  (as /sportmodestate) the robot's state
+  rt/api/sport/response, rt/api/videohub/response  unitree_api/Response_
+Publishes:
+  rt/api/sport/request, rt/api/videohub/request    unitree_api/Request_
+  /odom                    nav_msgs/Odometry    odom -> base_link, twist in base_link (`state_rate_hz`)
+  /imu                     sensor_msgs/Imu      frame base_link
+  /tf                      tf2_msgs/TFMessage   odom -> base_link
+  /camera/image_raw/compressed  sensor_msgs/CompressedImage  front camera JPEG (videohub GetImageSample)
+  /camera/image_raw        sensor_msgs/Image    the same frame decoded, bgr8, frame camera_optical_frame
+  /camera/camera_info      sensor_msgs/CameraInfo  pinhole from `camera_hfov_deg`
+  /go2/status              std_msgs/String      latched JSON, 1 Hz: connected, estop, moving, mode, ...
+
+The Go2 speaks on DDS domain 0; `interface` picks the network interface wired to it (e.g. enp3s0,
+192.168.123.x); `lo` reaches a local simulator (`go2vlm run sim --param unitree=true`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile, param
+from ...msgs.geometry_msgs import (
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Transform,
+    TransformStamped,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
+from ...msgs.image import camera_info, numpy_to_image
+from ...msgs.nav_msgs import Odometry
+from ...msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
+from ...msgs.std_msgs import Bool, Header, String
+from ...msgs.tf2_msgs import TFMessage
+from ...msgs.unitree import SportModeState
+from ...safety.mux import RELEASE_TOKEN
+from . import protocol as p
+from .client import RpcClient
+
+QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
+QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
+
+# SportModeState.mode (Unitree sport-mode documentation).
+SPORT_MODES = {
+    0: "idle",
+    1: "balance_stand",
+    2: "pose",
+    3: "locomotion",
+    5: "lie_down",
+    6: "joint_lock",
+    7: "damping",
+    8: "recovery_stand",
+    10: "sit",
+    11: "front_flip",
+    12: "front_jump",
+    13: "front_pounce",
+}
+
+
+@dataclass
+class Go2DriverConfig:
+    interface: str = param("", help="network interface wired to the Go2 (enp3s0, eth0; lo for a local sim); '' = env")
+    domain: int = param(-1, help="DDS domain; the Go2 uses 0; -1 = ROS_DOMAIN_ID (default 0)", min=-1, max=232)
+    move_rate_hz: float = param(20.0, help="rate of sport Move requests while /cmd_vel is non-zero", min=1.0, max=100.0)
+    cmd_timeout_s: float = param(0.5, help="a /cmd_vel older than this counts as zero (StopMove)", min=0.05, max=5.0)
+    rpc_timeout_s: float = param(1.0, help="timeout of sport/videohub requests (unitree_sdk2 uses 1 s)", min=0.05)
+    camera_rate_hz: float = param(
+        10.0, help="front camera polling rate (videohub GetImageSample); 0 = camera off", min=0.0, max=30.0
+    )
+    camera_hfov_deg: float = param(
+        89.2, help="front camera horizontal FOV for /camera/camera_info (sim default; calibrate)", min=10.0, max=179.0
+    )
+    publish_raw: bool = param(True, help="also publish the decoded bgr8 /camera/image_raw")
+    state_rate_hz: float = param(50.0, help="max rate of /odom, /imu, /tf from rt/sportmodestate", min=1.0, max=500.0)
+    state_topic: str = param(
+        p.SPORT_STATE_TOPIC, help="the robot's state topic (ROS form of rt/sportmodestate; e.g. /lf/sportmodestate)"
+    )
+    stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
+    odom_frame: str = param("odom", help="odometry frame")
+    base_frame: str = param("base_link", help="robot base frame")
+    camera_frame: str = param("camera_optical_frame", help="frame_id of the camera images")
+    release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
+
+    def validate(self) -> None:
+        if not self.release_token.strip():
+            raise ValueError("release_token must not be empty")
+
+
+class Go2DriverNode(Node):
+    name = "go2"
+    Config = Go2DriverConfig
+
+    def __init__(self, config: Go2DriverConfig | None = None, **kwargs: Any) -> None:
+        cfg = config if config is not None else Go2DriverConfig()
+        # The driver's own params pick the participant unless the caller (CLI flags) already did.
+        if cfg.interface and kwargs.get("interface") is None:
+            kwargs["interface"] = cfg.interface
+        if cfg.domain >= 0 and kwargs.get("domain_id") is None:
+            kwargs["domain_id"] = cfg.domain
+        super().__init__(cfg, **kwargs)
+        self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
+        self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
+
+        self._cmd = (0.0, 0.0, 0.0)
+        self._cmd_time = -math.inf
+        self.moving = False  # a non-zero Move was sent since the last StopMove
+        self.estop = False
+        self._damp_acked = False
+        self._damp_in_flight = False
+        self._damp_last_try = -math.inf
+        self._need_zero = False  # after an e-stop release, Move waits for a zero /cmd_vel first
+        self._busy_command: str | None = None
+        self._camera_pending = False
+        self._last_state_pub = -math.inf
+        self.state: SportModeState | None = None
+        self._state_time = -math.inf
+        self._stood_on_start = not cfg.stand_on_start
+        self.moves_sent = 0
+        self.stops_sent = 0
+        self.damps_sent = 0
+        self.frames = 0
+
+        self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
+        self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
+        self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
+        self.pub_status = self.create_publisher(String, "/go2/status", QOS_LATCHED)
+        if cfg.camera_rate_hz > 0:
+            self.pub_jpeg = self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+            self.pub_image = self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE) if cfg.publish_raw else None
+            self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
+            self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
+
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
+        # Read three ways (as the safety gate does) so that every publisher QoS matches, and a
+        # latched e-stop reaches a driver started late.
+        for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
+            self.create_subscription(Bool, "/emergency_stop", self._on_estop, qos)
+        for qos in (QOS_DEFAULT, QOS_ANY):
+            self.create_subscription(String, "/emergency_stop/release", self._on_release, qos)
+        self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
+        self.create_subscription(SportModeState, cfg.state_topic, self._on_state, p.QOS_UNITREE_READER)
+        self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
+        self.create_timer(1.0, self._status_tick)
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        vals = (msg.linear.x, msg.linear.y, msg.angular.z)
+        if not all(isinstance(v, float) and math.isfinite(v) for v in vals):
+            self.count("bad_cmd_vel")
+            self.log.throttled("error", 2.0, f"rejected /cmd_vel with a non-finite value {vals}: stopping instead")
+            self._cmd, self._cmd_time = (0.0, 0.0, 0.0), time.monotonic()
+            return
+        self._cmd = p.clamp_velocity(*vals)
+        self._cmd_time = time.monotonic()
+
+    def _on_estop(self, msg: Bool) -> None:
+        if msg.data and not self.estop:
+            self.log.warning("emergency stop: Damp")
+            self.estop = True
+            self._damp_acked = False
+            self._damp()
+        elif not msg.data and self.estop:
+            self.log.throttled("warning", 5.0, "/emergency_stop false does not release; use /emergency_stop/release")
+
+    def _on_release(self, msg: String) -> None:
+        if not self.estop:
+            return  # nothing to release, or the duplicate of a release read with the other QoS
+        if msg.data.strip() != self.config.release_token.strip():
+            self.count("release_refused")
+            self.log.throttled("warning", 2.0, "e-stop release refused: wrong token", key="release")
+            return
+        self.estop = False
+        self._need_zero = True
+        self.log.warning("emergency stop released; the robot stays down until 'recover' or 'stand'")
+
+    def _on_command(self, msg: String) -> None:
+        name = msg.data.strip().lower()
+        if name not in p.COMMANDS:
+            self.count("bad_command")
+            self.log.throttled(
+                "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; use one of {', '.join(p.COMMANDS)}"
+            )
+            return
+        if self.estop and name not in p.ESTOP_ALLOWED:
+            self.count("refused_command")
+            self.log.throttled("error", 2.0, f"refused {name!r}: emergency stop latched (release it first)")
+            return
+        self.run_command(name)
+
+    def run_command(self, name: str) -> None:
+        """Send a posture command's API ids in order, each after the previous one answered ok."""
+        if name != "stop" and self.moving:
+            self._stop_move()
+        self._busy_command = name
+        self._chain(name, list(p.COMMANDS[name]))
+
+    def _chain(self, name: str, api_ids: list[int]) -> None:
+        if not api_ids:
+            self._busy_command = None
+            self.log.info(f"{name}: done")
+            return
+        api = api_ids[0]
+
+        def done(result: p.RpcResult) -> None:
+            if not result.ok:
+                self._busy_command = None
+                self.count("rpc_errors")
+                self.log.error(f"{name}: {p.SPORT_API_NAMES.get(api, api)} failed: {result.describe()}")
+                return
+            if self.estop and name not in p.ESTOP_ALLOWED:
+                self._busy_command = None
+                return  # an e-stop came in between: do not finish standing up
+            self._chain(name, api_ids[1:])
+
+        self.sport.call_async(api).add_done_callback(done)
+
+    def _on_state(self, msg: SportModeState) -> None:
+        self.state = msg
+        self._state_time = time.monotonic()
+        if not self._stood_on_start and self.sport.matched and not self.estop:
+            self._stood_on_start = True
+            self.log.info("stand_on_start: StandUp + BalanceStand")
+            self.run_command("stand")
+        now = time.monotonic()
+        if now - self._last_state_pub < 1.0 / self.config.state_rate_hz - 1e-4:
+            return
+        self._last_state_pub = now
+        self._publish_state(msg)
+
+    # -- motion ------------------------------------------------------------------------------
+    def current_command(self) -> tuple[float, float, float]:
+        if time.monotonic() - self._cmd_time > self.config.cmd_timeout_s:
+            return (0.0, 0.0, 0.0)
+        return self._cmd
+
+    def _move_tick(self) -> None:
+        if self.estop:
+            if not self._damp_acked and not self._damp_in_flight and time.monotonic() - self._damp_last_try > 0.25:
+                self._damp()  # keep trying while the e-stop holds: it must not be lost
+            return
+        cmd = self.current_command()
+        zero = not any(cmd)
+        if zero:
+            self._need_zero = False
+            if self.moving:
+                self._stop_move()
+            return
+        if self._need_zero or self._busy_command is not None:
+            return
+        if self.sport.send_noreply(p.MOVE, {"x": cmd[0], "y": cmd[1], "z": cmd[2]}):
+            self.moving = True
+            self.moves_sent += 1
+        else:
+            self.count("not_connected")
+            self.log.throttled("warning", 5.0, "no sport service matched: is the robot reachable on this interface?")
+
+    def _stop_move(self) -> None:
+        self.moving = False
+        self.stops_sent += 1
+        fut = self.sport.call_async(p.STOP_MOVE)
+        fut.add_done_callback(lambda r: None if r.ok else self._rpc_failed("StopMove", r))
+
+    def _damp(self) -> None:
+        self.moving = False
+        self.damps_sent += 1
+        self._damp_in_flight = True
+        self._damp_last_try = time.monotonic()
+
+        def done(result: p.RpcResult) -> None:
+            self._damp_in_flight = False
+            self._damp_acked = result.ok
+            if not result.ok:
+                self._rpc_failed("Damp", result)
+
+        self.sport.call_async(p.DAMP).add_done_callback(done)
+
+    def _rpc_failed(self, what: str, result: p.RpcResult) -> None:
+        self.count("rpc_errors")
+        self.log.throttled("error", 2.0, f"{what} failed: {result.describe()}", key=f"rpc:{what}")
+
+    # -- state -------------------------------------------------------------------------------
+    def _publish_state(self, s: SportModeState) -> None:
+        cfg: Go2DriverConfig = self.config
+        header = self.header(cfg.odom_frame)
+        qw, qx, qy, qz = (float(v) for v in s.imu_state.quaternion)
+        norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        if not math.isfinite(norm) or norm < 1e-6:
+            self.count("bad_state")
+            self.log.throttled("error", 2.0, f"rt/sportmodestate has an invalid quaternion {s.imu_state.quaternion}")
+            return
+        qw, qx, qy, qz = qw / norm, qx / norm, qy / norm, qz / norm
+        quat = Quaternion(x=qx, y=qy, z=qz, w=qw)
+        pos = [float(v) for v in s.position]
+        # velocity is in the odom (world) frame; Odometry's twist is in base_link.
+        rot = _quat_to_mat(qw, qx, qy, qz)
+        v_body = rot.T @ np.array([float(v) for v in s.velocity])
+        self.pub_odom.publish(
+            Odometry(
+                header=header,
+                child_frame_id=cfg.base_frame,
+                pose=PoseWithCovariance(pose=Pose(position=Point(*pos), orientation=quat)),
+                twist=TwistWithCovariance(
+                    twist=Twist(linear=Vector3(*map(float, v_body)), angular=Vector3(0.0, 0.0, float(s.yaw_speed)))
+                ),
+            )
+        )
+        g = [float(v) for v in s.imu_state.gyroscope]
+        a = [float(v) for v in s.imu_state.accelerometer]
+        self.pub_imu.publish(
+            Imu(
+                header=self.header(cfg.base_frame, t=_stamp_sec(header)),
+                orientation=quat,
+                angular_velocity=Vector3(*g),
+                linear_acceleration=Vector3(*a),
+            )
+        )
+        self.pub_tf.publish(
+            TFMessage(
+                transforms=[
+                    TransformStamped(
+                        header=header,
+                        child_frame_id=cfg.base_frame,
+                        transform=Transform(translation=Vector3(*pos), rotation=quat),
+                    )
+                ]
+            )
+        )
+
+    def _status_tick(self) -> None:
+        s = self.state
+        status = {
+            "connected": self.sport.matched,
+            "state_age_s": None if s is None else round(time.monotonic() - self._state_time, 3),
+            "estop": self.estop,
+            "moving": self.moving,
+            "command": [round(v, 3) for v in self.current_command()],
+            "mode": None if s is None else SPORT_MODES.get(int(s.mode), str(int(s.mode))),
+            "body_height": None if s is None else round(float(s.body_height), 3),
+            "busy": self._busy_command,
+            "moves_sent": self.moves_sent,
+            "stops_sent": self.stops_sent,
+            "frames": self.frames,
+            "errors": dict(self.counters),
+        }
+        self.pub_status.publish(String(data=json.dumps(status)))
+
+    # -- camera ------------------------------------------------------------------------------
+    def _poll_camera(self) -> None:
+        if self._camera_pending or not self.video.matched:
+            return  # one request in flight: a slow link gets fewer, not older, frames
+        self._camera_pending = True
+        stamp = self.now()
+        self.video.call_async(p.GET_IMAGE_SAMPLE).add_done_callback(lambda r: self._on_frame(r, stamp))
+
+    def _on_frame(self, result: p.RpcResult, stamp: float) -> None:
+        self._camera_pending = False
+        if not result.ok:
+            self.count("camera_errors")
+            self.log.throttled("warning", 5.0, f"videohub GetImageSample failed: {result.describe()}", key="cam")
+            return
+        jpeg = result.binary
+        if not jpeg or len(jpeg) > p.MAX_IMAGE_BYTES or jpeg[:2] != b"\xff\xd8":
+            self.count("bad_frames")
+            self.log.throttled("error", 2.0, f"videohub returned {len(jpeg)} bytes that are not a JPEG", key="camjpg")
+            return
+        import cv2
+
+        bgr = cv2.imdecode(np.frombuffer(jpeg, dtype=np.uint8), cv2.IMREAD_COLOR)
+        if bgr is None:
+            self.count("bad_frames")
+            self.log.throttled("error", 2.0, "videohub JPEG does not decode", key="camdec")
+            return
+        cfg: Go2DriverConfig = self.config
+        header = self.header(cfg.camera_frame, t=stamp)
+        self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=bytes(jpeg)))
+        if self.pub_image is not None:
+            self.pub_image.publish(numpy_to_image(bgr, "bgr8", header))
+        h, w = bgr.shape[:2]
+        self.pub_info.publish(camera_info(w, h, math.radians(cfg.camera_hfov_deg), header))
+        self.frames += 1
+
+
+def _quat_to_mat(w: float, x: float, y: float, z: float) -> np.ndarray:
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _stamp_sec(header: Header) -> float:
+    return header.stamp.sec + header.stamp.nanosec * 1e-9

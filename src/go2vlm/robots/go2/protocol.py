@@ -1,0 +1,277 @@
+"""The Go2's sport and videohub RPC protocol, pure (no DDS): API ids, error codes, request and
+response building, JSON parameter parsing.
+
+Unitree RPC (unitree_sdk2): a client writes `unitree_api/Request_` on `rt/api/<service>/request`;
+the service answers `unitree_api/Response_` on `rt/api/<service>/response` with the same
+identity {id, api_id} and a status code (0 = ok). Requests with `policy.noreply` (Move) get no
+answer. Parameters are JSON text, payloads (camera JPEGs) go in `binary`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from ...bus import QosProfile
+from ...msgs.unitree import (
+    Request,
+    RequestHeader,
+    RequestIdentity,
+    RequestLease,
+    RequestPolicy,
+    Response,
+    ResponseHeader,
+    ResponseStatus,
+)
+
+SPORT_SERVICE = "sport"
+VIDEO_SERVICE = "videohub"
+SPORT_API_VERSION = "1.0.0.1"
+VIDEO_API_VERSION = "1.0.0.1"
+
+# Our ROS-style names; the bus prefixes `rt`, giving Unitree's `rt/api/sport/request` etc.
+SPORT_STATE_TOPIC = "/sportmodestate"
+
+
+def request_topic(service: str) -> str:
+    return f"/api/{service}/request"
+
+
+def response_topic(service: str) -> str:
+    return f"/api/{service}/response"
+
+
+# -- API ids ---------------------------------------------------------------------------------
+API_VERSION = 1  # internal: every server answers its API version string
+DAMP = 1001
+BALANCE_STAND = 1002
+STOP_MOVE = 1003
+STAND_UP = 1004
+STAND_DOWN = 1005
+RECOVERY_STAND = 1006
+MOVE = 1008
+SIT = 1009
+RISE_SIT = 1010
+HELLO = 1016
+GET_IMAGE_SAMPLE = 1001  # videohub
+
+SPORT_API_NAMES: dict[int, str] = {
+    DAMP: "Damp",
+    BALANCE_STAND: "BalanceStand",
+    STOP_MOVE: "StopMove",
+    STAND_UP: "StandUp",
+    STAND_DOWN: "StandDown",
+    RECOVERY_STAND: "RecoveryStand",
+    MOVE: "Move",
+    SIT: "Sit",
+    RISE_SIT: "RiseSit",
+    HELLO: "Hello",
+}
+
+# -- status codes (unitree_sdk2py/rpc/internal.py, go2/sport/sport_api.py) -------------------
+OK = 0
+ERR_UNKNOWN = 3001
+ERR_CLIENT_SEND = 3102
+ERR_CLIENT_API_NOT_REG = 3103
+ERR_CLIENT_API_TIMEOUT = 3104
+ERR_CLIENT_API_NOT_MATCH = 3105
+ERR_CLIENT_API_DATA = 3106
+ERR_CLIENT_LEASE_INVALID = 3107
+ERR_SERVER_SEND = 3201
+ERR_SERVER_INTERNAL = 3202
+ERR_SERVER_API_NOT_IMPL = 3203
+ERR_SERVER_API_PARAMETER = 3204
+ERR_SERVER_LEASE_DENIED = 3205
+ERR_SERVER_LEASE_NOT_EXIST = 3206
+ERR_SERVER_LEASE_EXIST = 3207
+SPORT_ERR_SERVER_OVERTIME = 4201
+SPORT_ERR_SERVER_NOT_INIT = 4202
+
+CODE_NAMES: dict[int, str] = {
+    OK: "ok",
+    ERR_UNKNOWN: "unknown error",
+    ERR_CLIENT_SEND: "client: request could not be sent (no server matched)",
+    ERR_CLIENT_API_NOT_REG: "client: api not registered",
+    ERR_CLIENT_API_TIMEOUT: "client: no response before the timeout",
+    ERR_CLIENT_API_NOT_MATCH: "client: response api id does not match the request",
+    ERR_CLIENT_API_DATA: "client: response data is malformed",
+    ERR_CLIENT_LEASE_INVALID: "client: lease invalid",
+    ERR_SERVER_SEND: "server: response could not be sent",
+    ERR_SERVER_INTERNAL: "server: internal error",
+    ERR_SERVER_API_NOT_IMPL: "server: api not implemented",
+    ERR_SERVER_API_PARAMETER: "server: bad api parameter",
+    ERR_SERVER_LEASE_DENIED: "server: lease denied",
+    ERR_SERVER_LEASE_NOT_EXIST: "server: lease does not exist",
+    ERR_SERVER_LEASE_EXIST: "server: lease exists",
+    SPORT_ERR_SERVER_OVERTIME: "sport: overtime",
+    SPORT_ERR_SERVER_NOT_INIT: "sport: not initialised",
+}
+
+
+def describe_code(code: int) -> str:
+    return f"{code} ({CODE_NAMES.get(code, 'unknown code')})"
+
+
+# -- limits -----------------------------------------------------------------------------------
+# Sport-mode velocity limits (Unitree's documented Move ranges).
+VX_RANGE = (-2.5, 3.8)
+VY_LIMIT = 1.0
+VYAW_LIMIT = 4.0
+MAX_PARAMETER_CHARS = 64 * 1024  # JSON parameters are tiny; anything huge is a bug or an attack
+MAX_REQUEST_BINARY = 64 * 1024  # sport/videohub requests carry no payload
+MAX_IMAGE_BYTES = 8 * 1024 * 1024  # a 1280x720 JPEG is ~100-300 KB
+
+# -- QoS ----------------------------------------------------------------------------------------
+# unitree_sdk2 creates every reader and writer with Cyclone's default QoS (qos=None): writers
+# reliable, readers best-effort, volatile, keep-last. Reliable writers and best-effort readers
+# match any peer, so we use exactly that split; depth is local and does not affect matching.
+QOS_UNITREE_WRITER = QosProfile(reliable=True, transient_local=False, depth=10)
+QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)
+
+
+class ProtocolError(ValueError):
+    """A request or response that breaks the protocol; `code` is the status to answer with."""
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(message)
+        self.code = code
+
+
+# -- request ids ------------------------------------------------------------------------------
+_id_lock = threading.Lock()
+_last_id = 0
+
+
+def new_request_id() -> int:
+    """Unique, increasing int64 per process; unitree_sdk2 uses monotonic nanoseconds too."""
+    global _last_id
+    with _id_lock:
+        _last_id = max(_last_id + 1, time.monotonic_ns())
+        return _last_id
+
+
+# -- building -----------------------------------------------------------------------------------
+def build_request(
+    api_id: int,
+    parameter: str | dict[str, Any] = "",
+    binary: bytes = b"",
+    *,
+    request_id: int | None = None,
+    noreply: bool = False,
+    priority: int = 0,
+    lease_id: int = 0,
+) -> Request:
+    text = json.dumps(parameter) if isinstance(parameter, dict) else parameter
+    return Request(
+        header=RequestHeader(
+            identity=RequestIdentity(id=new_request_id() if request_id is None else request_id, api_id=api_id),
+            lease=RequestLease(id=lease_id),
+            policy=RequestPolicy(priority=priority, noreply=noreply),
+        ),
+        parameter=text,
+        binary=bytes(binary),
+    )
+
+
+def move_request(vx: float, vy: float, vyaw: float) -> Request:
+    """Move is fire-and-forget (noreply), as in unitree_sdk2's SportClient.Move."""
+    return build_request(MOVE, {"x": float(vx), "y": float(vy), "z": float(vyaw)}, noreply=True)
+
+
+def build_response(request: Request, code: int = OK, data: str = "", binary: bytes = b"") -> Response:
+    ident = request.header.identity
+    return Response(
+        header=ResponseHeader(
+            identity=RequestIdentity(id=ident.id, api_id=ident.api_id), status=ResponseStatus(code=code)
+        ),
+        data=data if code == OK else "",
+        binary=bytes(binary) if code == OK else b"",
+    )
+
+
+# -- parsing ----------------------------------------------------------------------------------
+def parse_parameter(request: Request) -> Any:
+    """The JSON parameter of a request ("" counts as {}); ProtocolError(3204) if malformed."""
+    text = request.parameter
+    if len(text) > MAX_PARAMETER_CHARS:
+        raise ProtocolError(ERR_SERVER_API_PARAMETER, f"parameter is {len(text)} chars (max {MAX_PARAMETER_CHARS})")
+    if len(request.binary) > MAX_REQUEST_BINARY:
+        raise ProtocolError(
+            ERR_SERVER_API_PARAMETER, f"binary is {len(request.binary)} bytes (max {MAX_REQUEST_BINARY})"
+        )
+    if not text.strip():
+        return {}
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise ProtocolError(ERR_SERVER_API_PARAMETER, f"parameter is not valid JSON: {exc}") from None
+
+
+def _number(params: dict[str, Any], key: str) -> float:
+    if key not in params:
+        raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter {key!r} is missing")
+    value = params[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter {key!r} = {value!r} is not a finite number")
+    return float(value)
+
+
+def parse_move(params: Any) -> tuple[float, float, float]:
+    """`{"x": vx, "y": vy, "z": vyaw}` -> (vx, vy, vyaw), clamped to the sport-mode limits."""
+    if not isinstance(params, dict):
+        raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter must be a JSON object, got {params!r:.80}")
+    vx, vy, vyaw = _number(params, "x"), _number(params, "y"), _number(params, "z")
+    return clamp_velocity(vx, vy, vyaw)
+
+
+def clamp_velocity(vx: float, vy: float, vyaw: float) -> tuple[float, float, float]:
+    return (
+        min(max(vx, VX_RANGE[0]), VX_RANGE[1]),
+        min(max(vy, -VY_LIMIT), VY_LIMIT),
+        min(max(vyaw, -VYAW_LIMIT), VYAW_LIMIT),
+    )
+
+
+@dataclass(frozen=True)
+class RpcResult:
+    """What a call returned: status code, JSON text, binary payload."""
+
+    code: int
+    data: str = ""
+    binary: bytes = b""
+
+    @property
+    def ok(self) -> bool:
+        return self.code == OK
+
+    def describe(self) -> str:
+        return describe_code(self.code)
+
+
+def result_from_response(request_api_id: int, response: Response) -> RpcResult:
+    """The SDK's checks: a response for another api id is ERR_CLIENT_API_NOT_MATCH."""
+    if response.header.identity.api_id != request_api_id:
+        return RpcResult(ERR_CLIENT_API_NOT_MATCH)
+    return RpcResult(int(response.header.status.code), response.data, bytes(response.binary))
+
+
+# -- posture commands (driver topic /go2/command and `go2vlm go2 ...`) -------------------------
+# name -> sequence of sport API ids sent in order, each after the previous one answered.
+# "stand" = StandUp (joints locked upright) then BalanceStand (balancing, accepts Move).
+COMMANDS: dict[str, tuple[int, ...]] = {
+    "stand": (STAND_UP, BALANCE_STAND),
+    "balance": (BALANCE_STAND,),
+    "sit": (SIT,),
+    "rise": (RISE_SIT,),
+    "standdown": (STAND_DOWN,),
+    "damp": (DAMP,),
+    "recover": (RECOVERY_STAND,),
+    "hello": (HELLO,),
+    "stop": (STOP_MOVE,),
+}
+# Allowed while the emergency stop is latched: nothing that makes the robot stand or move.
+ESTOP_ALLOWED = frozenset({"damp", "standdown", "stop"})

@@ -1,0 +1,200 @@
+"""safety: the only node that publishes /cmd_vel. A priority mux with timeouts, velocity and
+acceleration limits and a latching emergency stop, output at a fixed rate.
+
+Topics
+  subscribes  /teleop/cmd_vel    geometry_msgs/Twist  priority 100  } default `inputs`: any list of
+              /follower/cmd_vel  geometry_msgs/Twist  priority 50   } {name, topic, priority,
+              /behavior/cmd_vel  geometry_msgs/Twist  priority 10   }  timeout_s} (0.5 s default)
+              /emergency_stop          std_msgs/Bool    true latches the e-stop; false does NOT release
+              /emergency_stop/release  std_msgs/String  data == release_token ("RELEASE") releases
+  publishes   /cmd_vel           geometry_msgs/Twist  at rate_hz (50 Hz), exactly zero when no input is
+                                 live or the e-stop is latched; a stop goes out at once
+              /safety/status     std_msgs/String (latched) JSON {active, estop, last_zero_reason, output,
+                                 limits, inputs, counters}, on every change and every status_period_s
+
+Release the e-stop from a shell:
+  go2vlm topic pub /emergency_stop/release std_msgs/msg/String "{data: RELEASE}" --once
+Engage it:
+  go2vlm topic pub /emergency_stop std_msgs/msg/Bool "{data: true}" --once --qos latched
+
+Rules: the live input with the highest priority wins, even when it commands zero; an input is live
+while its last valid command is younger than its timeout_s. A command with NaN/inf or absurd values
+(|v| > 100) is rejected with a rate-limited error, counted, and makes that input absent at once.
+The winner is clamped to the limits (configurable, never above the Go2 sport-mode ceilings vx
+-2.5..3.8 m/s, vy +-1.0 m/s, vyaw +-4.0 rad/s) and ramped within the acceleration limits; slowing
+down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
+QoS: inputs are read best-effort (matches any publisher); /emergency_stop is read three ways (latched,
+reliable, best-effort) so every publisher QoS matches and a latched e-stop reaches a late gate.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile, param
+from go2vlm.bus.domain import dds_topic_name
+from go2vlm.msgs.geometry_msgs import Twist, Vector3
+from go2vlm.msgs.std_msgs import Bool, String
+from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
+from go2vlm.safety.mux import DEFAULT_INPUTS, RELEASE_TOKEN, InputSpec, SafetyCore
+
+__all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
+
+QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
+
+
+def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
+    """`inputs` parameter entries -> InputSpec, with errors that name the entry."""
+    out = []
+    for i, item in enumerate(raw):
+        if not isinstance(item, dict) or "topic" not in item:
+            raise ValueError(f"inputs[{i}] = {item!r}: expected {{name, topic, priority, timeout_s}}")
+        unknown = set(item) - {"name", "topic", "priority", "timeout_s"}
+        if unknown:
+            raise ValueError(f"inputs[{i}]: unknown key(s) {sorted(unknown)}")
+        topic = str(item["topic"])
+        dds_topic_name(topic)  # raises on a bad name
+        name = str(item.get("name") or topic.strip("/").split("/")[0])
+        try:
+            priority = int(item.get("priority", 0))
+            timeout = float(item.get("timeout_s", 0.5))
+        except (TypeError, ValueError):
+            raise ValueError(f"inputs[{i}]: priority must be an int and timeout_s a number") from None
+        if not (math.isfinite(timeout) and 0.0 < timeout <= 10.0):
+            raise ValueError(f"inputs[{i}]: timeout_s {timeout} must be in (0, 10]")
+        out.append(InputSpec(name, topic, priority, timeout))
+    if not out:
+        raise ValueError("inputs must list at least one input topic")
+    names = [s.name for s in out]
+    if len(set(names)) != len(names):
+        raise ValueError(f"inputs: names must be unique, got {names}")
+    if "/cmd_vel" in {s.topic for s in out}:
+        raise ValueError("inputs: /cmd_vel is the gate's output and cannot be an input")
+    return out
+
+
+@dataclass
+class SafetyGateConfig:
+    inputs: list[dict] = param(
+        [{"name": s.name, "topic": s.topic, "priority": s.priority, "timeout_s": s.timeout_s} for s in DEFAULT_INPUTS],
+        help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
+    )
+    rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
+    max_vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=HARD_VX_FORWARD)
+    max_vx_backward: float = param(0.5, help="backward speed limit (m/s, positive)", min=0.0, max=HARD_VX_BACKWARD)
+    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=HARD_VY)
+    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=HARD_WZ)
+    accel_linear: float = param(1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01)
+    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01)
+    release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
+    start_engaged: bool = param(False, help="start with the e-stop latched (a release is needed to move)")
+    status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0)
+
+    def validate(self) -> None:
+        parse_inputs(self.inputs)
+        if not self.release_token.strip():
+            raise ValueError("release_token must not be empty")
+
+
+class SafetyGateNode(Node):
+    name = "safety"
+    Config = SafetyGateConfig
+
+    def __init__(self, config: SafetyGateConfig | None = None, **kwargs: object) -> None:
+        super().__init__(config, **kwargs)  # type: ignore[arg-type]
+        c = self.config
+        limits = Limits(c.max_vx_forward, c.max_vx_backward, c.max_vy, c.max_vyaw, c.accel_linear, c.accel_angular)
+        self.core = SafetyCore(parse_inputs(c.inputs), limits, c.release_token.strip(), c.start_engaged)
+        self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
+        self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
+        self._last_state: tuple[Any, ...] | None = None
+        self._last_status = 0.0
+        for spec in self.core.specs:
+            self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
+        for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
+            self.create_subscription(Bool, "/emergency_stop", self.on_estop, qos)
+        for qos in (QOS_DEFAULT, QOS_ANY):
+            self.create_subscription(String, "/emergency_stop/release", self.on_release, qos)
+        if c.start_engaged:
+            self.log.warning(
+                f"starting with the e-stop latched; publish {c.release_token!r} on /emergency_stop/release"
+            )
+        self.create_timer(1.0 / c.rate_hz, self.tick)
+        self.tick()
+
+    # -- inputs ------------------------------------------------------------------------------
+    def on_cmd(self, name: str, msg: Twist) -> None:
+        now = time.monotonic()
+        was_active = self.core.winner(now) == name
+        extra = (msg.linear.z, msg.angular.x, msg.angular.y)
+        v = Velocity(msg.linear.x, msg.linear.y, msg.angular.z)
+        why = self.core.command(name, v, now)
+        if why is None and not all(math.isfinite(e) for e in extra):
+            self.core.command(name, Velocity(math.nan), now)  # reject and make absent the same way
+            why = f"a non-finite unused component in {extra}"
+        if why is not None:
+            n = self.core.counters.get(f"rejected_{name}", 0)
+            self.log.throttled("error", 2.0, f"rejecting a command from {name} ({n} so far): {why}", key=f"rej:{name}")
+        if was_active and (why is not None or v.is_zero) and not self.core.output.is_zero:
+            self.tick()  # a stop goes out now, not at the next tick
+
+    def on_estop(self, msg: Bool) -> None:
+        if msg.data:
+            if self.core.estopped:
+                return  # already latched (we read the topic with three QoS, and senders repeat)
+            self.log.warning(
+                f"EMERGENCY STOP: /cmd_vel held at zero until {self.config.release_token!r} is published "
+                "on /emergency_stop/release"
+            )
+            self.core.estop(True)
+            self.tick()  # the zero goes out now, not at the next tick
+        elif self.core.estopped:
+            self.core.estop(False)
+            self.log.throttled(
+                "warning",
+                2.0,
+                "/emergency_stop false does not release the e-stop; use /emergency_stop/release",
+                key="false",
+            )
+
+    def on_release(self, msg: String) -> None:
+        if not self.core.estopped:
+            return  # a duplicate (we read the topic with two QoS) or nothing to release
+        if self.core.release(msg.data):
+            self.log.warning("e-stop released")
+            self.tick()
+        else:
+            n = self.core.counters.get("release_refused", 0)
+            self.log.throttled("warning", 2.0, f"e-stop release refused: wrong token ({n} so far)", key="refused")
+
+    # -- output ------------------------------------------------------------------------------
+    def tick(self) -> None:
+        now = time.monotonic()
+        out = self.core.step(now)
+        self.cmd_pub.publish(Twist(linear=Vector3(x=out.vx, y=out.vy), angular=Vector3(z=out.wz)))
+        state = (self.core.active, self.core.estopped, self.core.reason)
+        if state != self._last_state or now - self._last_status >= self.config.status_period_s:
+            if state != self._last_state and self._last_state is not None:
+                why = f" ({state[2]})" if state[0] is None else ""
+                self.log.info(f"active={state[0]} estop={state[1]}{why}")
+            self._last_state, self._last_status = state, now
+            self.status_pub.publish(String(data=json.dumps(self.status(now))))
+
+    def status(self, now: float) -> dict[str, Any]:
+        return {
+            "active": self.core.active,
+            "estop": self.core.estopped,
+            "last_zero_reason": self.core.reason,
+            "output": self.core.output.as_dict(),
+            "limits": {
+                "vx": [-self.core.limits.vx_backward, self.core.limits.vx_forward],
+                "vy": self.core.limits.vy,
+                "wz": self.core.limits.wz,
+            },
+            "inputs": self.core.inputs_status(now),
+            "counters": {**self.core.counters, **self.counters},
+        }

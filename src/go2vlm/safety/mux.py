@@ -1,0 +1,173 @@
+"""The safety gate's logic without any I/O: a twist_mux-style priority mux, the e-stop latch and the
+velocity limits, driven by explicit timestamps so it can be tested exhaustively.
+
+    core = SafetyCore([InputSpec("teleop", "/teleop/cmd_vel", 100)], Limits())
+    core.command("teleop", Velocity(0.3, 0, 0), now)
+    out = core.step(now)          # what goes on /cmd_vel
+
+Rules
+- An input is live while its last valid command is younger than its timeout. The live input with the
+  highest priority wins (ties: the one listed first), even when it commands zero.
+- A command with NaN/inf or absurd values is rejected, counted, and makes that input absent at once.
+- E-stop: `estop(True)` latches; while latched the output is exactly zero. `estop(False)` does NOT
+  release it; only `release(token)` with the configured token does.
+- The output is the winner clamped to the limits, then ramped within the acceleration limits; zero
+  (no live input, e-stop) is output immediately.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .limits import ZERO, Limits, Velocity, check, ramp
+
+__all__ = ["InputSpec", "SafetyCore", "EstopLatch", "DEFAULT_INPUTS", "RELEASE_TOKEN"]
+
+RELEASE_TOKEN = "RELEASE"
+MAX_DT = 0.1  # a stalled loop must not turn into one big acceleration step
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    name: str
+    topic: str
+    priority: int
+    timeout_s: float = 0.5
+
+
+DEFAULT_INPUTS = (
+    InputSpec("teleop", "/teleop/cmd_vel", 100, 0.5),
+    InputSpec("follower", "/follower/cmd_vel", 50, 0.5),
+    InputSpec("behavior", "/behavior/cmd_vel", 10, 0.5),
+)
+
+
+class EstopLatch:
+    """Engaged by `engage()`; only `release(token)` with the right token disengages it."""
+
+    def __init__(self, token: str = RELEASE_TOKEN, engaged: bool = False) -> None:
+        if not token:
+            raise ValueError("the e-stop release token must not be empty")
+        self._token = token
+        self.engaged = engaged
+
+    def engage(self) -> None:
+        self.engaged = True
+
+    def release(self, token: str) -> bool:
+        """True when the latch was engaged and is now released."""
+        if not self.engaged or token.strip() != self._token:
+            return False
+        self.engaged = False
+        return True
+
+
+@dataclass
+class _Input:
+    spec: InputSpec
+    last: Velocity = ZERO
+    t: float | None = None  # time of the last valid command; None = absent
+    why_absent: str = ""
+
+    def live(self, now: float) -> bool:
+        return self.t is not None and 0.0 <= now - self.t < self.spec.timeout_s
+
+
+@dataclass
+class SafetyCore:
+    specs: list[InputSpec] | tuple[InputSpec, ...] = DEFAULT_INPUTS
+    limits: Limits = field(default_factory=Limits)
+    release_token: str = RELEASE_TOKEN
+    engaged: bool = False  # start with the e-stop latched
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.specs]
+        if len(set(names)) != len(names):
+            raise ValueError(f"input names must be unique: {names}")
+        for s in self.specs:
+            if not (math.isfinite(s.timeout_s) and s.timeout_s > 0):
+                raise ValueError(f"input {s.name!r}: timeout_s must be positive, got {s.timeout_s}")
+        # Highest priority first; sorted() is stable, so ties keep their listed order.
+        self._inputs = {s.name: _Input(s) for s in sorted(self.specs, key=lambda s: -s.priority)}
+        self.latch = EstopLatch(self.release_token, self.engaged)
+        self.output = ZERO
+        self.active: str | None = None
+        self.reason = "estop" if self.engaged else "no live input"
+        self.counters: dict[str, int] = {}
+        self._t_out: float | None = None
+
+    def _count(self, key: str) -> None:
+        self.counters[key] = self.counters.get(key, 0) + 1
+
+    # -- events ------------------------------------------------------------------------------
+    def command(self, name: str, v: Velocity, now: float) -> str | None:
+        """Store a command from input `name`; returns why it was rejected, or None."""
+        inp = self._inputs[name]
+        why = check(v)
+        if why is not None:
+            self._count(f"rejected_{name}")
+            inp.t = None  # bad input counts as absent: never keep driving on the previous command
+            inp.why_absent = f"{name} sent an invalid command"
+            return why
+        inp.last, inp.t, inp.why_absent = v, now, ""
+        return None
+
+    def estop(self, flag: bool) -> None:
+        if flag:
+            if not self.latch.engaged:
+                self._count("estops")
+            self.latch.engage()
+        else:
+            self._count("estop_false_ignored")
+
+    def release(self, token: str) -> bool:
+        ok = self.latch.release(token)
+        self._count("releases" if ok else "release_refused")
+        return ok
+
+    @property
+    def estopped(self) -> bool:
+        return self.latch.engaged
+
+    # -- output ------------------------------------------------------------------------------
+    def winner(self, now: float) -> str | None:
+        for name, inp in self._inputs.items():
+            if inp.live(now):
+                return name
+        return None
+
+    def step(self, now: float) -> Velocity:
+        """The output at time `now`."""
+        dt = 0.0 if self._t_out is None else min(max(now - self._t_out, 0.0), MAX_DT)
+        self._t_out = now
+        prev_active = self.active
+        if self.latch.engaged:
+            self.active = None
+            self.output = ZERO
+            self.reason = "estop"
+            return ZERO
+        self.active = self.winner(now)
+        if self.active is None:
+            if not self.output.is_zero or self.reason == "estop":
+                gone = self._inputs[prev_active] if prev_active else None
+                self.reason = (gone.why_absent or f"{gone.spec.name} timed out") if gone else "no live input"
+            self.output = ZERO
+            return ZERO
+        target = self.limits.clamp(self._inputs[self.active].last)
+        out = ramp(self.output, target, self.limits, dt)
+        if out.is_zero and not self.output.is_zero:
+            self.reason = f"{self.active} commands zero"
+        self.output = out
+        return out
+
+    def inputs_status(self, now: float) -> dict[str, dict[str, object]]:
+        return {
+            name: {
+                "topic": inp.spec.topic,
+                "priority": inp.spec.priority,
+                "live": inp.live(now),
+                "age_s": None if inp.t is None else round(now - inp.t, 3),
+            }
+            for name, inp in self._inputs.items()
+        }

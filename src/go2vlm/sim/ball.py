@@ -1,0 +1,39 @@
+"""Constant-speed closed paths for the moving ball (arc-length parametrised)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class BallPath:
+    """Ellipse or figure-eight in the ground plane, travelled at ``speed`` m/s.
+
+    ``params`` = (cx, cy, rx, ry, start_angle).  The figure-eight is a
+    lemniscate of Gerono: (cx + rx sin t, cy + ry sin t cos t).
+    """
+
+    def __init__(self, kind: str, params: tuple[float, ...], speed: float, z: float) -> None:
+        if kind not in ("ellipse", "figure8"):
+            raise ValueError(f"unknown ball path {kind!r}")
+        cx, cy, rx, ry, t0 = params
+        self.speed, self.z = speed, z
+        t = t0 + np.linspace(0.0, 2 * np.pi, 4001)
+        if kind == "ellipse":
+            xy = np.stack([cx + rx * np.cos(t), cy + ry * np.sin(t)], axis=1)
+        else:
+            xy = np.stack([cx + rx * np.sin(t), cy + ry * np.sin(t) * np.cos(t)], axis=1)
+        seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+        self._s = np.concatenate([[0.0], np.cumsum(seg)])
+        self._xy = xy
+        self.length = float(self._s[-1])
+
+    def at(self, s: float) -> np.ndarray:
+        """Point at arc length ``s`` (metres, wraps around)."""
+        s = s % self.length
+        x = np.interp(s, self._s, self._xy[:, 0])
+        y = np.interp(s, self._s, self._xy[:, 1])
+        return np.array([x, y, self.z])
+
+    def position(self, t: float) -> np.ndarray:
+        """Point reached after ``t`` seconds at the constant ``speed``."""
+        return self.at(self.speed * t)

@@ -1,0 +1,628 @@
+"""sim: a simulated Unitree Go2 (MuJoCo) that speaks ROS 2.
+
+Steps a `Go2Sim` on its own physics thread, in real time by default (`rtf`), or as fast as the
+machine allows (`fast: true`). Cameras are rendered on a separate render thread that owns its GL
+context and works from a snapshot of the physics state, so rendering never stalls the physics.
+
+Subscribes:
+  /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z);
+                                                    zeroed after `cmd_timeout_s` without a valid command
+                                                    (the safety gate streams at >= 20 Hz)
+Publishes:
+  /camera/image_raw           sensor_msgs/Image     head camera, rgb8, frame camera_optical_frame
+  /camera/camera_info         sensor_msgs/CameraInfo  latched, also sent with every frame (same stamp)
+  /world_camera/image_raw     sensor_msgs/Image     static world camera (the seed's 640x480, 10 Hz), rgb8
+  /world_camera/camera_info   sensor_msgs/CameraInfo  latched
+  /odom                       nav_msgs/Odometry     odom -> base_link; twist in base_link
+  /imu                        sensor_msgs/Imu       frame base_link (the IMU frame is the base frame)
+  /joint_states               sensor_msgs/JointState  the 12 joints in Unitree order (FR, FL, RR, RL)
+  /tf                         tf2_msgs/TFMessage    odom -> base_link
+  /tf_static                  tf2_msgs/TFMessage    latched: world -> odom (identity), base_link -> camera_link,
+                                                    base_link -> camera_optical_frame,
+                                                    world -> world_camera_optical_frame
+  /clock                      rosgraph_msgs/Clock   simulation time (for rviz/bag tools; see below)
+  /sim/ground_truth           tf2_msgs/TFMessage    world -> gt/go2 (the base) and world -> gt/<body> for
+                                                    every named world body (gt/red_ball, ...)
+  /sim/status                 std_msgs/String       latched JSON, 2 Hz (wall): sim_time, wall_time, rtf
+                                                    (achieved, last ~2 s), rtf_target, fast, mode
+                                                    (standing, walking, fallen ...), physics, fell, world,
+                                                    command, cmd_timed_out, frames, frames_dropped,
+                                                    overruns, render_error
+
+Frames: odom coincides with the world frame (perfect odometry from the simulator).
+Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
+wall clock (a lag under 2 s is caught up, a longer stall re-anchors and counts an overrun). Camera
+frames are rendered from a snapshot taken at their sim time; if rendering falls behind, the newest
+snapshot wins and the dropped ones are counted.
+Stamps: every header carries wall-clock time (Node.now()), like the real robot; our nodes do not use
+sim time. /clock carries sim time only for tools that want it.
+
+With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport/request Move,
+StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
+`go2vlm.sim.unitree_bridge.UnitreeSimBridge`, so `go2vlm run go2 --param interface=lo` drives it like
+a real Go2. While /cmd_vel is silent the sport API has the robot; a live /cmd_vel overrides it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, QosProfile, param
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.geometry_msgs import (
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Transform,
+    TransformStamped,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
+from go2vlm.msgs.image import camera_info, numpy_to_image
+from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.rosgraph_msgs import Clock
+from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
+from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.sim import Go2Sim, SimConfig
+
+# Images: reliable so that both reliable and best-effort (sensor-QoS) readers match; depth 2 keeps
+# a slow reader from holding more than two frames.
+QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
+
+# A real-time run that falls behind by less than this catches up (briefly faster than real time),
+# so that a short stall (another process, a GC pause) does not lower the real-time factor for good.
+CATCH_UP_S = 2.0
+
+# camera_link (x forward, y left, z up) and the optical frame (x right, y down, z forward), as
+# columns expressed in MuJoCo's camera frame (x right, y up, looking along -z).
+_MJ_TO_LINK = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
+_MJ_TO_OPTICAL = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+
+
+@dataclass
+class SimConfigParams:
+    world: str = param("follow_ball", help="world name (vision_test, follow_ball, obstacles) or an .xml path")
+    mode: str = param(
+        "dynamic", help="physics: dynamic (torque-controlled trot) or kinematic", choices=("dynamic", "kinematic")
+    )
+    rtf: float = param(1.0, help="target real-time factor (sim seconds per wall second)", min=0.01, max=100.0)
+    fast: bool = param(False, help="run as fast as possible (ignores rtf)")
+    ball_speed: float = param(0.3, help="speed of the red ball on its path, m/s", min=0.0, max=3.0)
+    ball_path: str = param(
+        "",
+        help="override the world's ball path: ellipse or figure8 ('' = world default)",
+        choices=("", "ellipse", "figure8"),
+    )
+    spawn: list[float] = param(list, help="robot spawn [x, y, yaw] in the world ([] = the world's default)")
+    camera: bool = param(True, help="render and publish the head camera")
+    camera_width: int = param(640, help="head camera width (the real Go2 camera is 1280x720)", min=16, max=3840)
+    camera_height: int = param(480, help="head camera height", min=16, max=2160)
+    camera_rate_hz: float = param(10.0, help="head camera rate in sim time", min=0.1, max=60.0)
+    camera_fovy_deg: float = param(58.0, help="head camera vertical field of view, degrees", min=10.0, max=150.0)
+    world_camera: bool = param(True, help="render and publish the static world camera")
+    world_camera_width: int = param(640, help="world camera width", min=16, max=3840)
+    world_camera_height: int = param(480, help="world camera height", min=16, max=2160)
+    world_camera_rate_hz: float = param(10.0, help="world camera rate in sim time", min=0.1, max=60.0)
+    state_rate_hz: float = param(
+        50.0, help="rate of /odom, /imu, /joint_states, /tf, /clock (sim time)", min=1.0, max=500.0
+    )
+    ground_truth_rate_hz: float = param(20.0, help="rate of /sim/ground_truth (sim time)", min=0.1, max=500.0)
+    cmd_timeout_s: float = param(
+        0.5, help="zero the velocity after this many wall seconds without /cmd_vel", min=0.05, max=10.0
+    )
+    unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
+    viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
+    seed: int = param(0, help="seed of the initial joint noise")
+
+    def validate(self) -> None:
+        if self.spawn and len(self.spawn) != 3:
+            raise ValueError(f"parameter 'spawn' must be [x, y, yaw] or [], got {self.spawn}")
+
+
+def _quat_msg(wxyz: np.ndarray) -> Quaternion:
+    return Quaternion(x=float(wxyz[1]), y=float(wxyz[2]), z=float(wxyz[3]), w=float(wxyz[0]))
+
+
+def _mat_quat(r: np.ndarray) -> np.ndarray:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(r, dtype=float).reshape(9))
+    return q
+
+
+def _vec(v: np.ndarray) -> Vector3:
+    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def _tf(header: Header, child: str, pos: np.ndarray, wxyz: np.ndarray) -> TransformStamped:
+    return TransformStamped(header=header, child_frame_id=child, transform=Transform(_vec(pos), _quat_msg(wxyz)))
+
+
+def _hfov(fovy_deg: float, width: int, height: int) -> float:
+    return 2.0 * math.atan(math.tan(math.radians(fovy_deg) / 2.0) * width / height)
+
+
+@dataclass
+class _Snapshot:
+    """What the render thread needs to draw one instant: the pose of everything, and its stamp."""
+
+    sim_time: float
+    stamp: float
+    qpos: np.ndarray
+    mocap_pos: np.ndarray
+    mocap_quat: np.ndarray
+    head: bool
+    world: bool
+
+
+class _Renderer:
+    """Render thread: owns the GL context, a mirror MjData and the cameras' renderers."""
+
+    def __init__(self, node: SimNode, model: mujoco.MjModel) -> None:
+        self.node = node
+        self.model = model
+        self._cond = threading.Condition()
+        self._pending: _Snapshot | None = None
+        self._stop = False
+        self.frames = 0
+        self.dropped = 0
+        self.busy_s = 0.0
+        self.error: str | None = None
+        self.ready = threading.Event()  # GL contexts made and warmed up (or failed): the clock may start
+        self._head_cam = model.camera("head_camera").id
+        names = {model.camera(i).name for i in range(model.ncam)}
+        self._world_cam = model.camera("world_camera").id if "world_camera" in names else -1
+        self._thread = threading.Thread(target=self._run, name=f"{node.node_name}:render", daemon=True)
+
+    @property
+    def has_world_camera(self) -> bool:
+        return self._world_cam >= 0
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def submit(self, snap: _Snapshot) -> None:
+        with self._cond:
+            if self._pending is not None:
+                self.dropped += 1  # the newest frame wins; a late frame is worth nothing
+            self._pending = snap
+            self._cond.notify()
+
+    def stop(self) -> None:
+        with self._cond:
+            self._stop = True
+            self._cond.notify()
+        if self._thread.is_alive():
+            self._thread.join(5.0)
+
+    def _run(self) -> None:
+        cfg = self.node.config
+        renderers: list[mujoco.Renderer] = []
+        try:
+            data = mujoco.MjData(self.model)
+            head_opt = mujoco.MjvOption()
+            head_opt.geomgroup[2] = 0  # the robot does not see its own body
+            head_opt.geomgroup[3] = 0
+            world_opt = mujoco.MjvOption()
+            world_opt.geomgroup[3] = 0  # collision geoms
+            head_r = world_r = None
+            if cfg.camera:
+                head_r = mujoco.Renderer(self.model, height=cfg.camera_height, width=cfg.camera_width)
+                renderers.append(head_r)
+            if cfg.world_camera and self._world_cam >= 0:
+                world_r = mujoco.Renderer(self.model, height=cfg.world_camera_height, width=cfg.world_camera_width)
+                renderers.append(world_r)
+            # The first frame compiles llvmpipe's shaders (slow): do it before the clock starts.
+            data.qpos[:] = self.model.qpos0
+            mujoco.mj_kinematics(self.model, data)
+            mujoco.mj_camlight(self.model, data)
+            if head_r is not None:
+                head_r.update_scene(data, camera=self._head_cam, scene_option=head_opt)
+                head_r.render()
+            if world_r is not None:
+                world_r.update_scene(data, camera=self._world_cam, scene_option=world_opt)
+                world_r.render()
+        except Exception as exc:  # no GL here: physics keeps running, cameras stay silent
+            self.error = f"rendering unavailable: {type(exc).__name__}: {exc}"
+            self.node.log.error(f"{self.error}; set MUJOCO_GL=egl or osmesa (see docs/demo.md)")
+            self.ready.set()
+            for r in renderers:
+                r.close()
+            return
+        self.ready.set()
+        try:
+            while True:
+                with self._cond:
+                    while self._pending is None and not self._stop:
+                        self._cond.wait()
+                    if self._stop:
+                        return
+                    snap, self._pending = self._pending, None
+                assert snap is not None
+                t0 = time.perf_counter()
+                data.qpos[:] = snap.qpos
+                data.mocap_pos[:] = snap.mocap_pos
+                data.mocap_quat[:] = snap.mocap_quat
+                mujoco.mj_kinematics(self.model, data)
+                mujoco.mj_camlight(self.model, data)
+                if snap.head and head_r is not None:
+                    head_r.update_scene(data, camera=self._head_cam, scene_option=head_opt)
+                    self.node._publish_frame("head", head_r.render(), snap.stamp)
+                if snap.world and world_r is not None:
+                    world_r.update_scene(data, camera=self._world_cam, scene_option=world_opt)
+                    self.node._publish_frame("world", world_r.render(), snap.stamp)
+                self.frames += 1
+                self.busy_s += time.perf_counter() - t0
+        except Exception as exc:
+            self.error = f"render thread failed: {type(exc).__name__}: {exc}"
+            self.node.log.error(self.error)
+        finally:
+            for r in renderers:
+                r.close()
+
+
+class SimNode(Node):
+    name = "sim"
+    Config = SimConfigParams
+
+    def __init__(self, config: SimConfigParams | None = None, **kwargs: Any) -> None:
+        super().__init__(config, **kwargs)
+        cfg: SimConfigParams = self.config
+        spawn = (float(cfg.spawn[0]), float(cfg.spawn[1]), float(cfg.spawn[2])) if cfg.spawn else None
+        try:
+            self.sim = self._make_sim(cfg, spawn)
+        except (ValueError, FileNotFoundError) as exc:  # unknown world, bad world file
+            raise ParamError(f"node {self.node_name!r}: {exc}") from None
+        self._cmd_lock = threading.Lock()
+        self._cmd = (0.0, 0.0, 0.0)
+        self._cmd_wall = -math.inf
+        self._cmd_timed_out = True
+        self._physics_calls: list[Callable[[Go2Sim], None]] = []
+        self._physics_thread: threading.Thread | None = None
+        self._physics_stop = threading.Event()
+        self.rtf = 0.0  # achieved, over the last ~2 s of wall time
+        self.physics_busy_s = 0.0
+        self.fell_reported = False
+        self.bridge: Any = None
+
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
+        self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
+        self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
+        self.pub_joints = self.create_publisher(JointState, "/joint_states", QOS_DEFAULT)
+        self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
+        self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", QOS_LATCHED)
+        self.pub_clock = self.create_publisher(Clock, "/clock", QOS_DEFAULT)
+        self.pub_gt = self.create_publisher(TFMessage, "/sim/ground_truth", QOS_DEFAULT)
+        self.pub_status = self.create_publisher(String, "/sim/status", QOS_LATCHED)
+
+        self._renderer = _Renderer(self, self.sim.model)
+        self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
+        if cfg.camera:
+            info = camera_info(
+                cfg.camera_width, cfg.camera_height, _hfov(cfg.camera_fovy_deg, cfg.camera_width, cfg.camera_height)
+            )
+            info.header.frame_id = "camera_optical_frame"
+            self._cams["head"] = (
+                self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE),
+                self.create_publisher(type(info), "/camera/camera_info", QOS_LATCHED),
+                info,
+            )
+        if cfg.world_camera and self._renderer.has_world_camera:
+            w, h = cfg.world_camera_width, cfg.world_camera_height
+            fovy = float(self.sim.model.cam_fovy[self.sim.model.camera("world_camera").id])
+            info = camera_info(w, h, _hfov(fovy, w, h))
+            info.header.frame_id = "world_camera_optical_frame"
+            self._cams["world"] = (
+                self.create_publisher(Image, "/world_camera/image_raw", QOS_IMAGE),
+                self.create_publisher(type(info), "/world_camera/camera_info", QOS_LATCHED),
+                info,
+            )
+        elif cfg.world_camera:
+            self.log.info(f"world {cfg.world!r} has no world_camera; /world_camera/* stays silent")
+
+        if cfg.unitree:
+            try:
+                from go2vlm.sim.unitree_bridge import UnitreeSimBridge
+            except ImportError as exc:
+                raise RuntimeError(
+                    f"unitree: true needs go2vlm.sim.unitree_bridge, which cannot be imported: {exc}"
+                ) from exc
+            self.bridge = UnitreeSimBridge(self, self.sim)
+
+        self._publish_static_tf()
+        for _, info_pub, info in self._cams.values():
+            info.header.stamp = self.stamp()
+            info_pub.publish(info)
+
+    @staticmethod
+    def _make_sim(cfg: SimConfigParams, spawn: tuple[float, float, float] | None) -> Go2Sim:
+        return Go2Sim(
+            SimConfig(
+                world=cfg.world,
+                mode=cfg.mode,  # type: ignore[arg-type]
+                spawn=spawn,
+                camera_width=cfg.camera_width,
+                camera_height=cfg.camera_height,
+                camera_fovy=cfg.camera_fovy_deg,
+                world_camera_width=cfg.world_camera_width,
+                world_camera_height=cfg.world_camera_height,
+                ball_speed=cfg.ball_speed,
+                ball_path=cfg.ball_path or None,
+                seed=cfg.seed,
+            )
+        )
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        vals = (msg.linear.x, msg.linear.y, msg.angular.z)
+        if not all(math.isfinite(v) for v in vals):
+            self.count("bad_cmd_vel")
+            self.log.throttled("error", 2.0, f"rejected /cmd_vel with a non-finite value {vals}; robot not moved by it")
+            return
+        with self._cmd_lock:
+            self._cmd = (float(vals[0]), float(vals[1]), float(vals[2]))
+            self._cmd_wall = time.monotonic()
+
+    def set_velocity(self, vx: float, vy: float, wz: float) -> None:
+        """Command the robot as /cmd_vel would (same timeout). For in-process drivers and bridges."""
+        with self._cmd_lock:
+            self._cmd = (vx, vy, wz)
+            self._cmd_wall = time.monotonic()
+
+    def call_in_physics(self, fn: Callable[[Go2Sim], None]) -> None:
+        """Run `fn(sim)` on the physics thread before the next step (Go2Sim is not thread-safe)."""
+        with self._cmd_lock:
+            self._physics_calls.append(fn)
+
+    # -- lifecycle ---------------------------------------------------------------------------
+    def start(self) -> SimNode:
+        super().start()
+        if self._physics_thread is None:
+            self._renderer.start()
+            self._physics_thread = threading.Thread(target=self._physics, name=f"{self.node_name}:physics", daemon=True)
+            self._physics_thread.start()
+        return self
+
+    def close(self) -> None:
+        self._physics_stop.set()
+        if self._physics_thread is not None and self._physics_thread is not threading.current_thread():
+            self._physics_thread.join(5.0)
+        self._renderer.stop()
+        if self.bridge is not None and hasattr(self.bridge, "close"):
+            self.bridge.close()
+        self.sim.close()
+
+    @property
+    def sim_time(self) -> float:
+        return self.sim.time
+
+    @property
+    def frames(self) -> int:
+        return self._renderer.frames
+
+    # -- physics thread ----------------------------------------------------------------------
+    def _physics(self) -> None:
+        try:
+            self._physics_loop()
+        except Exception as exc:
+            self.count("physics_errors")
+            self.log.error(f"physics thread stopped: {type(exc).__name__}: {exc}")
+
+    def _physics_loop(self) -> None:
+        cfg: SimConfigParams = self.config
+        sim = self.sim
+        dt = sim.dt
+        chunk = max(1, int(round(1.0 / (cfg.state_rate_hz * dt))))
+        cam_period = 1.0 / cfg.camera_rate_hz
+        wcam_period = 1.0 / cfg.world_camera_rate_hz
+        gt_period = 1.0 / cfg.ground_truth_rate_hz
+        next_cam = next_wcam = next_gt = sim.time
+        viewer = self._open_viewer() if cfg.viewer else None
+        next_viewer = 0.0
+        deadline = time.monotonic() + 30.0
+        while self._cams and not self._renderer.ready.wait(0.1) and not self._physics_stop.is_set():
+            if time.monotonic() > deadline:
+                self.log.warning("the cameras are not ready after 30 s; starting the clock anyway")
+                break
+
+        wall0, sim0 = time.monotonic(), sim.time  # pacing reference
+        hist: list[tuple[float, float]] = [(wall0, sim0)]
+        next_status = wall0
+        next_log = wall0 + 5.0
+        while not self._physics_stop.is_set():
+            t_busy = time.perf_counter()
+            self._apply_command()
+            sim.step(chunk)
+            now_wall = self.now()
+            state = sim.state()
+            self._publish_state(state, now_wall)
+            t = sim.time
+            head_due = cfg.camera and t + 1e-9 >= next_cam
+            world_due = "world" in self._cams and t + 1e-9 >= next_wcam
+            if head_due:
+                next_cam += cam_period * max(1, math.floor((t - next_cam) / cam_period) + 1)
+            if world_due:
+                next_wcam += wcam_period * max(1, math.floor((t - next_wcam) / wcam_period) + 1)
+            if head_due or world_due:
+                d = sim.data
+                self._renderer.submit(
+                    _Snapshot(t, now_wall, d.qpos.copy(), d.mocap_pos.copy(), d.mocap_quat.copy(), head_due, world_due)
+                )
+            if t + 1e-9 >= next_gt:
+                next_gt += gt_period * max(1, math.floor((t - next_gt) / gt_period) + 1)
+                self._publish_ground_truth(now_wall)
+            if state.fell and not self.fell_reported:
+                self.fell_reported = True
+                self.log.error(f"the robot fell at sim time {t:.2f} s")
+            if self.bridge is not None and hasattr(self.bridge, "on_step"):
+                self.bridge.on_step(state)
+            if viewer is not None and time.monotonic() >= next_viewer:
+                next_viewer = time.monotonic() + 1 / 60
+                if viewer.is_running():
+                    viewer.sync()
+            self.physics_busy_s += time.perf_counter() - t_busy
+
+            mono = time.monotonic()
+            hist.append((mono, t))
+            while len(hist) > 2 and mono - hist[0][0] > 2.0:
+                hist.pop(0)
+            if mono > hist[0][0]:
+                self.rtf = (t - hist[0][1]) / (mono - hist[0][0])
+            if mono >= next_status:
+                next_status = mono + 0.5
+                self._publish_status(state)
+            if mono >= next_log:
+                next_log = mono + 10.0
+                target = "fast" if cfg.fast else f"target {cfg.rtf:g}"
+                self.log.info(f"sim time {t:.1f} s, real-time factor {self.rtf:.2f} ({target}), mode {state.mode}")
+            if not cfg.fast:
+                due = wall0 + (t - sim0) / cfg.rtf
+                lag = due - mono
+                if lag > 0:
+                    self._physics_stop.wait(lag)
+                elif lag < -CATCH_UP_S:
+                    # Far behind (a stall, a machine too slow): re-anchor instead of a long fast burst.
+                    self.count("physics_overruns")
+                    wall0, sim0 = mono, t
+        if viewer is not None:
+            viewer.close()
+
+    def _apply_command(self) -> None:
+        with self._cmd_lock:
+            calls, self._physics_calls = self._physics_calls, []
+            cmd, stamp = self._cmd, self._cmd_wall
+        for fn in calls:
+            try:
+                fn(self.sim)
+            except Exception as exc:
+                self.count("physics_call_errors")
+                self.log.throttled("error", 2.0, f"physics call failed: {type(exc).__name__}: {exc}")
+        timed_out = time.monotonic() - stamp > self.config.cmd_timeout_s
+        just_timed_out = timed_out and not self._cmd_timed_out
+        if just_timed_out and any(cmd):
+            self.log.warning(f"no /cmd_vel for {self.config.cmd_timeout_s:g} s: stopping")
+        self._cmd_timed_out = timed_out
+        if not timed_out:
+            self.sim.set_command(*cmd)
+        elif self.bridge is None or just_timed_out:
+            # Stop once on the timeout; after that, with the Unitree bridge, its sport API has the robot.
+            self.sim.set_command(0.0, 0.0, 0.0)
+
+    def _open_viewer(self) -> Any:
+        import os
+
+        if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            self.log.error("--viewer needs a display (DISPLAY/WAYLAND_DISPLAY is not set); running headless")
+            return None
+        try:
+            import mujoco.viewer
+
+            return mujoco.viewer.launch_passive(self.sim.model, self.sim.data)
+        except Exception as exc:
+            self.log.error(f"cannot open the MuJoCo viewer ({type(exc).__name__}: {exc}); running headless")
+            return None
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _publish_state(self, s: Any, now_wall: float) -> None:
+        stamp = self.stamp(now_wall)
+        pose = Pose(position=Point(*map(float, s.position)), orientation=_quat_msg(s.quaternion))
+        self.pub_odom.publish(
+            Odometry(
+                header=Header(stamp=stamp, frame_id="odom"),
+                child_frame_id="base_link",
+                pose=PoseWithCovariance(pose=pose),
+                twist=TwistWithCovariance(twist=Twist(linear=_vec(s.lin_vel_body), angular=_vec(s.ang_vel_body))),
+            )
+        )
+        self.pub_imu.publish(
+            Imu(
+                header=Header(stamp=stamp, frame_id="base_link"),
+                orientation=_quat_msg(s.quaternion),
+                angular_velocity=_vec(s.imu_gyro),
+                linear_acceleration=_vec(s.imu_acc),
+            )
+        )
+        self.pub_joints.publish(
+            JointState(
+                header=Header(stamp=stamp, frame_id=""),
+                name=list(s.joint_names),
+                position=[float(v) for v in s.joint_pos],
+                velocity=[float(v) for v in s.joint_vel],
+                effort=[float(v) for v in s.joint_torque],
+            )
+        )
+        self.pub_tf.publish(
+            TFMessage(transforms=[_tf(Header(stamp=stamp, frame_id="odom"), "base_link", s.position, s.quaternion)])
+        )
+        self.pub_clock.publish(Clock(clock=Time.from_sec(s.time)))
+
+    def _publish_ground_truth(self, now_wall: float) -> None:
+        header = Header(stamp=self.stamp(now_wall), frame_id="world")
+        tfs = [_tf(header, f"gt/{name}", p.position, p.quaternion) for name, p in self.sim.object_poses().items()]
+        self.pub_gt.publish(TFMessage(transforms=tfs))
+
+    def _publish_status(self, s: Any) -> None:
+        cfg: SimConfigParams = self.config
+        status = {
+            "sim_time": round(s.time, 4),
+            "wall_time": round(self.now(), 3),
+            "rtf": round(self.rtf, 3),
+            "rtf_target": None if cfg.fast else cfg.rtf,
+            "fast": cfg.fast,
+            "mode": s.mode,
+            "physics": cfg.mode,
+            "fell": bool(s.fell),
+            "world": cfg.world,
+            "command": [round(float(v), 4) for v in s.command],
+            "cmd_timed_out": self._cmd_timed_out,
+            "frames": self._renderer.frames,
+            "frames_dropped": self._renderer.dropped,
+            "overruns": self.counters.get("physics_overruns", 0),
+            "render_error": self._renderer.error,
+        }
+        self.pub_status.publish(String(data=json.dumps(status)))
+
+    def _publish_frame(self, key: str, rgb: np.ndarray, stamp: float) -> None:
+        """Called on the render thread."""
+        img_pub, info_pub, info = self._cams[key]
+        header = Header(stamp=self.stamp(stamp), frame_id=info.header.frame_id)
+        img_pub.publish(numpy_to_image(rgb, "rgb8", header))
+        info.header = header
+        info_pub.publish(info)
+
+    def _publish_static_tf(self) -> None:
+        m, d = self.sim.model, self.sim.data
+        header = Header(stamp=self.stamp(), frame_id="base_link")
+        base = m.body("base").id
+        rb = d.xmat[base].reshape(3, 3)
+        cam = m.camera("head_camera").id
+        rc = d.cam_xmat[cam].reshape(3, 3)
+        pos = rb.T @ (d.cam_xpos[cam] - d.xpos[base])
+        rel = rb.T @ rc
+        tfs = [
+            _tf(Header(stamp=header.stamp, frame_id="world"), "odom", np.zeros(3), np.array([1.0, 0, 0, 0])),
+            _tf(header, "camera_link", pos, _mat_quat(rel @ _MJ_TO_LINK)),
+            _tf(header, "camera_optical_frame", pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
+        ]
+        if self._renderer.has_world_camera:
+            wc = m.camera("world_camera").id
+            tfs.append(
+                _tf(
+                    Header(stamp=header.stamp, frame_id="world"),
+                    "world_camera_optical_frame",
+                    d.cam_xpos[wc],
+                    _mat_quat(d.cam_xmat[wc].reshape(3, 3) @ _MJ_TO_OPTICAL),
+                )
+            )
+        self.pub_tf_static.publish(TFMessage(transforms=tfs))

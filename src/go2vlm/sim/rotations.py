@@ -1,0 +1,31 @@
+"""Tiny rotation helpers (quaternions are w, x, y, z)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def quat_to_mat(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def mat_to_rpy(r: np.ndarray) -> np.ndarray:
+    """ZYX Euler angles (roll, pitch, yaw) of R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    pitch = np.arcsin(np.clip(-r[2, 0], -1.0, 1.0))
+    return np.array([np.arctan2(r[2, 1], r[2, 2]), pitch, np.arctan2(r[1, 0], r[0, 0])])
+
+
+def yaw_quat(yaw: float) -> np.ndarray:
+    return np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+
+
+def tilt_angle(r: np.ndarray) -> float:
+    """Angle between the base z axis and world up."""
+    return float(np.arccos(np.clip(r[2, 2], -1.0, 1.0)))

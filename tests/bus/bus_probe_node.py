@@ -1,0 +1,67 @@
+"""probe: a small real node for bus tests (parameters, remapping, timers, shutdown, discovery).
+
+Topics
+  subscribes  /probe/in    std_msgs/String  (default QoS)
+  publishes   /probe/out   std_msgs/String  prefix + every received text
+              /probe/tick  std_msgs/String  "tick N" every 1/rate seconds
+
+Run it as a process exactly as `go2vlm run` runs a node: `python -m bus_probe_node run probe ...`
+(with tests/bus on PYTHONPATH); the module registers itself in the node registry first.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+from go2vlm.bus import Node, param
+from go2vlm.msgs.std_msgs import String
+
+
+@dataclass
+class ProbeConfig:
+    rate: float = param(5.0, help="tick rate in Hz", min=0.1, max=1000.0)
+    prefix: str = param("echo: ", help="prepended to every echoed text")
+    mode: str = param("echo", help="what to do with input", choices=("echo", "count"))
+    repeat: int = param(1, help="publish each echo this many times", min=1, max=10)
+    loud: bool = param(False, help="log every message")
+    labels: list[str] = param(list, help="free-form labels")
+
+
+class ProbeNode(Node):
+    name = "probe"
+    Config = ProbeConfig
+
+    def __init__(self, config: ProbeConfig | None = None, **kwargs: object) -> None:
+        super().__init__(config, **kwargs)  # type: ignore[arg-type]
+        self.ticks = 0
+        self.received = 0
+        self.out = self.create_publisher(String, "/probe/out")
+        self.tick_pub = self.create_publisher(String, "/probe/tick")
+        self.create_subscription(String, "/probe/in", self.on_in)
+        self.create_timer(1.0 / self.config.rate, self.on_tick)
+
+    def on_in(self, msg: String) -> None:
+        self.received += 1
+        if self.config.loud:
+            self.log.info(f"got {msg.data!r}")
+        text = msg.data if self.config.mode == "echo" else str(self.received)
+        for _ in range(self.config.repeat):
+            self.out.publish(String(data=self.config.prefix + text))
+
+    def on_tick(self) -> None:
+        self.ticks += 1
+        self.tick_pub.publish(String(data=f"tick {self.ticks}"))
+
+
+def register() -> None:
+    from go2vlm.launch import registry
+
+    registry.NODES.setdefault("probe", "bus_probe_node:ProbeNode")
+
+
+if __name__ == "__main__":
+    register()
+    from go2vlm.cli.main import main
+
+    sys.exit(main(sys.argv[1:]))
