@@ -10,7 +10,11 @@ from typing import Any
 
 import imageio_ffmpeg
 import pytest
-from busutil import GO2VLM, env
+from busutil import GO2VLM, Procs, Recorder, env, wait_for
+
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node
+from go2vlm.msgs.geometry_msgs import Twist, Vector3
+from go2vlm.msgs.std_msgs import String
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -80,3 +84,28 @@ def test_demo_rejects_bad_options(tmp_path: Path) -> None:
         capture_output=True, text=True, timeout=60, env=env(),
     )  # fmt: skip
     assert proc.returncode == 2 and "no_such_param" in proc.stderr
+
+
+def test_demo_says_so_and_fails_when_the_robot_falls(tmp_path: Path) -> None:
+    """A hard sideways kick (/sim/push) knocks the trotting Go2 over: exit code 1 and a clear message."""
+    procs = Procs()
+    proc = procs.start("demo", "--out", str(tmp_path), "--no-progress", "--no-video", "--duration", "12")
+    kicker = Node(node_name="kicker")
+    status = Recorder()
+    kicker.create_subscription(String, "/sim/status", status, QOS_LATCHED)
+    push = kicker.create_publisher(Twist, "/sim/push", QOS_DEFAULT)
+    kicker.start()
+    try:
+
+        def walking() -> bool:
+            return any(json.loads(m.data)["sim_time"] > 3.0 for m in status.msgs())
+
+        assert wait_for(walking, timeout=60) and wait_for(lambda: push.matched > 0, timeout=10)
+        push.publish(Twist(linear=Vector3(0.0, 4.0, 0.0), angular=Vector3(8.0, 0.0, 0.0)))
+        out, _ = proc.communicate(timeout=120)
+    finally:
+        kicker.shutdown()
+        procs.stop_all()
+    assert proc.returncode == 1, out[-3000:]
+    assert "the robot fell" in out and "fell:              YES" in out
+    assert json.loads((tmp_path / "metrics.json").read_text())["fell"] is True

@@ -149,14 +149,18 @@ def test_cmd_vel_moves_and_its_timeout_stops(sim: tuple[Probe, dict[str, Recorde
     assert json.loads(last(recs["/sim/status"]).data)["cmd_timed_out"] is True
 
 
-def test_bad_cmd_vel_moves_nothing(sim: tuple[Probe, dict[str, Recorder]]) -> None:
+def test_bad_cmd_vel_and_push_move_nothing(sim: tuple[Probe, dict[str, Recorder]]) -> None:
     probe, recs = sim
     pub = probe.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
     assert wait_for(lambda: pub.matched > 0, timeout=10)
     start = odom_xy(recs["/odom"])
     n_status = len(recs["/sim/status"])
+    push = probe.create_publisher(Twist, "/sim/push", QOS_DEFAULT)
+    assert wait_for(lambda: push.matched > 0, timeout=10)
     for _ in range(20):
         pub.publish(Twist(linear=Vector3(float("nan"), 0.0, 0.0), angular=Vector3(0.0, 0.0, float("inf"))))
+        push.publish(Twist(linear=Vector3(float("nan"), 0.0, 0.0)))
+        push.publish(Twist(linear=Vector3(500.0, 0.0, 0.0)))  # absurd: rejected, not clamped
         time.sleep(0.05)
     time.sleep(0.5)
     assert np.linalg.norm(odom_xy(recs["/odom"]) - start) < 0.01

@@ -1,10 +1,11 @@
 """`go2vlm go2 stand|sit|rise|damp|recover|standdown|hello|balance|stop|move X Y Z|state`: talk to a Go2
 (or the sim's Unitree bridge) directly over Unitree's sport RPC, for bring-up and checks.
 
-`move` is a bring-up tool, not a control path: it is capped at CLI_LIMITS and `--duration` (max
-10 s), always ends with StopMove (also on Ctrl-C), refuses to start while /emergency_stop is
-latched, and Damps and exits if the e-stop is pressed while it runs. Autonomous motion goes through
-the safety gate and the `go2` driver.
+`move` is teleop, not a side door: it publishes on /teleop/cmd_vel, the safety gate's
+highest-priority input, so the gate's limits, watchdog and e-stop apply; it is also capped at
+CLI_LIMITS and `--duration` (max 10 s) and ends with zero commands. It needs a running safety gate
+and `go2` driver (or the sim). Posture verbs call the sport RPC directly and refuse while
+/emergency_stop is latched.
 """
 
 from __future__ import annotations
@@ -34,12 +35,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     for name in POSTURES:
         v = verbs.add_parser(name, help=f"sport: {name}")
         v.set_defaults(func=cmd_posture, posture=name)
-    mv = verbs.add_parser("move", help="walk at X m/s, Y m/s, Z rad/s for --duration seconds, then StopMove")
+    mv = verbs.add_parser("move", help="teleop X m/s, Y m/s, Z rad/s for --duration s through the safety gate")
     mv.add_argument("x", type=float)
     mv.add_argument("y", type=float)
     mv.add_argument("z", type=float)
     mv.add_argument("--duration", type=float, default=1.0, help=f"seconds (max {MAX_MOVE_S:g})")
-    mv.add_argument("--rate", type=float, default=20.0, help="Move requests per second")
+    mv.add_argument("--rate", type=float, default=20.0, help="commands per second")
     mv.set_defaults(func=cmd_move)
     st = verbs.add_parser("state", help="print rt/sportmodestate")
     st.add_argument("--count", "-n", type=int, default=1, help="samples to print (0: until Ctrl-C)")
@@ -133,7 +134,12 @@ def _clamp(v: float, limit: float) -> float:
 
 
 def cmd_move(args: argparse.Namespace) -> int:
+    """Teleop through the safety gate: Twists on /teleop/cmd_vel (its highest-priority input), so
+    the gate's limits, watchdog and e-stop apply as to every other motion command."""
     import math
+
+    from ..bus import Node
+    from ..msgs.geometry_msgs import Twist, Vector3
 
     values = (args.x, args.y, args.z)
     if not all(math.isfinite(v) for v in values):
@@ -148,34 +154,37 @@ def cmd_move(args: argparse.Namespace) -> int:
     vx, vy, vz = (_clamp(v, lim) for v, lim in zip(values, CLI_LIMITS, strict=True))
     if (vx, vy, vz) != values:
         print(f"go2vlm go2 move: clamped to the CLI limits {CLI_LIMITS}: ({vx}, {vy}, {vz})", file=sys.stderr)
-    s = _Session(args)
-    p = s.p
+    node = Node(node_name="go2_cli_teleop", domain_id=args.domain, interface=args.interface)
+    pub = node.create_publisher(Twist, "/teleop/cmd_vel")
     try:
-        if not s.connect():
+        deadline = time.monotonic() + args.timeout
+        while pub.matched == 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if pub.matched == 0:
+            print(
+                "go2vlm go2 move: no safety gate listens on /teleop/cmd_vel; start one "
+                "(`go2vlm run safety`, or a launch file with the go2 driver) and try again",
+                file=sys.stderr,
+            )
             return 1
-        if s.estop:
-            print("go2vlm go2 move: refused: /emergency_stop is latched; release it first", file=sys.stderr)
-            return 3
+        cmd = Twist(linear=Vector3(x=vx, y=vy), angular=Vector3(z=vz))
         end = time.monotonic() + args.duration
         sent = 0
         try:
             while time.monotonic() < end:
-                if s.estop:
-                    print("go2vlm go2 move: emergency stop pressed: Damp", file=sys.stderr)
-                    s.call(p.DAMP)
-                    return 3
-                s.sport.send_noreply(p.MOVE, {"x": vx, "y": vy, "z": vz})
+                pub.publish(cmd)
                 sent += 1
                 time.sleep(1.0 / args.rate)
         finally:
-            if not s.estop:
-                s.call(p.STOP_MOVE)
-        print(f"Move: {sent} requests over {args.duration:g} s")
+            for _ in range(3):  # the gate zeroes on its own timeout; this just stops sooner
+                pub.publish(Twist())
+                time.sleep(0.02)
+        print(f"teleop: {sent} commands over {args.duration:g} s to /teleop/cmd_vel (through the safety gate)")
         return 0
     except KeyboardInterrupt:
         return 130
     finally:
-        s.close()
+        node.shutdown()
 
 
 def cmd_state(args: argparse.Namespace) -> int:

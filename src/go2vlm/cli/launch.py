@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 
@@ -20,12 +21,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--processes", action="store_true", help="one child process per node")
     p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
+    p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..launch.launcher import LaunchError, available, load_launch, run_in_process, run_processes
 
+    # Through the environment, so in-process nodes and `--processes` children agree.
+    if args.interface:
+        os.environ["GO2VLM_IFACE"] = args.interface
+    if args.domain is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain)
     if args.list:
         for name in available():
             print(name)

@@ -54,6 +54,7 @@ class DemoOptions:
     interface: str | None = None
     domain_id: int | None = None
     params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node kind -> extra parameters
+    extra_nodes: list[str] = field(default_factory=list)  # more node kinds to run (e.g. commander)
     startup_timeout_s: float = 60.0
 
 
@@ -392,7 +393,8 @@ def write_plot(metrics: dict[str, Any], path: Path) -> None:
     ax3.set_xlabel("x (m)")
     ax3.set_ylabel("y (m)")
     ax3.grid(alpha=0.3)
-    ax3.legend(loc="best", fontsize=8)
+    if len(ball) or len(robot):
+        ax3.legend(loc="best", fontsize=8)
     ax3.set_title(
         f"top view ({metrics['mode']}, {metrics['duration_s']:.0f} s, rtf {metrics['real_time_factor']:.2f}"
         f"{', FELL' if metrics['fell'] else ''})",
@@ -474,7 +476,7 @@ def build_nodes(opts: DemoOptions) -> list[Node]:
         go2_params: dict[str, Any] = {"camera_rate_hz": opts.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
         go2_params.update(opts.params.get("go2", {}))
         nodes.append(make_node("go2", params=go2_params, **common))
-    for kind in ("color_detector", "follower", "safety"):
+    for kind in ("color_detector", "follower", "safety", *opts.extra_nodes):
         nodes.append(make_node(kind, params=opts.params.get(kind, {}), **common))
     return nodes
 

@@ -8,6 +8,9 @@ Subscribes:
   /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z);
                                                     zeroed after `cmd_timeout_s` without a valid command
                                                     (the safety gate streams at >= 20 Hz)
+  /sim/push                   geometry_msgs/Twist   disturbance test: an instant kick of the base, linear =
+                                                    velocity change in the world frame (m/s, |v| <= 10),
+                                                    angular = in the base frame (rad/s, |w| <= 30)
 Publishes:
   /camera/image_raw           sensor_msgs/Image     head camera, rgb8, frame camera_optical_frame
   /camera/camera_info         sensor_msgs/CameraInfo  latched, also sent with every frame (same stamp)
@@ -297,6 +300,7 @@ class SimNode(Node):
         self.bridge: Any = None
 
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
+        self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
         self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
         self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", QOS_DEFAULT)
@@ -373,6 +377,16 @@ class SimNode(Node):
         with self._cmd_lock:
             self._cmd = (float(vals[0]), float(vals[1]), float(vals[2]))
             self._cmd_wall = time.monotonic()
+
+    def _on_push(self, msg: Twist) -> None:
+        dv = (msg.linear.x, msg.linear.y, msg.linear.z)
+        dw = (msg.angular.x, msg.angular.y, msg.angular.z)
+        if not all(math.isfinite(v) for v in dv + dw) or math.hypot(*dv) > 10.0 or math.hypot(*dw) > 30.0:
+            self.count("bad_push")
+            self.log.throttled("error", 2.0, f"rejected /sim/push {dv} {dw}: non-finite or too large")
+            return
+        self.log.info(f"push: dv {dv} m/s (world), dw {dw} rad/s (base)")
+        self.call_in_physics(lambda sim: sim.push(dv, dw))
 
     def set_velocity(self, vx: float, vy: float, wz: float) -> None:
         """Command the robot as /cmd_vel would (same timeout). For in-process drivers and bridges."""
