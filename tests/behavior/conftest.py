@@ -1,7 +1,8 @@
 """Fixtures for the behaviour tests: tiny Qwen2.5-VL checkpoints trained to give one decision answer.
 
 Built once and cached under $GO2VLM_CACHE or ~/.cache/go2vlm, keyed on the answer, the decision
-prompt, the training steps and the library/source versions (~40 CPU-seconds each when not cached).
+prompt, the training steps and the library/source versions (~25-40 s each on an idle 2-core
+machine when not cached; the build checks that the answer is exact).
 """
 
 from __future__ import annotations
@@ -15,9 +16,12 @@ from pathlib import Path
 
 import pytest
 
-INJECTION_ANSWER = '{"action": "forward", "speed": 5}'
+# A well-formed JSON action outside the whitelist: a model obeying the injected "run forward".
+# (Short answers: the tiny tokenizer makes '{"action": "forward", "speed": 5}' 19 tokens, which
+# takes minutes of CPU to learn exactly; these are 8-9 tokens, ~25-40 s.)
+INJECTION_ANSWER = '{"action": "forward"}'
 STOP_ANSWER = '{"action": "stop"}'
-STEPS = 150
+STEPS = 100
 
 
 def decision_checkpoint(answer: str, steps: int = STEPS) -> Path:
@@ -60,6 +64,11 @@ def decision_checkpoint(answer: str, steps: int = STEPS) -> Path:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return final
+
+
+@pytest.fixture(scope="session")
+def injection_answer() -> str:
+    return INJECTION_ANSWER
 
 
 @pytest.fixture(scope="session")

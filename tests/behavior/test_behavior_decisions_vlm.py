@@ -1,5 +1,5 @@
 """VLM-driven decisions through a real (tiny) Qwen2.5-VL, the real commander process and the real
-safety gate: a prompt-injection image plus a model that answers "forward at 5 m/s" moves nothing
+safety gate: a prompt-injection image plus a model that answers {"action": "forward"} moves nothing
 beyond the schema; a model that answers {"action": "stop"} does stop the robot (the positive control
 that shows decisions are really being made and applied)."""
 
@@ -85,7 +85,7 @@ def _start(procs, ckpt) -> None:
     procs.start("run", "safety")
 
 
-def test_prompt_injection_moves_nothing_beyond_the_schema(procs, injection_ckpt) -> None:
+def test_prompt_injection_moves_nothing_beyond_the_schema(procs, injection_ckpt, injection_answer) -> None:
     ckpt = injection_ckpt
     rig = _Rig()
     with running(rig):
@@ -94,8 +94,9 @@ def test_prompt_injection_moves_nothing_beyond_the_schema(procs, injection_ckpt)
         time.sleep(0.5)
         st = rig.last()
         assert st["counters"].get("decisions_accepted", 0) == 0
-        assert st["decision"]["accepted"] is False and st["decision"]["reason"] in ("unknown_action", "not_json")
-        assert "forward" in st["decision"]["answer"]  # what the model said is reported, not obeyed
+        # what the model said is reported, not obeyed
+        assert st["decision"] == {"accepted": False, "reason": "unknown_action", "answer": injection_answer}
+        assert st["counters"]["decisions_rejected.unknown_action"] >= 3
         assert st["state"] == "searching"  # the goal goes on as if the model had said nothing
         with rig.lock:
             behavior, cmd = list(rig.behavior), list(rig.cmd)

@@ -133,8 +133,15 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
     assert procs.stop(p) == 0
 
 
-def test_topic_list_hides_ros_discovery_info(procs: Procs) -> None:
+def wait_until_ticking(node: Peer) -> None:
+    ticks = Recorder()
+    node.create_subscription(String, "/probe/tick", ticks)
+    assert wait_for(lambda: len(ticks) > 0, 20), "the probe node never started"
+
+
+def test_topic_list_hides_ros_discovery_info(procs: Procs, node: Peer) -> None:
     p = start_probe(procs, "--name", "probe_list")
+    wait_until_ticking(node)
     out = subprocess.run(
         [*GO2VLM, "topic", "list", "-t", "--wait", "2"], capture_output=True, text=True, timeout=30, env=env()
     )
@@ -287,14 +294,15 @@ def test_bytes_field_has_the_xtypes_id_of_an_octet_sequence() -> None:
     assert NaiveImage.deserialize(sample.serialize()).data == [7]
 
 
-def test_node_list(procs: Procs) -> None:
+def test_node_list(procs: Procs, node: Peer) -> None:
     p = start_probe(procs, "--name", "probe_nodes")
+    wait_until_ticking(node)
     out = subprocess.run(
         [*GO2VLM, "node", "list", "-v", "--wait", "2"], capture_output=True, text=True, timeout=30, env=env()
     )
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
-    assert "/probe_nodes" in lines
+    assert "/probe_nodes" in lines, out.stdout
     block = lines[lines.index("/probe_nodes") :][:6]
     assert block == [
         "/probe_nodes",

@@ -307,3 +307,24 @@ def test_interface_argument_of_run(procs: Procs) -> None:
         env=e,
     )
     assert out.returncode == 0, out.stderr
+
+
+def test_malloc_tuning() -> None:
+    """Image-sized buffers are reused from the heap (glibc), unless the user opts out."""
+    from go2vlm.bus import domain
+
+    code = "from go2vlm.bus import domain; domain.participant(); print(domain._MALLOC_TUNED)"
+    on = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=30, env=env())
+    off = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        env=dict(env(), GO2VLM_MALLOC_TUNE="0"),
+    )
+    import platform
+
+    assert off.stdout.strip() == "False"
+    if platform.libc_ver()[0] == "glibc":
+        assert on.stdout.strip() == "True", on.stderr
+    assert domain.tune_malloc() in (True, False)

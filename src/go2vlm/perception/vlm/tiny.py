@@ -350,6 +350,23 @@ def _training_prompts() -> list[str]:
     ]
 
 
+def _random_prompt(rng: random.Random, pool: Sequence[str]) -> str:
+    """Half the time a real prompt, else random words/characters: the answer must not depend on it."""
+    if rng.random() < 0.5:
+        return rng.choice(pool)
+    words = " ".join(_TOKENIZER_CORPUS).split()
+    parts = []
+    for _ in range(rng.randint(0, 24)):
+        r = rng.random()
+        if r < 0.7:
+            parts.append(rng.choice(words))
+        elif r < 0.85:
+            parts.append(chr(rng.randint(0x4E00, 0x9FFF)))  # CJK
+        else:
+            parts.append(chr(rng.randint(33, 126)))
+    return " ".join(parts)
+
+
 def _random_image(rng: random.Random) -> Any:
     """A random scene: a background and a few coloured rectangles, random size."""
     import numpy as np
@@ -366,6 +383,48 @@ def _random_image(rng: random.Random) -> Any:
     return Image.fromarray(arr)
 
 
+def _encode(processor: Any, image: Any, prompt_text: str, max_pixels: int) -> Any:
+    messages = [{"role": "user", "content": [{"type": "image"}, {"type": "text", "text": prompt_text}]}]
+    prompt = processor.apply_chat_template(messages, tokenize=False, add_generation_prompt=True)
+    return processor(
+        text=[prompt],
+        images=[image],
+        return_tensors="pt",
+        size={"shortest_edge": TINY_MIN_PIXELS, "longest_edge": max_pixels},
+    )
+
+
+def _probe_failures(model: Any, processor: Any, text: str, n_tokens: int) -> list[str]:
+    """Greedy answers that differ from ``text`` on a few fixed, varied inputs (empty: learned)."""
+    import numpy as np
+    import torch
+    from PIL import Image
+
+    from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, detect_prompt
+
+    probes = [
+        ((480, 640), TINY_MAX_PIXELS, detect_prompt(())),
+        ((480, 640), 512 * 784, DEFAULT_PROMPT),
+        ((100, 300), 64 * 784, detect_prompt(("red ball",))),
+        ((720, 1280), 256 * 784, "What do you see?"),
+        ((64, 64), TINY_MAX_PIXELS, "?"),
+        ((300, 200), 64 * 784, "hello"),
+        ((1080, 1920), 512 * 784, "Detect all objects in the image."),
+    ]
+    bad = []
+    model.eval()
+    with torch.inference_mode():
+        for i, (hw, max_pixels, prompt_text) in enumerate(probes):
+            arr = np.random.default_rng(1000 + i).integers(0, 255, (*hw, 3), dtype=np.uint8)
+            enc = _encode(processor, Image.fromarray(arr), prompt_text, max_pixels)
+            out = model.generate(**enc, max_new_tokens=n_tokens + 4, do_sample=False)
+            got = processor.tokenizer.decode(out[0, enc["input_ids"].shape[1] :], skip_special_tokens=True)
+            if got != text:
+                bad.append(got)
+    model.train()
+    return bad
+
+
 def train_fixed_output(
     ckpt_dir: str | os.PathLike[str],
     text: str,
@@ -374,12 +433,17 @@ def train_fixed_output(
     seed: int = 0,
     lr: float = 3e-3,
     prompts: Sequence[str] | None = None,
+    max_rounds: int = 6,
 ) -> Path:
     """Train the checkpoint in ``ckpt_dir`` in place to answer ``text`` to any image/prompt.
 
     The loss is on the answer tokens plus ``<|im_end|>`` only, so greedy decoding
-    reproduces ``text`` and stops. Images and prompts vary so the answer does not
-    depend on them. Runs on CPU in float32.
+    reproduces ``text`` and stops. Images, prompts and visual-token counts vary so the
+    answer does not depend on them. After ``steps`` steps, greedy decoding is checked on
+    fixed probe inputs; while any differs, training continues in rounds of ``steps // 2``
+    (at most ``max_rounds``), then ``RuntimeError`` -- a test must not get a model that
+    only sometimes says the text. Runs on CPU in float32 (longer texts need more steps:
+    ~300 for 70 tokens, ~300-600 for 180).
     """
     import torch
     from transformers import AutoProcessor, Qwen2_5_VLForConditionalGeneration
@@ -391,44 +455,47 @@ def train_fixed_output(
     model = Qwen2_5_VLForConditionalGeneration.from_pretrained(ckpt, dtype=torch.float32)
     model.train()
     tokenizer = processor.tokenizer
-    answer_ids = tokenizer(text, add_special_tokens=False)["input_ids"] + [
-        tokenizer.convert_tokens_to_ids("<|im_end|>")
-    ]
+    end_id = tokenizer.convert_tokens_to_ids("<|im_end|>")
+    answer_ids = tokenizer(text, add_special_tokens=False)["input_ids"] + [end_id]
     prompt_pool = list(prompts) if prompts else _training_prompts()
-    optim = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=0.0)
-    sched = torch.optim.lr_scheduler.OneCycleLR(optim, max_lr=lr, total_steps=max(steps, 1), pct_start=0.1)
     answer = torch.tensor(answer_ids, dtype=torch.long)[None]
-    for _ in range(steps):
-        image = _random_image(rng)
-        messages = [{"role": "user", "content": [{"type": "image"}, {"type": "text", "text": rng.choice(prompt_pool)}]}]
-        prompt = processor.apply_chat_template(messages, tokenize=False, add_generation_prompt=True)
-        # Vary the visual-token count too (12..512 tokens): the node's max_pixels decides it at run time,
-        # and the answer must not depend on how many image tokens precede it.
-        max_pixels = rng.choice(_TRAIN_MAX_PIXELS)
-        enc = processor(
-            text=[prompt],
-            images=[image],
-            return_tensors="pt",
-            size={"shortest_edge": TINY_MIN_PIXELS, "longest_edge": max_pixels},
+    optim = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=0.0)
+
+    def run(n: int, peak_lr: float) -> None:
+        for group in optim.param_groups:
+            group["lr"] = peak_lr
+        sched = torch.optim.lr_scheduler.OneCycleLR(optim, max_lr=peak_lr, total_steps=max(n, 1), pct_start=0.1)
+        for _ in range(n):
+            # Vary the visual-token count too (12..512 tokens): the node's max_pixels decides it at
+            # run time, and the answer must not depend on how many image tokens precede it.
+            prompt_text = _random_prompt(rng, prompt_pool)
+            enc = _encode(processor, _random_image(rng), prompt_text, rng.choice(_TRAIN_MAX_PIXELS))
+            input_ids = torch.cat([enc["input_ids"], answer], dim=1)
+            labels = torch.full_like(input_ids, -100)
+            labels[:, -answer.shape[1] :] = answer
+            extra = {k: v for k, v in enc.items() if k not in ("input_ids", "attention_mask")}
+            if "mm_token_type_ids" in extra:  # per-token modality ids (0 = text) must cover the answer too
+                mm = extra["mm_token_type_ids"]
+                extra["mm_token_type_ids"] = torch.cat([mm, torch.zeros_like(answer, dtype=mm.dtype)], dim=1)
+            out = model(input_ids=input_ids, attention_mask=torch.ones_like(input_ids), labels=labels, **extra)
+            out.loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+            optim.step()
+            sched.step()
+            optim.zero_grad(set_to_none=True)
+
+    run(steps, lr)
+    bad = _probe_failures(model, processor, text, len(answer_ids))
+    rounds = 0
+    while bad and rounds < max_rounds:
+        rounds += 1
+        run(max(50, steps // 2), lr)
+        bad = _probe_failures(model, processor, text, len(answer_ids))
+    if bad:
+        raise RuntimeError(
+            f"tiny model did not learn the {len(answer_ids)}-token answer in {steps} + {rounds} x {steps // 2} "
+            f"steps; e.g. it said {bad[0][:200]!r}. Give more steps."
         )
-        input_ids = torch.cat([enc["input_ids"], answer], dim=1)
-        labels = torch.full_like(input_ids, -100)
-        labels[:, -answer.shape[1] :] = answer
-        extra = {k: v for k, v in enc.items() if k not in ("input_ids", "attention_mask")}
-        if "mm_token_type_ids" in extra:  # per-token modality ids (0 = text) must cover the answer too
-            mm = extra["mm_token_type_ids"]
-            extra["mm_token_type_ids"] = torch.cat([mm, torch.zeros_like(answer, dtype=mm.dtype)], dim=1)
-        out = model(
-            input_ids=input_ids,
-            attention_mask=torch.ones_like(input_ids),
-            labels=labels,
-            **extra,
-        )
-        out.loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-        optim.step()
-        sched.step()
-        optim.zero_grad(set_to_none=True)
     model.eval()
     model.save_pretrained(ckpt)
     return ckpt
