@@ -442,7 +442,13 @@ def main(argv: list[str] | None = None) -> int:
         "model": model,
         "random_weights": args.random_weights,
         "arch": args.arch,
-        "host": {"machine": platform.machine(), "python": platform.python_version(), "cpus": os.cpu_count()},
+        "host": {
+            "machine": platform.machine(),
+            "python": platform.python_version(),
+            "cpus": os.cpu_count(),
+            # other work on the machine skews CPU timings: keep the load next to the figures
+            "loadavg_start": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+        },
         "latency": [],
         "sizes": [],
         "freshness": [],
@@ -482,6 +488,8 @@ def main(argv: list[str] | None = None) -> int:
         del backend
         free_memory()
 
+    if hasattr(os, "getloadavg"):
+        report["host"]["loadavg_end"] = os.getloadavg()[0]
     print_report(report)
     if args.out:
         Path(args.out).write_text(json.dumps(report, indent=1, ensure_ascii=False))

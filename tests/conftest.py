@@ -6,8 +6,9 @@ from __future__ import annotations
 import os
 import random
 
-# Before go2vlm creates a participant: a private domain on loopback for this session.
-os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(20, 220)))
+# Before go2vlm creates a participant: a private domain on loopback for this session (<= 101: higher
+# domains put discovery ports into the ephemeral range on Linux).
+os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(20, 101)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 os.environ.setdefault("MUJOCO_GL", os.environ.get("MUJOCO_GL", "egl"))
 

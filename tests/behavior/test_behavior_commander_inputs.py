@@ -10,9 +10,10 @@ import time
 
 import cv2
 import numpy as np
+import pytest
 from busutil import echo_json, wait_for
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, running
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, running
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
@@ -29,9 +30,10 @@ from go2vlm.msgs.vision_msgs import (
 )
 
 
-def frame(cx: int) -> np.ndarray:
+def frame(cx: int | None) -> np.ndarray:
     img = np.full((480, 640, 3), 150, np.uint8)
-    cv2.rectangle(img, (cx - 30, 150), (cx + 30, 400), (255, 0, 0), -1)  # a blue "cylinder", bottom in view
+    if cx is not None:
+        cv2.rectangle(img, (cx - 30, 150), (cx + 30, 400), (255, 0, 0), -1)  # a blue "cylinder", bottom in view
     cv2.circle(img, (120, 330), 50, (0, 0, 255), -1)  # a red ball
     return img
 
@@ -51,7 +53,7 @@ class _Cam(Node):
     def __init__(self, **kw) -> None:
         super().__init__(**kw)
         self.lock = threading.Lock()
-        self.cx = 400
+        self.cx: int | None = 400
         self.img = self.create_publisher(Image, "/camera/image_raw", QOS_DEFAULT)
         self.info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_DEFAULT)
         self.dets = self.create_publisher(Detection2DArray, "/vlm/detections", QOS_DEFAULT)
@@ -114,6 +116,22 @@ def test_vlm_grounding_seeds_the_tracker_and_bad_inputs_are_counted() -> None:
         assert not cam.targets  # go to drives itself; /detected_target is for follow goals only
 
 
+def test_losing_the_target_stops_at_once_then_searches_towards_where_it_was() -> None:
+    commander = make_node("commander", params={"goal": "go to the blue cylinder", "lost_timeout_s": 0.5})
+    cam = _Cam()
+    with running(cam, commander):
+        assert wait_for(lambda: cam.last().get("state") == "approaching", 10), cam.last()
+        assert cam.last()["x"] > 0.2  # on the right
+        cam.cx = None  # gone
+        assert wait_for(lambda: cam.last().get("state") == "lost", 3), cam.last()
+        assert wait_for(lambda: cam.cmds[-1] == (0.0, 0.0), 1)
+        assert wait_for(lambda: cam.last().get("state") == "searching", 3), cam.last()
+        assert wait_for(lambda: cam.cmds[-1][1] < -0.1, 1)  # turning right, where it was last seen
+        assert all(vx == 0.0 for vx, _ in cam.cmds[-5:])  # searching = turning in place
+        cam.cx = 500  # back in view: approach again
+        assert wait_for(lambda: cam.last().get("state") == "approaching", 5), cam.last()
+
+
 def test_unparseable_goal_parameter_gets_a_reply_and_no_motion(procs) -> None:
     procs.start("run", "commander", "--param", "goal=please do a backflip")
     procs.start("run", "safety")
@@ -123,3 +141,14 @@ def test_unparseable_goal_parameter_gets_a_reply_and_no_motion(procs) -> None:
     assert "cannot understand" in data["reason"] and "accepted goals" in data["reason"]
     cmds = echo_json("/cmd_vel", count=10, timeout=30)
     assert all(c["linear"]["x"] == 0.0 and c["angular"]["z"] == 0.0 for c in cmds)
+
+
+def test_bad_parameters_are_clear_errors() -> None:
+    with pytest.raises(ParamError, match="decision_model"):
+        make_node("commander", params={"decision_period_s": 1.0})
+    with pytest.raises(ParamError, match="object_sizes"):
+        make_node("commander", params={"object_sizes": {"pyramid": 1.0}})
+    with pytest.raises(ParamError, match="max_turn_deg"):
+        make_node("commander", params={"max_turn_deg": 45})
+    with pytest.raises(ParamError, match="grounding"):
+        make_node("commander", params={"grounding": "lidar"})

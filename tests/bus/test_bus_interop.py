@@ -27,7 +27,7 @@ from cyclonedds.idl._xt_builder import XTBuilder
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, domain, running
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, QosProfile, domain, running
 from go2vlm.bus import discovery_info as di
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.image import numpy_to_image
@@ -65,7 +65,8 @@ def start_probe(procs: Procs, *args: str) -> subprocess.Popen[str]:
 def discovery_reader() -> DataReader:
     dp = domain.participant()
     topic = domain.topic(dp, di.TOPIC, ParticipantEntitiesInfo)
-    return DataReader(dp, topic, qos=QOS_LATCHED.to_dds())
+    # keyless topic: one instance for every participant, so a deep history keeps them all
+    return DataReader(dp, topic, qos=QosProfile(reliable=True, transient_local=True, depth=256).to_dds())
 
 
 def test_topic_is_bare_and_latched() -> None:

@@ -289,6 +289,15 @@ class CommanderNode(Node):
             self.goal = Goal("stop", None, str(text)[:200])
             self._enter("rejected", str(exc), now)
             return
+        current = self.goal
+        if (
+            goal.moves
+            and current is not None
+            and (current.kind, current.target) == (goal.kind, goal.target)
+            and self.state not in TERMINAL
+        ):
+            self.publish_status()  # the same goal again (a UI re-sending it): carry on, don't restart
+            return
         self.goal = goal
         self.tracker.reset()
         shape = goal.target.shape if goal.target else None

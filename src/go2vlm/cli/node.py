@@ -22,19 +22,22 @@ def cmd_list(args: argparse.Namespace) -> int:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
     from cyclonedds.sub import DataReader
 
-    from ..bus import QOS_LATCHED, domain
+    from ..bus import QosProfile, domain
     from ..bus.discovery_info import TOPIC
     from ..msgs.rmw_dds_common import ParticipantEntitiesInfo
 
     dp = domain.participant()
-    reader = DataReader(dp, domain.topic(dp, TOPIC, ParticipantEntitiesInfo), qos=QOS_LATCHED.to_dds())
+    # The topic is keyless (one instance for all participants): a keep-last-1 reader would keep only
+    # the last participant's announcement, so keep a deep history and take it all.
+    qos = QosProfile(reliable=True, transient_local=True, depth=256)
+    reader = DataReader(dp, domain.topic(dp, TOPIC, ParticipantEntitiesInfo), qos=qos.to_dds())
     pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
     subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
     latest: dict[bytes, ParticipantEntitiesInfo] = {}  # per participant, the newest announcement wins
     topics: dict[bytes, str] = {}
     deadline = time.monotonic() + args.wait
     while True:
-        for s in reader.take(N=64):
+        for s in reader.take(N=256):
             if isinstance(s, ParticipantEntitiesInfo):
                 latest[s.gid.to_bytes()] = s
         for r in (pubs, subs):

@@ -130,7 +130,7 @@ def image_to_rgb(msg: Image) -> np.ndarray:
         arr = (arr >> 8).astype(np.uint8)
     if arr.ndim == 2:
         return np.repeat(arr[:, :, None], 3, axis=2)
-    if enc in ("bgr8", "bgra8"):
+    if enc in ("bgr8", "bgra8", "8UC3"):  # 8UC3 is OpenCV data, so BGR
         return np.ascontiguousarray(arr[:, :, 2::-1])
     return np.ascontiguousarray(arr[:, :, :3])
 
