@@ -168,9 +168,13 @@ def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any
 
 def postprocess(gen: Any) -> tuple[float, int]:
     """What the node does after generate(): parse, rescale, build the message. Returns (ms, boxes)."""
-    from go2vlm.msgs.std_msgs import Header
-    from go2vlm.perception.vlm.node import detections_msg
     from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
+
+    try:  # the message types need cyclonedds; a bare GPU box may lack it (latency/sizes still run)
+        from go2vlm.msgs.std_msgs import Header
+        from go2vlm.perception.vlm.node import detections_msg
+    except ImportError:
+        detections_msg = None  # type: ignore[assignment]
 
     t0 = time.perf_counter()
     parsed = parse_grounding(gen.text)
@@ -181,7 +185,8 @@ def postprocess(gen: Any) -> tuple[float, int]:
         original_hw=gen.original_hw,
         counters=Counter(),
     )
-    detections_msg(boxes, Header())
+    if detections_msg is not None:
+        detections_msg(boxes, Header())
     return (time.perf_counter() - t0) * 1e3, len(boxes)
 
 

@@ -124,6 +124,7 @@ def test_quantization_needs_cuda(tiny_ckpt: Path) -> None:
 
 
 def test_bad_model_dir_is_backend_error(tmp_path: Path) -> None:
+    pytest.importorskip("transformers")
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
 
     with pytest.raises(BackendError, match="config"):
@@ -147,6 +148,7 @@ def test_openai_backend_end_to_end(tiny_server: str, tiny_ckpt: Path) -> None:
 
 
 def test_openai_retries_then_fails_cleanly() -> None:
+    pytest.importorskip("openai")
     from go2vlm.perception.vlm.openai_backend import OpenAIBackend
 
     with socket.socket() as sock:  # a port nothing listens on
@@ -171,6 +173,7 @@ def test_api_key_never_printed(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_tiny_learns_any_text() -> None:
     """Other tests reuse the tiny builder to plant answers (e.g. a prompt injection): any text, exactly."""
+    pytest.importorskip("transformers")
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
     from go2vlm.perception.vlm.tiny import cached_tiny_checkpoint
 

@@ -42,7 +42,7 @@ class Probe(Node):
         self.create_subscription(String, "/safety/status", self.status, QOS_LATCHED)
         self.targets_sub = self.create_subscription(PointStamped, "/detected_target", self.targets, QOS_DEFAULT)
         self.create_subscription(Image, "/camera/image_raw", self.images, QOS_SENSOR)
-        self.create_subscription(Twist, "/follower/cmd_vel", self.follower_cmd, QOS_DEFAULT)
+        self.follower_sub = self.create_subscription(Twist, "/follower/cmd_vel", self.follower_cmd, QOS_DEFAULT)
         self.estop_pub = self.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
         self.release_pub = self.create_publisher(String, "/emergency_stop/release", QOS_DEFAULT)
 

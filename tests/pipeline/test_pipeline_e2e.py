@@ -38,7 +38,7 @@ def test_camera_first_settles_then_estop_latches_until_release(procs, probe, tmp
     start(procs, "color_detector", tmp_path)
     wait_up(lambda: len(probe.targets) > 0, "color_detector")
     start(procs, "follower", tmp_path)
-    wait_up(lambda: len(probe.follower_cmd) > 0, "follower")
+    wait_up(lambda: probe.follower_sub.publisher_count > 0, "follower")
     start(procs, "safety", tmp_path)
     try:
         wait_settled(probe)
@@ -80,7 +80,7 @@ def test_reverse_start_order_safety_first_camera_last(procs, probe, tmp_path) ->
     wait_up(lambda: len(probe.cmd) >= 5, "safety")
     assert all(is_zero(m) for m in probe.cmd.msgs()), "the gate must output zero while no input is live"
     start(procs, "follower", tmp_path)
-    wait_up(lambda: len(probe.follower_cmd) > 0, "follower")
+    wait_up(lambda: probe.follower_sub.publisher_count > 0, "follower")
     start(procs, "color_detector", tmp_path)
     wait_up(lambda: probe.targets_sub.publisher_count > 0, "color_detector")
     time.sleep(0.5)

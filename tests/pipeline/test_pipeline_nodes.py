@@ -92,3 +92,32 @@ def test_latched_estop_reaches_a_gate_started_later_and_teleop_wins() -> None:
             assert last.linear.x == 0.4 and last.angular.z == 0.0, last  # clamped to max_vx_forward
             st = json.loads(status.msgs()[-1].data)
             assert st["active"] == "teleop" and st["estop"] is False
+
+
+def test_follower_stops_then_yields_the_mux_after_losing_the_target() -> None:
+    """Zeros for idle_after_lost_s after the loss, then silence, so lower-priority inputs get the gate."""
+    from go2vlm.msgs.geometry_msgs import Point, PointStamped
+
+    follower = make_node("follower", params={"lost_timeout_s": 0.3, "idle_after_lost_s": 0.4})
+    io = _Io()
+    cmds = Recorder()
+    io.create_subscription(Twist, "/follower/cmd_vel", cmds, QOS_DEFAULT)
+    target = io.create_publisher(PointStamped, "/detected_target", QOS_DEFAULT)
+    with running(follower, io):
+        time.sleep(0.5)
+        assert len(cmds) == 0, "a follower that never saw a target must not hold the mux"
+        assert wait_for(lambda: target.matched > 0, 5.0)
+        t_end = time.monotonic() + 1.0
+        while time.monotonic() < t_end:
+            target.publish(PointStamped(point=Point(x=0.0, z=0.2)))
+            time.sleep(0.05)
+        t_lost = time.monotonic()
+        time.sleep(1.5)
+    items = list(cmds.items)
+    moving = [t for t, m in items if not is_zero(m)]
+    assert moving, "the follower never walked towards the target"
+    after = [(t - t_lost, m) for t, m in items if t > t_lost]
+    zeros = [dt for dt, m in after if is_zero(m)]
+    assert zeros and zeros[0] < 0.45, "the loss must be followed by a zero command"
+    assert all(is_zero(m) for dt, m in after if dt > 0.35)
+    assert not [dt for dt, _ in after if dt > 0.3 + 0.4 + 0.3], "still publishing long after the target was lost"

@@ -10,9 +10,13 @@ Control law, per target (the seed's numbers are the defaults):
   linear.x  = clamp(kp_linear * (1 - z), 0, max_linear) while |x| < align_threshold, else 0
               (forward only: it turns first, then walks)
 The command drops to zero once no target has arrived for lost_timeout_s (1.0 s); that zero goes out
-at once, not at the next 20 Hz tick. Optional, off by default (the seed's troubleshooting table
-against oscillation): a D term on x (kd_angular) and a first-order low-pass on the output
-(filter_alpha: weight of the new command per tick, 1.0 = no filtering).
+at once, not at the next 20 Hz tick. Zeros keep going out for idle_after_lost_s more, then the
+follower falls silent until a target returns: a zero is a live command to the safety gate's mux, and
+a follower that streams zeros forever would block lower-priority inputs (/behavior/cmd_vel from the
+commander's search or approach). The gate's own watchdog keeps /cmd_vel at zero meanwhile.
+Optional, off by default (the seed's troubleshooting table against oscillation): a D term on x
+(kd_angular) and a first-order low-pass on the output (filter_alpha: weight of the new command per
+tick, 1.0 = no filtering).
 A target with NaN/inf or absurd values is dropped with a rate-limited error and counted in
 `bad_targets`; it does not refresh the target, so the robot stops on the timeout as if none came.
 """
@@ -44,6 +48,9 @@ class FollowerConfig:
     rate_hz: float = param(20.0, help="command publishing rate", min=1.0, max=200.0)
     kd_angular: float = param(0.0, help="D gain on dx/dt (s); 0 = off", min=0.0, max=10.0)
     filter_alpha: float = param(1.0, help="low-pass weight of the new command per tick; 1 = off", min=0.01, max=1.0)
+    idle_after_lost_s: float = param(
+        0.5, help="after losing the target, send zeros this long, then stay silent", min=0.0, max=3600.0
+    )
 
 
 def _clamp(v: float, lo: float, hi: float) -> float:
@@ -70,6 +77,7 @@ class FollowerNode(Node):
         self._goal = (0.0, 0.0)  # linear.x, angular.z from the latest target
         self._cmd = (0.0, 0.0)  # what goes out (after the optional low-pass)
         self._lost = True
+        self._lost_at: float | None = None  # monotonic time the target was lost; None: never had one
         self.create_timer(1.0 / self.config.rate_hz, self.tick)
         self.create_timer(0.01, self._watchdog)
 
@@ -102,6 +110,7 @@ class FollowerNode(Node):
             return False
         if self._last_target is None or time.monotonic() - self._last_target >= self.config.lost_timeout_s:
             self._lost = True
+            self._lost_at = time.monotonic()
             self._goal = self._cmd = (0.0, 0.0)
             self._last_x = None
             self.log.throttled("info", 2.0, "target lost, stopping", key="lost")
@@ -120,6 +129,8 @@ class FollowerNode(Node):
                 a * self._goal[0] + (1 - a) * self._cmd[0],
                 a * self._goal[1] + (1 - a) * self._cmd[1],
             )
+        elif self._lost_at is None or time.monotonic() - self._lost_at > self.config.idle_after_lost_s:
+            return
         self._publish()
 
     def _publish(self) -> None:

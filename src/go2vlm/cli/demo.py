@@ -31,7 +31,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="sim: /cmd_vel straight into the sim; go2: through the Go2 driver and the Unitree protocol",
     )
     p.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
-    p.add_argument("--world", default="follow_ball", help="world (default follow_ball)")
+    p.add_argument("--world", default=None, help="world (default follow_ball; with --goal, picked from the goal)")
+    p.add_argument(
+        "--goal",
+        default=None,
+        help="run a language goal instead, e.g. 'go to the blue cylinder', 'look for the green box', '跟着红球'",
+    )
     p.add_argument("--ball-speed", type=float, default=0.3, help="ball speed, m/s (default 0.3)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     p.add_argument(
@@ -61,6 +66,11 @@ def node_params(items: list[str]) -> dict[str, dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.goal:
+        from ..behavior.goal_demo import run_goal_cli
+
+        return run_goal_cli(args)
+    args.world = args.world or "follow_ball"
     from ..sim.demo import DemoOptions, run_demo, summary
 
     if args.duration <= 0:

@@ -358,6 +358,7 @@ class Go2Sim:
         self._update_ball(dt)
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
+        mujoco.mj_camlight(m, d)  # cameras follow the base; mj_step does this in dynamic mode
         self._step_count += 1
 
     # ----------------------------------------------------------------- output

@@ -8,6 +8,9 @@ Subscribes:
   /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z);
                                                     zeroed after `cmd_timeout_s` without a valid command
                                                     (the safety gate streams at >= 20 Hz)
+  /go2/command                 std_msgs/String       posture, as the go2 driver takes it: stand, balance,
+                                                    recover, sit/standdown (lie down), damp; only without
+                                                    `unitree` (then the driver sends sport RPCs instead)
   /sim/push                   geometry_msgs/Twist   disturbance test: an instant kick of the base, linear =
                                                     velocity change in the world frame (m/s, |v| <= 10),
                                                     angular = in the base frame (rad/s, |w| <= 30)
@@ -275,6 +278,18 @@ class _Renderer:
                 r.close()
 
 
+# /go2/command words -> what the simulated robot does (the real Go2's Sit has no sim posture; it lies down).
+_POSTURES: dict[str, Callable[[Go2Sim], Any]] = {
+    "stand": lambda sim: sim.stand_up(),
+    "balance": lambda sim: sim.stand_up(),
+    "recover": lambda sim: sim.recovery_stand(),
+    "sit": lambda sim: sim.lie_down(),
+    "standdown": lambda sim: sim.lie_down(),
+    "damp": lambda sim: sim.damp(),
+    "stop": lambda sim: sim.stop(),
+}
+
+
 class SimNode(Node):
     name = "sim"
     Config = SimConfigParams
@@ -301,6 +316,8 @@ class SimNode(Node):
 
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
         self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
+        if not cfg.unitree:
+            self.create_subscription(String, "/go2/command", self._on_posture, QOS_DEFAULT)
         self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
         self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
         self.pub_joints = self.create_publisher(JointState, "/joint_states", QOS_DEFAULT)
@@ -387,6 +404,18 @@ class SimNode(Node):
             return
         self.log.info(f"push: dv {dv} m/s (world), dw {dw} rad/s (base)")
         self.call_in_physics(lambda sim: sim.push(dv, dw))
+
+    def _on_posture(self, msg: String) -> None:
+        word = msg.data.strip().lower()
+        action = _POSTURES.get(word)
+        if action is None:
+            self.count("bad_posture")
+            self.log.throttled(
+                "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; known: {', '.join(sorted(_POSTURES))}"
+            )
+            return
+        self.log.info(f"posture: {word}")
+        self.call_in_physics(action)
 
     def set_velocity(self, vx: float, vy: float, wz: float) -> None:
         """Command the robot as /cmd_vel would (same timeout). For in-process drivers and bridges."""

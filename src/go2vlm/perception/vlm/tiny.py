@@ -394,8 +394,12 @@ def _encode(processor: Any, image: Any, prompt_text: str, max_pixels: int) -> An
     )
 
 
-def _probe_failures(model: Any, processor: Any, text: str, n_tokens: int) -> list[str]:
-    """Greedy answers that differ from ``text`` on a few fixed, varied inputs (empty: learned)."""
+def _probe_failures(
+    model: Any, processor: Any, text: str, n_tokens: int, prompts: Sequence[str] | None = None
+) -> list[str]:
+    """Greedy answers that differ from ``text`` on a few fixed, varied inputs (empty: learned).
+
+    ``prompts``: the caller's own prompts replace the generic probe prompts."""
     import numpy as np
     import torch
     from PIL import Image
@@ -411,6 +415,8 @@ def _probe_failures(model: Any, processor: Any, text: str, n_tokens: int) -> lis
         ((300, 200), 64 * 784, "hello"),
         ((1080, 1920), 512 * 784, "Detect all objects in the image."),
     ]
+    if prompts:
+        probes = [(hw, mp, prompts[i % len(prompts)]) for i, (hw, mp, _) in enumerate(probes)]
     bad = []
     model.eval()
     with torch.inference_mode():
@@ -438,12 +444,14 @@ def train_fixed_output(
     """Train the checkpoint in ``ckpt_dir`` in place to answer ``text`` to any image/prompt.
 
     The loss is on the answer tokens plus ``<|im_end|>`` only, so greedy decoding
-    reproduces ``text`` and stops. Images, prompts and visual-token counts vary so the
-    answer does not depend on them. After ``steps`` steps, greedy decoding is checked on
-    fixed probe inputs; while any differs, training continues in rounds of ``steps // 2``
-    (at most ``max_rounds``), then ``RuntimeError`` -- a test must not get a model that
-    only sometimes says the text. Runs on CPU in float32 (longer texts need more steps:
-    ~300 for 70 tokens, ~300-600 for 180).
+    reproduces ``text`` and stops. Images and visual-token counts (12..512) vary so the
+    answer does not depend on them. Prompts: with ``prompts`` given, only those are trained
+    and probed (exact for them); else real prompts mixed with random words (any prompt).
+
+    After ``steps`` steps, greedy decoding is checked on fixed probe inputs; while any
+    differs, training goes on in rounds of ``max(50, steps // 2)`` (at most ``max_rounds``),
+    then ``RuntimeError`` -- a test must not get a model that only sometimes says its text.
+    CPU, float32; about 300 steps for a 70-token text, 300-600 for 180 tokens.
     """
     import torch
     from transformers import AutoProcessor, Qwen2_5_VLForConditionalGeneration
@@ -468,7 +476,7 @@ def train_fixed_output(
         for _ in range(n):
             # Vary the visual-token count too (12..512 tokens): the node's max_pixels decides it at
             # run time, and the answer must not depend on how many image tokens precede it.
-            prompt_text = _random_prompt(rng, prompt_pool)
+            prompt_text = rng.choice(prompt_pool) if prompts else _random_prompt(rng, prompt_pool)
             enc = _encode(processor, _random_image(rng), prompt_text, rng.choice(_TRAIN_MAX_PIXELS))
             input_ids = torch.cat([enc["input_ids"], answer], dim=1)
             labels = torch.full_like(input_ids, -100)
@@ -485,12 +493,12 @@ def train_fixed_output(
             optim.zero_grad(set_to_none=True)
 
     run(steps, lr)
-    bad = _probe_failures(model, processor, text, len(answer_ids))
+    bad = _probe_failures(model, processor, text, len(answer_ids), prompts)
     rounds = 0
     while bad and rounds < max_rounds:
         rounds += 1
         run(max(50, steps // 2), lr)
-        bad = _probe_failures(model, processor, text, len(answer_ids))
+        bad = _probe_failures(model, processor, text, len(answer_ids), prompts)
     if bad:
         raise RuntimeError(
             f"tiny model did not learn the {len(answer_ids)}-token answer in {steps} + {rounds} x {steps // 2} "
