@@ -293,3 +293,44 @@ def test_cli_node_with_tiny_model_over_dds(tiny_ckpt: Path, procs, harness: Harn
     log = log_path.read_text()
     assert "SECRET" not in log and all("SECRET" not in m.data for m in harness.status.msgs())
     assert "model ready" in log
+
+
+def test_node_with_openai_backend_over_dds(
+    tiny_server: str, tiny_ckpt: Path, harness: Harness, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """The node built from parameters alone, talking to `transformers serve`; the key never shows."""
+    values = {
+        "model": str(tiny_ckpt),
+        "backend": "openai",
+        "base_url": tiny_server,
+        "api_key": "sk-node-SECRET",
+        "mode": "detect",
+        "max_pixels": 12544,
+        "period_s": 0.0,
+        "status_period_s": 0.2,
+        "image_topic": harness.topic,  # type: ignore[attr-defined]
+    }
+    node = VlmNode(build_config(VlmConfig, values, node="vlm"))
+    node.start()
+    try:
+        i = 0
+
+        def publish_and_check() -> bool:
+            nonlocal i
+            i += 1
+            harness.cam.publish(image(i, stamp=2000.0 + i))
+            return len(harness.dets) >= 1
+
+        assert wait_for(publish_and_check, 60, 0.2)
+        msg = harness.dets.msgs()[0]
+        assert 2000.0 < msg.header.stamp.to_sec() <= 2000.0 + i
+        assert_expected(msg)
+        assert wait_for(lambda: any(s["inferences"] >= 1 for s in harness.statuses()), 5)
+        st = [s for s in harness.statuses() if s["inferences"] >= 1][-1]
+        assert st["backend"] == "openai" and st["resized_hw"] == [84, 112] and st["visual_tokens"] == 12
+        node.log.info(f"params: {node.params()} config: {node.config}")
+    finally:
+        node.shutdown()
+    out = capfd.readouterr()
+    assert "SECRET" not in out.out + out.err
+    assert all("SECRET" not in m.data for m in harness.status.msgs())

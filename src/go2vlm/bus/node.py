@@ -43,10 +43,12 @@ class Publisher(Generic[M]):
         dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
         self._writer = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
         self.count = 0
+        self._count_lock = threading.Lock()  # nodes may publish from their own worker threads
 
     def publish(self, msg: M) -> None:
         self._writer.write(msg)
-        self.count += 1
+        with self._count_lock:
+            self.count += 1
 
     @property
     def matched(self) -> int:

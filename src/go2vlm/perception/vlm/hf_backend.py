@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory
-from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for, visual_tokens
+from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for
 
 __all__ = ["TransformersBackend", "configure_cuda_allocator", "resolve_device", "resolve_dtype"]
 
@@ -205,9 +205,12 @@ class TransformersBackend:
             return_tensors="pt",
             size={"shortest_edge": s.min_pixels, "longest_edge": s.max_pixels},
         )
-        grid = inputs["image_grid_thw"][0].tolist()  # (t, h/14, w/14)
+        grid = inputs["image_grid_thw"][0].tolist()  # (t, H'/patch, W'/patch)
+        # patch 14 (Qwen2/2.5-VL) or 16 (Qwen3-VL): read it, do not assume it
         patch = int(getattr(self.processor.image_processor, "patch_size", 14))
+        merge = int(getattr(self.processor.image_processor, "merge_size", 2))
         resized_hw = (int(grid[1]) * patch, int(grid[2]) * patch)
+        n_visual = int(grid[0]) * int(grid[1]) * int(grid[2]) // (merge * merge)
         inputs = inputs.to(self.model.device)
         prompt_len = int(inputs["input_ids"].shape[1])
         self._sync()
@@ -239,7 +242,7 @@ class TransformersBackend:
             original_hw=(int(rgb.shape[0]), int(rgb.shape[1])),
             resized_hw=resized_hw,
             coords=self.coords,
-            visual_tokens=visual_tokens(resized_hw),
+            visual_tokens=n_visual,
             prompt_tokens=prompt_len,
             new_tokens=int(new_ids.shape[0]),
             timings_ms={
