@@ -6,9 +6,8 @@
 Latency is header.stamp (set just before publish) to the subscription callback, both on this
 machine's clock. Reliable, volatile, keep-last 10 (QOS_DEFAULT), through the go2vlm Node runtime on
 both sides. "naive" declares Image.data as `sequence[byte]` (what a straight IDL translation gives)
-instead of `bytes`.
-
-No `from __future__ import annotations`: the naive type below is a cyclonedds struct.
+instead of `bytes`: the declaration in tests/bus/bus_naive_types.py, whose wire type the bus tests
+check against ours.
 """
 
 import argparse
@@ -21,28 +20,18 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
-from cyclonedds.idl import IdlStruct, types
 
 from go2vlm.msgs.sensor_msgs import Image
-from go2vlm.msgs.std_msgs import Header
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "bus"))
+from bus_naive_types import NaiveImage  # noqa: E402
 
 W, H = 640, 480
 FRAME_BYTES = W * H * 3
 TOPIC = "/bench/image_raw"
-
-
-@dataclass
-class NaiveImage(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header = field(default_factory=Header)
-    height: types.uint32 = 0
-    width: types.uint32 = 0
-    encoding: str = ""
-    is_bigendian: types.byte = 0
-    step: types.uint32 = 0
-    data: types.sequence[types.byte] = field(default_factory=list)
 
 
 # "small": a 4x4 image through the same path, the floor of wake-up and scheduling latency.

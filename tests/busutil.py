@@ -64,6 +64,19 @@ def echo_json(topic: str, count: int = 1, timeout: float = 20.0, msg_type: str |
     return [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
 
 
+def rosbags_typestore(msgs: dict[str, str]) -> Any:
+    """rosbags' ROS 2 Jazzy type store (the reference CDR implementation) plus these .msg definitions
+    (ROS type name -> .msg text) for types the store lacks."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    found: dict[str, Any] = {}
+    for name, text in msgs.items():
+        found.update(get_types_from_msg(text, name))
+    ts.register(found)
+    return ts
+
+
 def wait_for(pred: Callable[[], bool], timeout: float = 10.0, period: float = 0.05) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

@@ -13,9 +13,9 @@ from functools import cache
 from typing import Any
 
 import numpy as np
+from busutil import rosbags_typestore
 from cyclonedds.idl._type_normalize import get_extended_type_hints
 from hypothesis import strategies as st
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.base import Nodetype
 
 # vision_msgs 4.x (Humble, Jazzy) message definitions.
@@ -70,12 +70,7 @@ TEXT = st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_ch
 
 @cache
 def typestore() -> Any:
-    ts = get_typestore(Stores.ROS2_JAZZY)
-    types: dict[str, Any] = {}
-    for name, text in VISION_MSGS.items():
-        types.update(get_types_from_msg(text, name))
-    ts.register(types)
-    return ts
+    return rosbags_typestore(VISION_MSGS)
 
 
 def fields_of(typename: str) -> list[tuple[str, Any]]:

@@ -9,21 +9,12 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Iterator
 
 import pytest
 from busutil import wait_for
 from pipeutil import Probe, is_zero, logs_tail, start, wait_settled, wait_up
 
 from go2vlm.msgs.std_msgs import Bool, String
-
-
-@pytest.fixture
-def probe() -> Iterator[Probe]:
-    p = Probe()
-    p.start()
-    yield p
-    p.shutdown()
 
 
 def _status(probe: Probe) -> dict:

@@ -9,20 +9,11 @@ import signal
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
 
 import pytest
 import yaml
 from busutil import wait_for
-from pipeutil import Probe, is_zero, wait_settled
-
-
-@pytest.fixture
-def probe() -> Iterator[Probe]:
-    p = Probe()
-    p.start()
-    yield p
-    p.shutdown()
+from pipeutil import is_zero, wait_settled
 
 
 class _Lines:

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from busutil import rosbags_typestore
 from cyclonedds.idl import IdlStruct, types
 from cyclonedds.idl._type_normalize import get_extended_type_hints
 from cyclonedds.idl._typesupport.DDS import XTypes as xt
@@ -55,14 +56,7 @@ MODULE_TYPES = sorted(
 
 @cache
 def typestore() -> Any:
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    ts = get_typestore(Stores.ROS2_JAZZY)
-    found: dict[str, Any] = {}
-    for name, text in UNITREE_MSGS.items():
-        found.update(get_types_from_msg(text, name))
-    ts.register(found)
-    return ts
+    return rosbags_typestore(UNITREE_MSGS)
 
 
 def _sample(cls: type, rng: np.random.Generator) -> Any:

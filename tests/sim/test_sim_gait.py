@@ -8,6 +8,7 @@ from sim_helpers import mean_velocity
 
 from go2vlm.sim import Go2Sim, SimConfig
 from go2vlm.sim import go2_model as gm
+from go2vlm.sim.ball import follow_command
 
 SETTLE_S = 2.0
 MEASURE_S = 3.0
@@ -165,13 +166,8 @@ def test_follow_moving_ball_with_changing_commands() -> None:
     sim = Go2Sim(SimConfig(world="follow_ball", ball_speed=0.5))
     dists = []
     for _ in range(100):
-        s = sim.state()
-        rel = sim.object_poses()["red_ball"].position[:2] - s.position[:2]
-        yaw = s.imu_rpy[2]
-        bx = np.cos(yaw) * rel[0] + np.sin(yaw) * rel[1]
-        by = -np.sin(yaw) * rel[0] + np.cos(yaw) * rel[1]
-        dist = float(np.hypot(bx, by))
-        sim.set_command(np.clip(1.2 * (dist - 1.0), -0.5, 1.0), 0.0, np.clip(2.0 * np.arctan2(by, bx), -1.5, 1.5))
+        cmd, dist = follow_command(sim, "red_ball")
+        sim.set_command(*cmd)
         sim.advance(0.1)
         assert not sim.fell
         dists.append(dist)

@@ -27,6 +27,8 @@ import math
 import statistics
 from dataclasses import dataclass, field
 
+from go2vlm.msgs.image import focal_length
+
 __all__ = ["ApproachParams", "CameraModel", "RangeEstimator", "RangeReading", "approach_command", "normalized_target"]
 
 # Go2 head camera as modelled in go2vlm.sim (go2_model.HEAD_CAMERA_POS, standing height 0.32 m).
@@ -57,7 +59,7 @@ class CameraModel:
 
     @classmethod
     def from_hfov(cls, width: int, height: int, hfov_rad: float) -> CameraModel:
-        f = (width / 2.0) / math.tan(hfov_rad / 2.0)
+        f = focal_length(width, hfov_rad)
         return cls(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
 
     def scaled_to(self, width: int, height: int) -> CameraModel:

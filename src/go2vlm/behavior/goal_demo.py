@@ -44,6 +44,8 @@ from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.sim.camera import fovy_to_hfov
+from go2vlm.sim.demo import quat_yaw, shutdown_nodes, shutdown_request, sim_clock, sim_node_params, start_nodes
 
 __all__ = ["GoalDemoOptions", "GoalDemoResult", "goal_summary", "run_goal_cli", "run_goal_demo"]
 
@@ -133,9 +135,8 @@ class GoalRecorder(Node):
     def _on_gt(self, msg: TFMessage) -> None:
         poses = {}
         for tf in msg.transforms:
-            t, q = tf.transform.translation, tf.transform.rotation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-            poses[tf.child_frame_id.removeprefix("gt/")] = (t.x, t.y, yaw)
+            t = tf.transform.translation
+            poses[tf.child_frame_id.removeprefix("gt/")] = (t.x, t.y, quat_yaw(tf.transform.rotation))
         with self.lock:
             self.poses.append((self.sim_time, poses))
 
@@ -253,17 +254,7 @@ def build_nodes(opts: GoalDemoOptions, world: str) -> list[Node]:
     from go2vlm.launch.registry import make_node
 
     common: dict[str, Any] = {"interface": opts.interface, "domain_id": opts.domain_id}
-    sim_params: dict[str, Any] = {
-        "world": world,
-        "mode": opts.mode,
-        "rtf": opts.rtf,
-        "fast": opts.fast,
-        "ball_speed": opts.ball_speed,
-        "camera_width": opts.camera_width,
-        "camera_height": opts.camera_height,
-        "camera_rate_hz": opts.camera_rate_hz,
-        "world_camera": False,
-    }
+    sim_params = sim_node_params(opts, world)
     if opts.spawn:
         sim_params["spawn"] = list(opts.spawn)
     sim_params.update(opts.params.get("sim", {}))
@@ -282,9 +273,7 @@ def build_nodes(opts: GoalDemoOptions, world: str) -> list[Node]:
 
 def run_goal_demo(opts: GoalDemoOptions, shutdown: ShutdownRequested | None = None) -> GoalDemoResult:
     """Run one goal in the sim until it is reached/found (+ settle_s), or the timeout; measure it."""
-    stop = shutdown or ShutdownRequested()
-    if shutdown is None:
-        stop.install()
+    stop = shutdown_request(shutdown)
     try:
         kind = parse_goal(opts.goal).kind
     except GoalParseError:
@@ -295,23 +284,13 @@ def run_goal_demo(opts: GoalDemoOptions, shutdown: ShutdownRequested | None = No
     sim = nodes[0]
     shapes = world_shapes(sim.sim.model)  # type: ignore[attr-defined]
     wall0 = time.monotonic()
-    recorder.start()
-    for n in nodes:
-        n.start()
+    start_nodes(recorder, nodes)
     interrupted = False
     t0: float | None = None
     t_done: float | None = None
     limit = opts.follow_duration_s if kind == "follow" else opts.timeout_s
     try:
-        while True:
-            if stop.event.wait(0.05):
-                interrupted = True
-                break
-            t = recorder.sim_time
-            if t < 0:
-                if time.monotonic() - wall0 > opts.startup_timeout_s:
-                    raise RuntimeError(f"the sim published no /clock within {opts.startup_timeout_s:g} s")
-                continue
+        for t in sim_clock(stop, recorder, wall0, opts.startup_timeout_s, 0.05):
             if t0 is None:
                 t0 = t
             state = recorder.latest_state()
@@ -324,11 +303,11 @@ def run_goal_demo(opts: GoalDemoOptions, shutdown: ShutdownRequested | None = No
                 break
             if opts.progress:
                 print(f"\rsim {t - t0:6.1f} s  state {state}   ", end="", file=sys.stderr, flush=True)
+        else:
+            interrupted = True
     finally:
         wall_s = time.monotonic() - wall0
-        for n in reversed(nodes):
-            n.shutdown()
-        recorder.shutdown()
+        shutdown_nodes(recorder, nodes)
         if opts.progress:
             print(file=sys.stderr)
     metrics = compute_metrics(recorder, shapes, opts, world, kind, t0 or 0.0, wall_s)
@@ -384,7 +363,7 @@ def compute_metrics(
         tx, ty = poses[-1][1].get(target, (shapes[target].x, shapes[target].y, 0.0))[:2]
         bearing = math.atan2(ty - ry, tx - rx) - ryaw
         bearing = math.atan2(math.sin(bearing), math.cos(bearing))
-        hfov = 2 * math.atan(math.tan(math.radians(58.0) / 2) * opts.camera_width / opts.camera_height)
+        hfov = fovy_to_hfov(58.0, opts.camera_width, opts.camera_height)
         in_view = abs(bearing) < hfov / 2
     travelled = 0.0
     track = [p["go2"] for _, p in poses if "go2" in p]

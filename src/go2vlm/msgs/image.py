@@ -6,6 +6,8 @@ row) raises `ValueError` naming the fields, never a reshape error deep inside nu
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .sensor_msgs import CameraInfo, Image
@@ -100,11 +102,14 @@ def to_bgr(msg: Image) -> np.ndarray:
     return cv2.cvtColor(arr, cv2.COLOR_GRAY2BGR)
 
 
+def focal_length(size_px: float, fov_rad: float) -> float:
+    """Pinhole focal length in pixels of an image `size_px` wide (or high) that spans `fov_rad`."""
+    return (size_px / 2.0) / math.tan(fov_rad / 2.0)
+
+
 def camera_info(width: int, height: int, hfov_rad: float, header: Header | None = None) -> CameraInfo:
     """A pinhole CameraInfo with no distortion, from the horizontal field of view."""
-    import math
-
-    fx = (width / 2.0) / math.tan(hfov_rad / 2.0)
+    fx = focal_length(width, hfov_rad)
     cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
     return CameraInfo(
         header=header or Header(),

@@ -63,9 +63,10 @@ Robot geoms are in group 2, which the head camera does not draw.
 ``available_worlds()`` lists the bundled world files.
 """
 
-from go2vlm.sim.gl import setup_gl
+from go2vlm.sim.gl import preload_triton, setup_gl
 
 setup_gl()
+preload_triton()  # before any GL context: Mesa's libLLVM first would crash a later `import torch._dynamo`
 
 from go2vlm.sim.camera import CameraIntrinsics, intrinsics  # noqa: E402
 from go2vlm.sim.controller import GaitParams  # noqa: E402

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from go2vlm.sim import Go2Sim, SimConfig
+from go2vlm.sim.ball import follow_command
 
 
 def main() -> None:
@@ -32,13 +33,8 @@ def main() -> None:
     sim.set_command(*args.cmd)
     for k in range(int(args.seconds * 10)):
         if args.follow and "red_ball" in sim.object_poses():
-            s = sim.state()
-            rel = sim.object_poses()["red_ball"].position[:2] - s.position[:2]
-            yaw = s.imu_rpy[2]
-            bx = np.cos(yaw) * rel[0] + np.sin(yaw) * rel[1]
-            by = -np.sin(yaw) * rel[0] + np.cos(yaw) * rel[1]
-            dist = float(np.hypot(bx, by))
-            sim.set_command(np.clip(1.2 * (dist - 1.0), -0.5, 1.0), 0.0, np.clip(2.0 * np.arctan2(by, bx), -1.5, 1.5))
+            cmd, _ = follow_command(sim, "red_ball")
+            sim.set_command(*cmd)
         sim.advance(0.1)
         if k % 10 == 9:
             s = sim.state()

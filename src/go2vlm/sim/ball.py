@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 
@@ -37,3 +39,15 @@ class BallPath:
     def position(self, t: float) -> np.ndarray:
         """Point reached after ``t`` seconds at the constant ``speed``."""
         return self.at(self.speed * t)
+
+
+def follow_command(sim: Any, body: str = "red_ball") -> tuple[tuple[float, float, float], float]:
+    """A crude ground-truth follower: the (vx, vy, vyaw) command that steers a `Go2Sim` towards
+    `body` and holds it about 1 m away, and the body's current distance from the base."""
+    s = sim.state()
+    rel = sim.object_poses()[body].position[:2] - s.position[:2]
+    yaw = s.imu_rpy[2]
+    bx = np.cos(yaw) * rel[0] + np.sin(yaw) * rel[1]
+    by = -np.sin(yaw) * rel[0] + np.cos(yaw) * rel[1]
+    dist = float(np.hypot(bx, by))
+    return (np.clip(1.2 * (dist - 1.0), -0.5, 1.0), 0.0, np.clip(2.0 * np.arctan2(by, bx), -1.5, 1.5)), dist

@@ -33,6 +33,11 @@ def hfov_to_fovy_deg(hfov_rad: float, width: int, height: int) -> float:
     return math.degrees(2 * math.atan(math.tan(hfov_rad / 2) * height / width))
 
 
+def fovy_to_hfov(fovy_deg: float, width: int, height: int) -> float:
+    """Horizontal field of view (radians) of a square-pixel camera with this vertical one (degrees)."""
+    return 2.0 * math.atan(math.tan(math.radians(fovy_deg) / 2.0) * width / height)
+
+
 def gazebo_rpy_to_xyaxes(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """MuJoCo camera ``xyaxes`` for a Gazebo camera pose with this rpy.
 

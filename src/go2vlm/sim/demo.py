@@ -18,6 +18,7 @@ import queue
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,6 +33,7 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.sim.camera import fovy_to_hfov
 
 VIDEO_WIDTH = 320  # frames are downscaled before encoding: a quarter of the pixels of 640x480
 
@@ -71,6 +73,11 @@ class DemoResult:
 
 def _sec(stamp: Any) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def quat_yaw(q: Any) -> float:
+    """Yaw (rad) of a geometry_msgs Quaternion."""
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
 
 
 class DemoRecorder(Node):
@@ -132,8 +139,7 @@ class DemoRecorder(Node):
                 ball = tf.transform
         if robot is None or ball is None:
             return
-        q = robot.rotation
-        yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        yaw = quat_yaw(robot.rotation)
         with self.lock:
             self.gt.append(
                 (
@@ -432,15 +438,13 @@ def cpu_by_thread() -> dict[str, float]:
     return out
 
 
-# -- orchestration -----------------------------------------------------------------------------
+# -- orchestration (shared with go2vlm.behavior.goal_demo) ---------------------------------------
 
 
-def build_nodes(opts: DemoOptions) -> list[Node]:
-    from go2vlm.launch.registry import make_node
-
-    common: dict[str, Any] = {"interface": opts.interface, "domain_id": opts.domain_id}
-    sim_params: dict[str, Any] = {
-        "world": opts.world,
+def sim_node_params(opts: Any, world: str) -> dict[str, Any]:
+    """The sim node's parameters from a demo's options (DemoOptions or GoalDemoOptions)."""
+    return {
+        "world": world,
         "mode": opts.mode,
         "rtf": opts.rtf,
         "fast": opts.fast,
@@ -450,6 +454,48 @@ def build_nodes(opts: DemoOptions) -> list[Node]:
         "camera_rate_hz": opts.camera_rate_hz,
         "world_camera": False,  # nobody looks at it in the demo: save the render time
     }
+
+
+def shutdown_request(shutdown: ShutdownRequested | None) -> ShutdownRequested:
+    """The caller's shutdown request, else a new one that Ctrl-C / SIGTERM set."""
+    stop = shutdown or ShutdownRequested()
+    if shutdown is None:
+        stop.install()
+    return stop
+
+
+def start_nodes(recorder: Node, nodes: list[Node]) -> None:
+    recorder.start()
+    for n in nodes:
+        n.start()
+
+
+def shutdown_nodes(recorder: Node, nodes: list[Node]) -> None:
+    """In reverse order of starting: the sim (first) goes last, the recorder hears everything."""
+    for n in reversed(nodes):
+        n.shutdown()
+    recorder.shutdown()
+
+
+def sim_clock(
+    stop: ShutdownRequested, recorder: Any, started: float, timeout_s: float, period_s: float
+) -> Iterator[float]:
+    """The sim time the recorder last heard on /clock, every `period_s` (once the sim is up), until
+    `stop` is requested; RuntimeError when no /clock came within `timeout_s` of `started` (monotonic)."""
+    while not stop.event.wait(period_s):
+        t = recorder.sim_time
+        if t < 0:
+            if time.monotonic() - started > timeout_s:
+                raise RuntimeError(f"the sim published no /clock within {timeout_s:g} s")
+            continue
+        yield t
+
+
+def build_nodes(opts: DemoOptions) -> list[Node]:
+    from go2vlm.launch.registry import make_node
+
+    common: dict[str, Any] = {"interface": opts.interface, "domain_id": opts.domain_id}
+    sim_params: dict[str, Any] = sim_node_params(opts, opts.world)
     nodes: list[Node] = []
     sim_remap: dict[str, str] = {}
     if opts.robot == "go2":
@@ -472,7 +518,7 @@ def build_nodes(opts: DemoOptions) -> list[Node]:
     nodes.append(make_node("sim", params=sim_params, remap=sim_remap, **common))
     if opts.robot == "go2":
         fovy = float(sim_params.get("camera_fovy_deg", 58.0))
-        hfov = math.degrees(2 * math.atan(math.tan(math.radians(fovy) / 2) * opts.camera_width / opts.camera_height))
+        hfov = math.degrees(fovy_to_hfov(fovy, opts.camera_width, opts.camera_height))
         go2_params: dict[str, Any] = {"camera_rate_hz": opts.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
         go2_params.update(opts.params.get("go2", {}))
         nodes.append(make_node("go2", params=go2_params, **common))
@@ -489,9 +535,7 @@ def run_demo(opts: DemoOptions, shutdown: ShutdownRequested | None = None) -> De
     """Run the loop for `opts.duration` sim seconds; write metrics.json, plot.png, video.mp4."""
     out = Path(opts.out) if opts.out else default_out_dir()
     out.mkdir(parents=True, exist_ok=True)
-    stop = shutdown or ShutdownRequested()
-    if shutdown is None:
-        stop.install()
+    stop = shutdown_request(shutdown)
     recorder = DemoRecorder(video=opts.video, interface=opts.interface, domain_id=opts.domain_id)
     nodes = build_nodes(opts)
     sim = nodes[0]
@@ -510,22 +554,12 @@ def run_demo(opts: DemoOptions, shutdown: ShutdownRequested | None = None) -> De
         )
     wall0 = time.monotonic()
     cpu0, threads0 = os.times(), cpu_by_thread()
-    recorder.start()
-    for n in nodes:
-        n.start()
+    start_nodes(recorder, nodes)
     interrupted = False
     try:
         next_line = time.monotonic() + 10.0
         last_t, last_change = -1.0, time.monotonic()
-        while True:
-            if stop.event.wait(0.1):
-                interrupted = True
-                break
-            t = recorder.sim_time
-            if t < 0:
-                if time.monotonic() - wall0 > opts.startup_timeout_s:
-                    raise RuntimeError(f"the sim published no /clock within {opts.startup_timeout_s:g} s")
-                continue
+        for t in sim_clock(stop, recorder, wall0, opts.startup_timeout_s, 0.1):
             rtf = getattr(sim, "rtf", 0.0)
             if bar is not None and not bar.disable:
                 bar.n = min(t, opts.duration)
@@ -542,12 +576,12 @@ def run_demo(opts: DemoOptions, shutdown: ShutdownRequested | None = None) -> De
             if t > 5.0 and not recorder.frames:
                 err = recorder.status[-1].get("render_error") if recorder.status else None
                 raise RuntimeError(f"no camera frame after {t:.0f} s of sim time: {err or 'is the camera on?'}")
+        else:
+            interrupted = True
     finally:
         wall_s = time.monotonic() - wall0
         cpu = {k: v - threads0.get(k, 0.0) for k, v in cpu_by_thread().items()}
-        for n in reversed(nodes):
-            n.shutdown()
-        recorder.shutdown()
+        shutdown_nodes(recorder, nodes)
         if bar is not None:
             bar.close()
     cpu_total = os.times()

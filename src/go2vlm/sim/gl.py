@@ -11,6 +11,7 @@ Order of preference: an explicit ``MUJOCO_GL`` from the user, then ``egl``
 from __future__ import annotations
 
 import ctypes.util
+import importlib.util
 import os
 import sys
 
@@ -94,3 +95,20 @@ def patch_late_import() -> str | None:
         os.environ["MUJOCO_GL"] = name
         return name
     return None
+
+
+def preload_triton() -> bool:
+    """Load triton's bundled LLVM before Mesa's llvmpipe loads the system libLLVM.
+
+    In the other order (a MuJoCo frame rendered on llvmpipe, then `import torch._dynamo`, which
+    `import torchvision` and Qwen's processor do) the process segfaults in triton's module init, so
+    a process that renders and then runs a VLM would crash. Costs about 0.1 s, and only where
+    triton is installed (the `vlm` extra).
+    """
+    if "triton" in sys.modules or importlib.util.find_spec("triton") is None:
+        return False
+    try:
+        import triton  # noqa: F401
+    except Exception:  # a broken triton is torch's problem, not the simulator's
+        return False
+    return True

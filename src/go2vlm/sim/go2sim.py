@@ -15,6 +15,7 @@ from go2vlm.sim.camera import CameraIntrinsics, intrinsics
 from go2vlm.sim.controller import GaitParams, JointTrajectory, RobotInput, TrotController
 from go2vlm.sim.gl import RenderingUnavailable, patch_late_import
 from go2vlm.sim.kinematic_gait import KinematicGait
+from go2vlm.sim.render import camera_scene_option
 from go2vlm.sim.rotations import mat_to_rpy, quat_to_mat, tilt_angle, yaw_quat
 from go2vlm.sim.state import Pose, RobotState
 from go2vlm.sim.worlds import build_world_xml
@@ -87,11 +88,8 @@ class Go2Sim:
                 self.ball = BallPath(kind, info.ball_path, cfg.ball_speed, info.ball_radius)
 
         self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
-        self._head_opt = mujoco.MjvOption()
-        self._head_opt.geomgroup[2] = 0  # robot visuals invisible to its own head camera
-        self._head_opt.geomgroup[3] = 0
-        self._world_opt = mujoco.MjvOption()
-        self._world_opt.geomgroup[3] = 0
+        self._head_opt = camera_scene_option(hide_robot=True)  # robot visuals invisible to its own head camera
+        self._world_opt = camera_scene_option(hide_robot=False)
         self.reset()
 
     # ------------------------------------------------------------------ setup

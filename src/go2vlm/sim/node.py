@@ -63,18 +63,9 @@ import mujoco
 import numpy as np
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, QosProfile, param
+from go2vlm.msgs.base_state import base_state_messages, transform_stamped
 from go2vlm.msgs.builtin_interfaces import Time
-from go2vlm.msgs.geometry_msgs import (
-    Point,
-    Pose,
-    PoseWithCovariance,
-    Quaternion,
-    Transform,
-    TransformStamped,
-    Twist,
-    TwistWithCovariance,
-    Vector3,
-)
+from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.rosgraph_msgs import Clock
@@ -82,6 +73,8 @@ from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.sim import Go2Sim, SimConfig
+from go2vlm.sim.camera import fovy_to_hfov
+from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
 
 # Images: reliable so that both reliable and best-effort (sensor-QoS) readers match; depth 2 keeps
 # a slow reader from holding more than two frames.
@@ -137,26 +130,10 @@ class SimConfigParams:
             raise ValueError(f"parameter 'spawn' must be [x, y, yaw] or [], got {self.spawn}")
 
 
-def _quat_msg(wxyz: np.ndarray) -> Quaternion:
-    return Quaternion(x=float(wxyz[1]), y=float(wxyz[2]), z=float(wxyz[3]), w=float(wxyz[0]))
-
-
 def _mat_quat(r: np.ndarray) -> np.ndarray:
     q = np.zeros(4)
     mujoco.mju_mat2Quat(q, np.ascontiguousarray(r, dtype=float).reshape(9))
     return q
-
-
-def _vec(v: np.ndarray) -> Vector3:
-    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
-
-
-def _tf(header: Header, child: str, pos: np.ndarray, wxyz: np.ndarray) -> TransformStamped:
-    return TransformStamped(header=header, child_frame_id=child, transform=Transform(_vec(pos), _quat_msg(wxyz)))
-
-
-def _hfov(fovy_deg: float, width: int, height: int) -> float:
-    return 2.0 * math.atan(math.tan(math.radians(fovy_deg) / 2.0) * width / height)
 
 
 @dataclass
@@ -178,9 +155,7 @@ class _Renderer:
     def __init__(self, node: SimNode, model: mujoco.MjModel) -> None:
         self.node = node
         self.model = model
-        self._cond = threading.Condition()
-        self._pending: _Snapshot | None = None
-        self._stop = False
+        self._snapshots: NewestOnly[_Snapshot] = NewestOnly()
         self.frames = 0
         self.dropped = 0
         self.busy_s = 0.0
@@ -199,16 +174,11 @@ class _Renderer:
         self._thread.start()
 
     def submit(self, snap: _Snapshot) -> None:
-        with self._cond:
-            if self._pending is not None:
-                self.dropped += 1  # the newest frame wins; a late frame is worth nothing
-            self._pending = snap
-            self._cond.notify()
+        if self._snapshots.put(snap):
+            self.dropped += 1  # the newest frame wins; a late frame is worth nothing
 
     def stop(self) -> None:
-        with self._cond:
-            self._stop = True
-            self._cond.notify()
+        self._snapshots.close()
         if self._thread.is_alive():
             self._thread.join(5.0)
 
@@ -217,11 +187,8 @@ class _Renderer:
         renderers: list[mujoco.Renderer] = []
         try:
             data = mujoco.MjData(self.model)
-            head_opt = mujoco.MjvOption()
-            head_opt.geomgroup[2] = 0  # the robot does not see its own body
-            head_opt.geomgroup[3] = 0
-            world_opt = mujoco.MjvOption()
-            world_opt.geomgroup[3] = 0  # collision geoms
+            head_opt = camera_scene_option(hide_robot=True)
+            world_opt = camera_scene_option(hide_robot=False)
             head_r = world_r = None
             if cfg.camera:
                 head_r = mujoco.Renderer(self.model, height=cfg.camera_height, width=cfg.camera_width)
@@ -248,20 +215,9 @@ class _Renderer:
             return
         self.ready.set()
         try:
-            while True:
-                with self._cond:
-                    while self._pending is None and not self._stop:
-                        self._cond.wait()
-                    if self._stop:
-                        return
-                    snap, self._pending = self._pending, None
-                assert snap is not None
+            while (snap := self._snapshots.take()) is not None:
                 t0 = time.perf_counter()
-                data.qpos[:] = snap.qpos
-                data.mocap_pos[:] = snap.mocap_pos
-                data.mocap_quat[:] = snap.mocap_quat
-                mujoco.mj_kinematics(self.model, data)
-                mujoco.mj_camlight(self.model, data)
+                pose_mirror(self.model, data, snap.qpos, snap.mocap_pos, snap.mocap_quat)
                 if snap.head and head_r is not None:
                     head_r.update_scene(data, camera=self._head_cam, scene_option=head_opt)
                     self.node._publish_frame("head", head_r.render(), snap.stamp)
@@ -331,7 +287,9 @@ class SimNode(Node):
         self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
         if cfg.camera:
             info = camera_info(
-                cfg.camera_width, cfg.camera_height, _hfov(cfg.camera_fovy_deg, cfg.camera_width, cfg.camera_height)
+                cfg.camera_width,
+                cfg.camera_height,
+                fovy_to_hfov(cfg.camera_fovy_deg, cfg.camera_width, cfg.camera_height),
             )
             info.header.frame_id = "camera_optical_frame"
             self._cams["head"] = (
@@ -342,7 +300,7 @@ class SimNode(Node):
         if cfg.world_camera and self._renderer.has_world_camera:
             w, h = cfg.world_camera_width, cfg.world_camera_height
             fovy = float(self.sim.model.cam_fovy[self.sim.model.camera("world_camera").id])
-            info = camera_info(w, h, _hfov(fovy, w, h))
+            info = camera_info(w, h, fovy_to_hfov(fovy, w, h))
             info.header.frame_id = "world_camera_optical_frame"
             self._cams["world"] = (
                 self.create_publisher(Image, "/world_camera/image_raw", QOS_IMAGE),
@@ -579,23 +537,11 @@ class SimNode(Node):
     # -- outputs -----------------------------------------------------------------------------
     def _publish_state(self, s: Any, now_wall: float) -> None:
         stamp = self.stamp(now_wall)
-        pose = Pose(position=Point(*map(float, s.position)), orientation=_quat_msg(s.quaternion))
-        self.pub_odom.publish(
-            Odometry(
-                header=Header(stamp=stamp, frame_id="odom"),
-                child_frame_id="base_link",
-                pose=PoseWithCovariance(pose=pose),
-                twist=TwistWithCovariance(twist=Twist(linear=_vec(s.lin_vel_body), angular=_vec(s.ang_vel_body))),
-            )
+        odom, imu, tf = base_state_messages(
+            stamp, "odom", "base_link", s.position, s.quaternion, s.lin_vel_body, s.ang_vel_body, s.imu_gyro, s.imu_acc
         )
-        self.pub_imu.publish(
-            Imu(
-                header=Header(stamp=stamp, frame_id="base_link"),
-                orientation=_quat_msg(s.quaternion),
-                angular_velocity=_vec(s.imu_gyro),
-                linear_acceleration=_vec(s.imu_acc),
-            )
-        )
+        self.pub_odom.publish(odom)
+        self.pub_imu.publish(imu)
         self.pub_joints.publish(
             JointState(
                 header=Header(stamp=stamp, frame_id=""),
@@ -605,14 +551,15 @@ class SimNode(Node):
                 effort=[float(v) for v in s.joint_torque],
             )
         )
-        self.pub_tf.publish(
-            TFMessage(transforms=[_tf(Header(stamp=stamp, frame_id="odom"), "base_link", s.position, s.quaternion)])
-        )
+        self.pub_tf.publish(tf)
         self.pub_clock.publish(Clock(clock=Time.from_sec(s.time)))
 
     def _publish_ground_truth(self, now_wall: float) -> None:
         header = Header(stamp=self.stamp(now_wall), frame_id="world")
-        tfs = [_tf(header, f"gt/{name}", p.position, p.quaternion) for name, p in self.sim.object_poses().items()]
+        tfs = [
+            transform_stamped(header, f"gt/{name}", p.position, p.quaternion)
+            for name, p in self.sim.object_poses().items()
+        ]
         self.pub_gt.publish(TFMessage(transforms=tfs))
 
     def _publish_status(self, s: Any) -> None:
@@ -654,14 +601,16 @@ class SimNode(Node):
         pos = rb.T @ (d.cam_xpos[cam] - d.xpos[base])
         rel = rb.T @ rc
         tfs = [
-            _tf(Header(stamp=header.stamp, frame_id="world"), "odom", np.zeros(3), np.array([1.0, 0, 0, 0])),
-            _tf(header, "camera_link", pos, _mat_quat(rel @ _MJ_TO_LINK)),
-            _tf(header, "camera_optical_frame", pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
+            transform_stamped(
+                Header(stamp=header.stamp, frame_id="world"), "odom", np.zeros(3), np.array([1.0, 0, 0, 0])
+            ),
+            transform_stamped(header, "camera_link", pos, _mat_quat(rel @ _MJ_TO_LINK)),
+            transform_stamped(header, "camera_optical_frame", pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
         ]
         if self._renderer.has_world_camera:
             wc = m.camera("world_camera").id
             tfs.append(
-                _tf(
+                transform_stamped(
                     Header(stamp=header.stamp, frame_id="world"),
                     "world_camera_optical_frame",
                     d.cam_xpos[wc],

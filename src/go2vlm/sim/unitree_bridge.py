@@ -37,6 +37,7 @@ import numpy as np
 from go2vlm.bus import Node
 from go2vlm.msgs.unitree import IMUState, Request, Response, SportModeState, TimeSpec
 from go2vlm.robots.go2 import protocol as p
+from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
 from go2vlm.sim.state import RobotState
 
 # SportModeState.mode for each Go2Sim mode.
@@ -305,9 +306,7 @@ class _JpegRenderer:
     def __init__(self, bridge: UnitreeSimBridge) -> None:
         self.bridge = bridge
         self.error: str | None = None
-        self._cond = threading.Condition()
-        self._snap: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self._stop = False
+        self._snapshots: NewestOnly[tuple[np.ndarray, np.ndarray, np.ndarray]] = NewestOnly()
         self._thread: threading.Thread | None = None
 
     def start(self) -> None:
@@ -315,14 +314,10 @@ class _JpegRenderer:
         self._thread.start()
 
     def submit(self, qpos: np.ndarray, mocap_pos: np.ndarray, mocap_quat: np.ndarray) -> None:
-        with self._cond:
-            self._snap = (qpos, mocap_pos, mocap_quat)
-            self._cond.notify()
+        self._snapshots.put((qpos, mocap_pos, mocap_quat))
 
     def stop(self) -> None:
-        with self._cond:
-            self._stop = True
-            self._cond.notify()
+        self._snapshots.close()
         if self._thread is not None:
             self._thread.join(5.0)
 
@@ -340,23 +335,12 @@ class _JpegRenderer:
             self.bridge.node.log.error(f"{self.error}; set MUJOCO_GL=egl or osmesa")
             self.bridge._frame_ready(None, self.error)
             return
-        opt = mujoco.MjvOption()
-        opt.geomgroup[2] = 0  # the robot does not see its own body
-        opt.geomgroup[3] = 0
+        opt = camera_scene_option(hide_robot=True)
         cam = model.camera("head_camera").id
         params = [int(cv2.IMWRITE_JPEG_QUALITY), self.bridge.jpeg_quality]
         try:
-            while True:
-                with self._cond:
-                    while self._snap is None and not self._stop:
-                        self._cond.wait()
-                    if self._stop:
-                        return
-                    snap, self._snap = self._snap, None
-                assert snap is not None
-                data.qpos[:], data.mocap_pos[:], data.mocap_quat[:] = snap
-                mujoco.mj_kinematics(model, data)
-                mujoco.mj_camlight(model, data)
+            while (snap := self._snapshots.take()) is not None:
+                pose_mirror(model, data, *snap)
                 renderer.update_scene(data, camera=cam, scene_option=opt)
                 rgb = renderer.render()
                 ok, buf = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), params)

@@ -38,21 +38,12 @@ from typing import Any
 import numpy as np
 
 from ...bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile, param
-from ...msgs.geometry_msgs import (
-    Point,
-    Pose,
-    PoseWithCovariance,
-    Quaternion,
-    Transform,
-    TransformStamped,
-    Twist,
-    TwistWithCovariance,
-    Vector3,
-)
+from ...msgs.base_state import base_state_messages
+from ...msgs.geometry_msgs import Twist
 from ...msgs.image import camera_info, numpy_to_image
 from ...msgs.nav_msgs import Odometry
 from ...msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
-from ...msgs.std_msgs import Bool, Header, String
+from ...msgs.std_msgs import Bool, String
 from ...msgs.tf2_msgs import TFMessage
 from ...msgs.unitree import SportModeState
 from ...safety.mux import RELEASE_TOKEN
@@ -303,7 +294,6 @@ class Go2DriverNode(Node):
     # -- state -------------------------------------------------------------------------------
     def _publish_state(self, s: SportModeState) -> None:
         cfg: Go2DriverConfig = self.config
-        header = self.header(cfg.odom_frame)
         qw, qx, qy, qz = (float(v) for v in s.imu_state.quaternion)
         norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
         if not math.isfinite(norm) or norm < 1e-6:
@@ -311,42 +301,23 @@ class Go2DriverNode(Node):
             self.log.throttled("error", 2.0, f"rt/sportmodestate has an invalid quaternion {s.imu_state.quaternion}")
             return
         qw, qx, qy, qz = qw / norm, qx / norm, qy / norm, qz / norm
-        quat = Quaternion(x=qx, y=qy, z=qz, w=qw)
-        pos = [float(v) for v in s.position]
         # velocity is in the odom (world) frame; Odometry's twist is in base_link.
         rot = _quat_to_mat(qw, qx, qy, qz)
         v_body = rot.T @ np.array([float(v) for v in s.velocity])
-        self.pub_odom.publish(
-            Odometry(
-                header=header,
-                child_frame_id=cfg.base_frame,
-                pose=PoseWithCovariance(pose=Pose(position=Point(*pos), orientation=quat)),
-                twist=TwistWithCovariance(
-                    twist=Twist(linear=Vector3(*map(float, v_body)), angular=Vector3(0.0, 0.0, float(s.yaw_speed)))
-                ),
-            )
+        odom, imu, tf = base_state_messages(
+            self.stamp(),
+            cfg.odom_frame,
+            cfg.base_frame,
+            s.position,
+            (qw, qx, qy, qz),
+            v_body,
+            (0.0, 0.0, s.yaw_speed),
+            s.imu_state.gyroscope,
+            s.imu_state.accelerometer,
         )
-        g = [float(v) for v in s.imu_state.gyroscope]
-        a = [float(v) for v in s.imu_state.accelerometer]
-        self.pub_imu.publish(
-            Imu(
-                header=self.header(cfg.base_frame, t=_stamp_sec(header)),
-                orientation=quat,
-                angular_velocity=Vector3(*g),
-                linear_acceleration=Vector3(*a),
-            )
-        )
-        self.pub_tf.publish(
-            TFMessage(
-                transforms=[
-                    TransformStamped(
-                        header=header,
-                        child_frame_id=cfg.base_frame,
-                        transform=Transform(translation=Vector3(*pos), rotation=quat),
-                    )
-                ]
-            )
-        )
+        self.pub_odom.publish(odom)
+        self.pub_imu.publish(imu)
+        self.pub_tf.publish(tf)
 
     def _status_tick(self) -> None:
         s = self.state
@@ -410,7 +381,3 @@ def _quat_to_mat(w: float, x: float, y: float, z: float) -> np.ndarray:
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
         ]
     )
-
-
-def _stamp_sec(header: Header) -> float:
-    return header.stamp.sec + header.stamp.nanosec * 1e-9

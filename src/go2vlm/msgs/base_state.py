@@ -1,0 +1,71 @@
+"""A robot base's state as ROS messages: /odom, /imu and the odom -> base transform on /tf.
+
+Shared by the sim node and the go2 driver, so that the simulated and the real robot publish the same
+messages from the same numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .builtin_interfaces import Time
+from .geometry_msgs import (
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Transform,
+    TransformStamped,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
+from .nav_msgs import Odometry
+from .sensor_msgs import Imu
+from .std_msgs import Header
+from .tf2_msgs import TFMessage
+
+__all__ = ["base_state_messages", "quaternion", "transform_stamped", "vector3"]
+
+
+def vector3(v: Sequence[float]) -> Vector3:
+    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def quaternion(wxyz: Sequence[float]) -> Quaternion:
+    """From (w, x, y, z), MuJoCo's and Unitree's order."""
+    return Quaternion(x=float(wxyz[1]), y=float(wxyz[2]), z=float(wxyz[3]), w=float(wxyz[0]))
+
+
+def transform_stamped(header: Header, child: str, pos: Sequence[float], wxyz: Sequence[float]) -> TransformStamped:
+    return TransformStamped(header=header, child_frame_id=child, transform=Transform(vector3(pos), quaternion(wxyz)))
+
+
+def base_state_messages(
+    stamp: Time,
+    odom_frame: str,
+    base_frame: str,
+    position: Sequence[float],
+    wxyz: Sequence[float],
+    lin_vel_body: Sequence[float],
+    ang_vel_body: Sequence[float],
+    gyro: Sequence[float],
+    acc: Sequence[float],
+) -> tuple[Odometry, Imu, TFMessage]:
+    """Odometry (odom -> base, twist in the base frame), Imu (base frame) and the odom -> base TF,
+    all with this stamp. Velocities are in the base frame; `wxyz` is the base orientation in odom."""
+    header = Header(stamp=stamp, frame_id=odom_frame)
+    odom = Odometry(
+        header=header,
+        child_frame_id=base_frame,
+        pose=PoseWithCovariance(pose=Pose(position=Point(*map(float, position)), orientation=quaternion(wxyz))),
+        twist=TwistWithCovariance(twist=Twist(linear=vector3(lin_vel_body), angular=vector3(ang_vel_body))),
+    )
+    imu = Imu(
+        header=Header(stamp=stamp, frame_id=base_frame),
+        orientation=quaternion(wxyz),
+        angular_velocity=vector3(gyro),
+        linear_acceleration=vector3(acc),
+    )
+    tf = TFMessage(transforms=[transform_stamped(header, base_frame, position, wxyz)])
+    return odom, imu, tf
