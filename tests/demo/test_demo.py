@@ -101,8 +101,16 @@ def test_demo_says_so_and_fails_when_the_robot_falls(tmp_path: Path) -> None:
             return any(json.loads(m.data)["sim_time"] > 3.0 for m in status.msgs())
 
         assert wait_for(walking, timeout=60) and wait_for(lambda: push.matched > 0, timeout=10)
-        # Airborne and rolling fast: no gait phase catches this (a plain 4 m/s side kick sometimes is).
-        push.publish(Twist(linear=Vector3(0.0, 5.0, 2.0), angular=Vector3(25.0, 0.0, 0.0)))
+
+        def fell() -> bool:
+            return any(json.loads(m.data).get("fell") for m in status.msgs())
+
+        # Airborne and rolling fast. Kick again until the sim reports the fall: a sample sent right
+        # after matching can be lost while the sim's reader has not yet discovered this writer.
+        for _ in range(6):
+            push.publish(Twist(linear=Vector3(0.0, 5.0, 2.0), angular=Vector3(25.0, 0.0, 0.0)))
+            if wait_for(fell, timeout=1.5):
+                break
         out, _ = proc.communicate(timeout=120)
     finally:
         kicker.shutdown()

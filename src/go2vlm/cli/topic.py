@@ -208,8 +208,13 @@ def cmd_pub(args: argparse.Namespace) -> int:
     node = _Collector(node_name="go2vlm_topic_pub")
     pub = node.create_publisher(cls, args.topic, PROFILES[args.qos])
     deadline = time.monotonic() + args.wait
+    waited = False
     while pub.matched == 0 and time.monotonic() < deadline:
+        waited = True
         time.sleep(0.02)
+    if waited and pub.matched:
+        # We see the reader; give it a moment to see us, or it drops what we send first.
+        time.sleep(0.25)
     count = 1 if args.once else args.count
     sent = 0
     period = 1.0 / args.rate
