@@ -277,7 +277,8 @@ def test_cli_node_with_tiny_model_over_dds(tiny_ckpt: Path, procs, harness: Harn
         ok = wait_for(lambda: len(harness.dets) >= 3 or proc.poll() is not None, 180, 0.2)
         assert proc.poll() is None, log_path.read_text()[-3000:]
         assert ok
-        assert wait_for(lambda: any(s["frames_dropped"] > 0 for s in mine()), 30)
+        # Frames are dropped while the model loads too: wait for a status published after answers.
+        assert wait_for(lambda: bool(mine()) and mine()[-1]["inferences"] > 0 and mine()[-1]["frames_dropped"] > 0, 30)
     finally:
         stop.set()
         cam.join(2)
