@@ -515,14 +515,16 @@ def build_tiny_checkpoint(
     answer: str | None = None,
     steps: int = 300,
     seed: int = 0,
+    prompts: Sequence[str] | None = None,
 ) -> Path:
     """Build a tiny Qwen2.5-VL checkpoint in ``out_dir``; if ``answer`` is given, train it to say that.
 
-    ``answer=None`` leaves random weights (useful for latency/token benchmarks only).
+    ``answer=None`` leaves random weights (useful for latency/token benchmarks only). ``prompts``
+    narrows training to those prompts (the answer is then exact for them, and learnt sooner).
     """
     out = save_untrained_checkpoint(out_dir, seed=seed)
     if answer is not None and steps > 0:
-        train_fixed_output(out, answer, steps, seed=seed)
+        train_fixed_output(out, answer, steps, seed=seed, prompts=prompts)
     meta = {"answer": answer, "steps": steps, "seed": seed}
     (out / "go2vlm_tiny.json").write_text(json.dumps(meta, ensure_ascii=False, indent=1))
     return out
@@ -533,6 +535,7 @@ def cached_tiny_checkpoint(
     answer: str | None = DEFAULT_ANSWER,
     steps: int = 300,
     seed: int = 0,
+    prompts: Sequence[str] | None = None,
     cache_root: str | os.PathLike[str] | None = None,
 ) -> Path:
     """Build once and reuse: ``<cache_root>/tiny-<hash of parameters and library versions>``.
@@ -551,6 +554,7 @@ def cached_tiny_checkpoint(
             "answer": answer,
             "steps": steps,
             "seed": seed,
+            "prompts": list(prompts) if prompts else None,
             "v": 1,
             "transformers": transformers.__version__,
             "tokenizers": tokenizers.__version__,
@@ -566,7 +570,7 @@ def cached_tiny_checkpoint(
     root.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f"tiny-{key}.", dir=root))
     try:
-        build_tiny_checkpoint(tmp, answer=answer, steps=steps, seed=seed)
+        build_tiny_checkpoint(tmp, answer=answer, steps=steps, seed=seed, prompts=prompts)
         try:
             tmp.rename(final)
         except OSError:
