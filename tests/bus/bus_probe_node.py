@@ -11,8 +11,12 @@ Run it as a process exactly as `go2vlm run` runs a node: `python -m bus_probe_no
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from go2vlm.bus import Node, param
 from go2vlm.msgs.std_msgs import String
@@ -65,3 +69,20 @@ if __name__ == "__main__":
     from go2vlm.cli.main import main
 
     sys.exit(main(sys.argv[1:]))
+
+
+def start(procs: Any, *args: str) -> subprocess.Popen[str]:
+    """Start the probe as a real `go2vlm run`-style process, stopped with the `procs` fixture."""
+    from busutil import env
+
+    e = env()
+    e["PYTHONPATH"] = os.pathsep.join([str(Path(__file__).parent), e.get("PYTHONPATH", "")])
+    p = subprocess.Popen(
+        [sys.executable, "-m", "bus_probe_node", "run", "probe", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=e,
+    )
+    procs.procs.append(p)
+    return p

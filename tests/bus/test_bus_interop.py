@@ -3,14 +3,13 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import bus_probe_node
 import numpy as np
 import pytest
 from bus_rosbags import typestore
@@ -35,8 +34,6 @@ from go2vlm.msgs.rmw_dds_common import ParticipantEntitiesInfo
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Header, String
 
-HERE = Path(__file__).parent
-
 
 class Peer(Node):
     name = "bus_interop_peer"
@@ -49,17 +46,6 @@ def node() -> Iterator[Peer]:
         yield n
 
 
-def start_probe(procs: Procs, *args: str) -> subprocess.Popen[str]:
-    e = dict(env(), PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
-    p = subprocess.Popen(
-        [sys.executable, "-m", "bus_probe_node", "run", "probe", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=e,
-    )
-    procs.procs.append(p)
-    return p
 
 
 def discovery_reader() -> DataReader:
@@ -100,7 +86,7 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
     """What `ros2 node list` / rqt_graph decode: our probe node with 1 reader and 2 writers, whose
     gids are the participant's and the endpoints' DDS GUIDs."""
     reader = discovery_reader()
-    p = start_probe(procs, "--name", "probe_graph")
+    p = bus_probe_node.start(procs, "--name", "probe_graph")
     found: dict[str, Any] = {}
 
     def seen() -> bool:
@@ -141,7 +127,7 @@ def wait_until_ticking(node: Peer) -> None:
 
 
 def test_topic_list_hides_ros_discovery_info(procs: Procs, node: Peer) -> None:
-    p = start_probe(procs, "--name", "probe_list")
+    p = bus_probe_node.start(procs, "--name", "probe_list")
     wait_until_ticking(node)
     out = subprocess.run(
         [*GO2VLM, "topic", "list", "-t", "--wait", "2"], capture_output=True, text=True, timeout=30, env=env()
@@ -296,7 +282,7 @@ def test_bytes_field_has_the_xtypes_id_of_an_octet_sequence() -> None:
 
 
 def test_node_list(procs: Procs, node: Peer) -> None:
-    p = start_probe(procs, "--name", "probe_nodes")
+    p = bus_probe_node.start(procs, "--name", "probe_nodes")
     wait_until_ticking(node)
     out = subprocess.run(
         [*GO2VLM, "node", "list", "-v", "--wait", "2"], capture_output=True, text=True, timeout=30, env=env()

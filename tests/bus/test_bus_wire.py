@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import bus_probe_node
 import numpy as np
 import pytest
 from busutil import GO2VLM, Procs, Recorder, echo_json, env, wait_for
@@ -38,19 +39,6 @@ def node() -> Iterator[Listener]:
         yield n
 
 
-def probe(procs: Procs, *args: str) -> subprocess.Popen[str]:
-    """Start the probe node (tests/bus/bus_probe_node.py) as a real `go2vlm run` process."""
-    e = env()
-    e["PYTHONPATH"] = os.pathsep.join([str(HERE), e.get("PYTHONPATH", "")])
-    p = subprocess.Popen(
-        [sys.executable, "-m", "bus_probe_node", "run", "probe", *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=e,
-    )
-    procs.procs.append(p)
-    return p
 
 
 @pytest.mark.parametrize("qos", ["default", "sensor"])
@@ -180,7 +168,7 @@ def test_remap_and_timer(procs: Procs, node: Listener) -> None:
     node.create_subscription(String, "/renamed/out", out)
     node.create_subscription(String, "/renamed/tick", ticks)
     pub = node.create_publisher(String, "/renamed/in")
-    p = probe(
+    p = bus_probe_node.start(
         procs,
         "--remap",
         "/probe/in:=/renamed/in",
@@ -213,7 +201,7 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     ticks = Recorder()
     topic = f"/shutdown_{int(sig)}/tick"
     node.create_subscription(String, topic, ticks)
-    p = probe(procs, "--remap", f"/probe/tick:={topic}", "--param", "rate=50")
+    p = bus_probe_node.start(procs, "--remap", f"/probe/tick:={topic}", "--param", "rate=50")
     assert wait_for(lambda: len(ticks) >= 3, 15)
     t0 = time.monotonic()
     p.send_signal(sig)
