@@ -46,8 +46,6 @@ def node() -> Iterator[Peer]:
         yield n
 
 
-
-
 def discovery_reader() -> DataReader:
     dp = domain.participant()
     topic = domain.topic(dp, di.TOPIC, ParticipantEntitiesInfo)

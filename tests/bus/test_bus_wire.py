@@ -39,8 +39,6 @@ def node() -> Iterator[Listener]:
         yield n
 
 
-
-
 @pytest.mark.parametrize("qos", ["default", "sensor"])
 @pytest.mark.parametrize(
     ("type_name", "yaml_msg", "expect"),

@@ -1,6 +1,6 @@
 """The bus: ROS 2 topics over cyclonedds without a ROS install, and the node runtime on top.
 
-    from go2vlm.bus import Node, param, QOS_SENSOR
+from go2vlm.bus import Node, param, QOS_SENSOR
 """
 
 from .domain import cyclone_config, dds_topic_name, domain_id_from_env, participant

@@ -21,9 +21,7 @@ class QosProfile:
 
     def to_dds(self) -> Qos:
         reliability = (
-            Policy.Reliability.Reliable(duration(milliseconds=100))
-            if self.reliable
-            else Policy.Reliability.BestEffort
+            Policy.Reliability.Reliable(duration(milliseconds=100)) if self.reliable else Policy.Reliability.BestEffort
         )
         durability = Policy.Durability.TransientLocal if self.transient_local else Policy.Durability.Volatile
         return Qos(

@@ -51,7 +51,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb = verbs.add_parser("pub", help="publish a message given as YAML or JSON")
     pb.add_argument("topic")
     pb.add_argument("type", help="message type, e.g. geometry_msgs/msg/Twist")
-    pb.add_argument("values", nargs="?", default="{}", help="YAML/JSON, e.g. \"{linear: {x: 0.2}}\"")
+    pb.add_argument("values", nargs="?", default="{}", help='YAML/JSON, e.g. "{linear: {x: 0.2}}"')
     pb.add_argument("--rate", "-r", type=float, default=1.0, help="Hz")
     pb.add_argument("--count", "-t", type=int, default=0, help="publish N times then exit (0: forever)")
     pb.add_argument("--once", "-1", action="store_true", help="publish once then exit")

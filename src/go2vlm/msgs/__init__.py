@@ -32,10 +32,12 @@ __all__ = [
     "vision_msgs",
 ]
 
+
 def ros_name(cls: type[IdlStruct]) -> str:
     """`sensor_msgs::msg::dds_::Image_` -> `sensor_msgs/msg/Image`."""
     pkg, kind, _, name = cls.__idl_typename__.split("::")
     return f"{pkg}/{kind}/{name.rstrip('_')}"
+
 
 def get_type(name: str) -> type[IdlStruct]:
     """Find a message class by ROS name (`sensor_msgs/msg/Image`, `sensor_msgs/Image`) or DDS name."""
@@ -50,6 +52,7 @@ def get_type(name: str) -> type[IdlStruct]:
     except KeyError:
         known = ", ".join(sorted(ros_name(c) for c in REGISTRY.values()))
         raise ValueError(f"unknown message type {name!r}; known types: {known}") from None
+
 
 def _load_optional() -> None:
     # Unitree and graph types register themselves on import; load them lazily for lookups.

@@ -19,6 +19,7 @@ __all__ = ["IdlStruct", "default", "ros_typename", "REGISTRY", "register"]
 # DDS type name -> class, so tools can find a type from discovery data.
 REGISTRY: dict[str, type[IdlStruct]] = {}
 
+
 def _describe_bytes_as_octet_sequence() -> None:
     """cyclonedds 11 (de)serializes a `bytes` field as one block, but its XTypes builder cannot
     describe `bytes`, so creating a topic of such a type fails. On the wire `bytes` is exactly a
@@ -44,9 +45,11 @@ def ros_typename(ros_type: str) -> str:
     pkg, kind, name = ros_type.split("/")
     return f"{pkg}::{kind}::dds_::{name}_"
 
+
 def register(cls: type[IdlStruct]) -> type[IdlStruct]:
     REGISTRY[cls.__idl_typename__] = cls
     return cls
+
 
 def default(factory: Any) -> Any:
     """A dataclass field whose default is a fresh `factory()` (nested structs, lists)."""

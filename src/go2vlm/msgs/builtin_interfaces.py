@@ -25,6 +25,7 @@ class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
     def to_sec(self) -> float:
         return self.sec + self.nanosec * 1e-9
 
+
 @register
 @dataclass
 class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):

@@ -16,6 +16,7 @@ class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
     y: float = 0.0
     z: float = 0.0
 
+
 @register
 @dataclass
 class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
@@ -23,11 +24,13 @@ class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
     y: float = 0.0
     z: float = 0.0
 
+
 @register
 @dataclass
 class PointStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PointStamped_"):
     header: Header = default(Header)
     point: Point = default(Point)
+
 
 @register
 @dataclass
@@ -37,11 +40,13 @@ class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
     z: float = 0.0
     w: float = 1.0
 
+
 @register
 @dataclass
 class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
     position: Point = default(Point)
     orientation: Quaternion = default(Quaternion)
+
 
 @register
 @dataclass
@@ -49,11 +54,13 @@ class PoseStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
     header: Header = default(Header)
     pose: Pose = default(Pose)
 
+
 @register
 @dataclass
 class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
     pose: Pose = default(Pose)
     covariance: types.array[float, 36] = default(lambda: [0.0] * 36)
+
 
 @register
 @dataclass
@@ -61,11 +68,13 @@ class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
     linear: Vector3 = default(Vector3)
     angular: Vector3 = default(Vector3)
 
+
 @register
 @dataclass
 class TwistStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
     header: Header = default(Header)
     twist: Twist = default(Twist)
+
 
 @register
 @dataclass
@@ -73,11 +82,13 @@ class TwistWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::TwistWi
     twist: Twist = default(Twist)
     covariance: types.array[float, 36] = default(lambda: [0.0] * 36)
 
+
 @register
 @dataclass
 class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
     translation: Vector3 = default(Vector3)
     rotation: Quaternion = default(Quaternion)
+
 
 @register
 @dataclass

@@ -24,12 +24,14 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
     step: types.uint32 = 0
     data: bytes = b""
 
+
 @register
 @dataclass
 class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedImage_"):
     header: Header = default(Header)
     format: str = ""
     data: bytes = b""
+
 
 @register
 @dataclass
@@ -39,6 +41,7 @@ class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInte
     height: types.uint32 = 0
     width: types.uint32 = 0
     do_rectify: bool = False
+
 
 @register
 @dataclass
@@ -55,6 +58,7 @@ class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
     binning_y: types.uint32 = 0
     roi: RegionOfInterest = default(RegionOfInterest)
 
+
 @register
 @dataclass
 class Imu(IdlStruct, typename="sensor_msgs::msg::dds_::Imu_"):
@@ -65,6 +69,7 @@ class Imu(IdlStruct, typename="sensor_msgs::msg::dds_::Imu_"):
     angular_velocity_covariance: types.array[float, 9] = default(lambda: [0.0] * 9)
     linear_acceleration: Vector3 = default(Vector3)
     linear_acceleration_covariance: types.array[float, 9] = default(lambda: [0.0] * 9)
+
 
 @register
 @dataclass

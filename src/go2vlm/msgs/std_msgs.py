@@ -14,15 +14,18 @@ class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
     stamp: Time = default(Time)
     frame_id: str = ""
 
+
 @register
 @dataclass
 class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
     data: str = ""
 
+
 @register
 @dataclass
 class Bool(IdlStruct, typename="std_msgs::msg::dds_::Bool_"):
     data: bool = False
+
 
 @register
 @dataclass

@@ -16,11 +16,13 @@ class Point2D(IdlStruct, typename="vision_msgs::msg::dds_::Point2D_"):
     x: float = 0.0
     y: float = 0.0
 
+
 @register
 @dataclass
 class Pose2D(IdlStruct, typename="vision_msgs::msg::dds_::Pose2D_"):
     position: Point2D = default(Point2D)
     theta: float = 0.0
+
 
 @register
 @dataclass
@@ -29,17 +31,20 @@ class BoundingBox2D(IdlStruct, typename="vision_msgs::msg::dds_::BoundingBox2D_"
     size_x: float = 0.0
     size_y: float = 0.0
 
+
 @register
 @dataclass
 class ObjectHypothesis(IdlStruct, typename="vision_msgs::msg::dds_::ObjectHypothesis_"):
     class_id: str = ""
     score: float = 0.0
 
+
 @register
 @dataclass
 class ObjectHypothesisWithPose(IdlStruct, typename="vision_msgs::msg::dds_::ObjectHypothesisWithPose_"):
     hypothesis: ObjectHypothesis = default(ObjectHypothesis)
     pose: PoseWithCovariance = default(PoseWithCovariance)
+
 
 @register
 @dataclass
@@ -48,6 +53,7 @@ class Detection2D(IdlStruct, typename="vision_msgs::msg::dds_::Detection2D_"):
     results: types.sequence[ObjectHypothesisWithPose] = default(list)
     bbox: BoundingBox2D = default(BoundingBox2D)
     id: str = ""
+
 
 @register
 @dataclass

@@ -105,9 +105,7 @@ def shape_scores(contour: np.ndarray, width: int, height: int) -> ShapeScores:
     clipped_v = y <= m or y + h >= height - m
     clipped = clipped_h or clipped_v
     pts = _resample(contour.reshape(-1, 2).astype(np.float64), 160)
-    inner = pts[
-        (pts[:, 0] > m) & (pts[:, 0] < width - 1 - m) & (pts[:, 1] > m) & (pts[:, 1] < height - 1 - m)
-    ]
+    inner = pts[(pts[:, 0] > m) & (pts[:, 0] < width - 1 - m) & (pts[:, 1] > m) & (pts[:, 1] < height - 1 - m)]
     roundness = 0.0
     if len(inner) >= 8:
         _, _, r, rms = _circle_fit(inner)
