@@ -101,6 +101,10 @@ class _Session:
 
     def call(self, api: int) -> bool:
         result = self.sport.call(api)
+        if result.code == self.p.ERR_CLIENT_API_TIMEOUT:
+            # Posture calls are idempotent; the first request after discovery can be dropped while
+            # the robot's reader has not matched us yet, so one retry is safe and enough.
+            result = self.sport.call(api)
         name = self.p.SPORT_API_NAMES.get(api, str(api))
         if not result.ok:
             print(f"go2vlm go2: {name} failed: {result.describe()}", file=sys.stderr)
