@@ -165,6 +165,8 @@ def test_newest_frame_wins_and_drops_are_counted(harness: Harness) -> None:
         for i in range(2, 7):
             harness.cam.publish(image(i))
         assert wait_for(lambda: node.slot.received >= received_before + 5, 10)
+        # Late copies of frame 1 count as received too: wait until frame 6 is the one waiting.
+        assert wait_for(lambda: (m := node.slot.peek()) is not None and m.header.stamp.sec == 1006, 10)
         fake.gate.release()
         assert wait_for(lambda: len(fake.started) >= 2, 10)
         assert fake.started[1] == 6

@@ -46,6 +46,11 @@ class LatestSlot(Generic[T]):
             self._cond.notify()
             return dropped
 
+    def peek(self) -> T | None:
+        """The item waiting to be taken, if any, without taking it (for status and tests)."""
+        with self._cond:
+            return None if self._item is None else self._item.item
+
     def take(self, timeout_s: float | None = None) -> Stamped[T] | None:
         """The newest untaken item, waiting up to ``timeout_s``; None on timeout or close."""
         with self._cond:
