@@ -113,7 +113,6 @@ _TOKENIZER_CORPUS = [
 
 def make_tiny_config(vocab_size: int, special_ids: dict[str, int], *, hidden: int = 64, layers: int = 2) -> Any:
     """A tiny ``Qwen2_5_VLConfig``: small widths, real vision geometry."""
-    from transformers import Qwen2_5_VLConfig
 
     heads = 4
     half = hidden // heads // 2  # rotary frequencies per head, split over t/h/w like Qwen's [16, 24, 24]
@@ -147,15 +146,7 @@ def make_tiny_config(vocab_size: int, special_ids: dict[str, int], *, hidden: in
         "tokens_per_second": 2,
         "in_channels": 3,
     }
-    config = Qwen2_5_VLConfig(
-        text_config=text_config,
-        vision_config=vision_config,
-        image_token_id=special_ids["<|image_pad|>"],
-        video_token_id=special_ids["<|video_pad|>"],
-        vision_start_token_id=special_ids["<|vision_start|>"],
-        vision_end_token_id=special_ids["<|vision_end|>"],
-        tie_word_embeddings=False,
-    )
+    config = _qwen_config(text_config, vision_config, special_ids, tie_word_embeddings=False)
     config.architectures = ["Qwen2_5_VLForConditionalGeneration"]
     return config
 
@@ -198,7 +189,6 @@ def make_arch_config(
     vision_layers: int | None = None,
 ) -> Any:
     """A ``Qwen2_5_VLConfig`` with a published model's shapes (optionally fewer layers, for smoke runs)."""
-    from transformers import Qwen2_5_VLConfig
 
     spec = ARCHS[arch]
     text = dict(spec["text"])
@@ -226,15 +216,7 @@ def make_arch_config(
         fullatt_block_indexes=[i for i in (7, 15, 23, 31) if i < depth] or [depth - 1],
         tokens_per_second=2,
     )
-    config = Qwen2_5_VLConfig(
-        text_config=text,
-        vision_config=vision,
-        image_token_id=special_ids["<|image_pad|>"],
-        video_token_id=special_ids["<|video_pad|>"],
-        vision_start_token_id=special_ids["<|vision_start|>"],
-        vision_end_token_id=special_ids["<|vision_end|>"],
-        tie_word_embeddings=spec["tie_word_embeddings"],
-    )
+    config = _qwen_config(text, vision, special_ids, tie_word_embeddings=spec["tie_word_embeddings"])
     config.architectures = ["Qwen2_5_VLForConditionalGeneration"]
     return config
 
@@ -580,3 +562,18 @@ def cached_tiny_checkpoint(
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return final
+
+
+def _qwen_config(text: Any, vision: Any, special_ids: dict[str, int], *, tie_word_embeddings: bool) -> Any:
+    """A Qwen2_5_VLConfig whose image/video/vision-boundary token ids match our tokenizer."""
+    from transformers import Qwen2_5_VLConfig
+
+    return Qwen2_5_VLConfig(
+        text_config=text,
+        vision_config=vision,
+        image_token_id=special_ids["<|image_pad|>"],
+        video_token_id=special_ids["<|video_pad|>"],
+        vision_start_token_id=special_ids["<|vision_start|>"],
+        vision_end_token_id=special_ids["<|vision_end|>"],
+        tie_word_embeddings=tie_word_embeddings,
+    )
