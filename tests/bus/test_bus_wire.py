@@ -147,6 +147,23 @@ def test_latched_late_joiner(procs: Procs, node: Listener) -> None:
     assert out.returncode == 1 and "last value" not in out.stdout
 
 
+def test_shut_down_node_leaves_nothing_latched() -> None:
+    # A stale latched `/emergency_stop true` from a node that has shut down once made the go2 CLI
+    # refuse to move: shutdown must take the node's writers off the wire, references or not.
+    gone = Node(node_name="gone")
+    estop = gone.create_publisher(String, "/wire/left_behind", QOS_LATCHED)
+    late = Recorder()
+    with running(gone):
+        estop.publish(String(data="stale"))
+    listener = Node(node_name="late_joiner")
+    listener.create_subscription(String, "/wire/left_behind", late, QOS_LATCHED)
+    with running(listener):
+        time.sleep(1.0)
+    assert late.msgs() == []
+    estop.publish(String(data="after shutdown"))  # a late worker thread: dropped, not an error
+    assert estop.count == 1
+
+
 def test_qos_mismatch_and_auto_qos(procs: Procs, node: Listener) -> None:
     procs.start(
         "topic", "pub", "/wire/best_effort", "std_msgs/msg/String", "{data: be}", "--rate", "20", "--qos", "sensor"

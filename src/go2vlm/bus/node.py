@@ -35,6 +35,12 @@ class NoParams:
     """A node without parameters."""
 
 
+def _delete(entity: Any) -> None:
+    """Delete a DDS entity now. cyclonedds-python deletes only when the object is garbage
+    collected, and until then a latched writer keeps handing its last sample to late joiners."""
+    entity.__del__()
+
+
 class Publisher(Generic[M]):
     def __init__(self, node: Node, msg_type: type[M], topic: str, qos: QosProfile) -> None:
         self.topic = topic
@@ -42,12 +48,15 @@ class Publisher(Generic[M]):
         self.qos = qos
         dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
         self._writer = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
+        self._closed = False
         self.count = 0
-        self._count_lock = threading.Lock()  # nodes may publish from their own worker threads
+        self._lock = threading.Lock()  # nodes publish from worker threads, and shutdown closes
 
     def publish(self, msg: M) -> None:
-        self._writer.write(msg)
-        with self._count_lock:
+        with self._lock:
+            if self._closed:
+                return  # a worker thread finishing after shutdown; the writer is gone
+            self._writer.write(msg)
             self.count += 1
 
     @property
@@ -60,7 +69,9 @@ class Publisher(Generic[M]):
         return self._writer.guid
 
     def close(self) -> None:
-        self._writer = None  # type: ignore[assignment]
+        with self._lock:
+            self._closed = True
+            _delete(self._writer)
 
 
 class Subscription(Generic[M]):
@@ -89,6 +100,10 @@ class Subscription(Generic[M]):
     @property
     def publisher_count(self) -> int:
         return len(self._reader.get_matched_publications())
+
+    def close(self) -> None:
+        _delete(self.condition)
+        _delete(self._reader)
 
 
 @dataclass
@@ -273,6 +288,9 @@ class Node:
                     self._waitset.detach(sub.condition)
                 except Exception:
                     pass
+                sub.close()
+            for pub in self.publishers:
+                pub.close()
             self.subscriptions.clear()
             self.publishers.clear()
             self._timers.clear()
