@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,6 +31,7 @@ class ProbeConfig:
     repeat: int = param(1, help="publish each echo this many times", min=1, max=10)
     loud: bool = param(False, help="log every message")
     labels: list[str] = param(list, help="free-form labels")
+    stuck_close: bool = param(False, help="close() never returns (a stuck driver, for shutdown tests)")
 
 
 class ProbeNode(Node):
@@ -52,6 +54,10 @@ class ProbeNode(Node):
         text = msg.data if self.config.mode == "echo" else str(self.received)
         for _ in range(self.config.repeat):
             self.out.publish(String(data=self.config.prefix + text))
+
+    def close(self) -> None:
+        while self.config.stuck_close:
+            time.sleep(0.1)
 
     def on_tick(self) -> None:
         self.ticks += 1

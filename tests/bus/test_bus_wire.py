@@ -220,13 +220,33 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     assert wait_for(lambda: len(ticks) >= 3, 15)
     t0 = time.monotonic()
     p.send_signal(sig)
-    out, _ = p.communicate(timeout=5)
+    out, _ = p.communicate(timeout=15)  # past the shutdown grace, so a stuck one shows its stacks
     assert p.returncode == 0, out
     assert time.monotonic() - t0 < 3.0
     assert "Traceback" not in out and "Error" not in out
     n = len(ticks)
     time.sleep(0.3)
     assert len(ticks) == n  # it really stopped publishing
+
+
+def test_stuck_shutdown_is_bounded_and_says_where(procs: Procs) -> None:
+    p = bus_probe_node.start(procs, "--param", "stuck_close=true")
+    time.sleep(2.0)  # running: the signal handler is installed
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=30)
+    assert p.returncode == 1 and "Timeout" in out, out  # faulthandler's watchdog ended it
+    assert "in close" in out and "bus_probe_node.py" in out, out  # the stuck frame is named
+
+
+def test_second_signal_exits_at_once(procs: Procs) -> None:
+    p = bus_probe_node.start(procs, "--param", "stuck_close=true")
+    time.sleep(2.0)
+    p.send_signal(signal.SIGINT)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=30)
+    assert p.returncode == 128 + signal.SIGINT, out  # not the grace watchdog's exit code 1
+    assert "second signal" in out and "in close" in out
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])

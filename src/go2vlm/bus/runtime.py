@@ -3,7 +3,10 @@ tests and the launcher."""
 
 from __future__ import annotations
 
+import faulthandler
+import os
 import signal
+import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -11,9 +14,14 @@ from types import FrameType
 
 from .node import Node
 
+# A node's shutdown normally takes well under a second; past this, print every thread's stack and
+# exit hard, so Ctrl-C never hangs and a stuck shutdown says where it is stuck. It stays under the
+# launcher's 5 s before it kills a child.
+SHUTDOWN_GRACE_S = 4.0
+
 
 class ShutdownRequested:
-    """Set by SIGINT/SIGTERM; wait on it instead of sleeping."""
+    """Set by SIGINT/SIGTERM; wait on it instead of sleeping. A second signal exits at once."""
 
     def __init__(self) -> None:
         self.event = threading.Event()
@@ -21,6 +29,10 @@ class ShutdownRequested:
 
     def install(self) -> None:
         def handler(signum: int, _frame: FrameType | None) -> None:
+            if self.event.is_set():
+                print("second signal: exiting without a clean shutdown; threads were at:", file=sys.stderr)
+                faulthandler.dump_traceback(all_threads=True)
+                os._exit(128 + signum)
             self.signal = signum
             self.event.set()
 
@@ -52,8 +64,13 @@ def spin(
             stop.event.wait(0.05)
             elapsed += 0.05
     finally:
-        for node in reversed(nodes):
-            node.shutdown()
+        # faulthandler's watchdog is a C thread: it fires even if the hang holds the GIL.
+        faulthandler.dump_traceback_later(SHUTDOWN_GRACE_S, exit=True)
+        try:
+            for node in reversed(nodes):
+                node.shutdown()
+        finally:
+            faulthandler.cancel_dump_traceback_later()
 
 
 @contextmanager
