@@ -47,14 +47,13 @@ class Publisher(Generic[M]):
         self.msg_type = msg_type
         self.qos = qos
         dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
-        self._writer = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
-        self._closed = False
+        self._writer: DataWriter | None = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
         self.count = 0
         self._lock = threading.Lock()  # nodes publish from worker threads, and shutdown closes
 
     def publish(self, msg: M) -> None:
         with self._lock:
-            if self._closed:
+            if self._writer is None:
                 return  # a worker thread finishing after shutdown; the writer is gone
             self._writer.write(msg)
             self.count += 1
@@ -70,8 +69,8 @@ class Publisher(Generic[M]):
 
     def close(self) -> None:
         with self._lock:
-            self._closed = True
             _delete(self._writer)
+            self._writer = None
 
 
 class Subscription(Generic[M]):

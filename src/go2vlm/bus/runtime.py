@@ -15,8 +15,8 @@ from types import FrameType
 from .node import Node
 
 # A node's shutdown normally takes well under a second; past this, print every thread's stack and
-# exit hard, so Ctrl-C never hangs and a stuck shutdown says where it is stuck. It stays under the
-# launcher's 5 s before it kills a child.
+# exit hard, so Ctrl-C never hangs and a stuck shutdown says where it is stuck. The launcher waits
+# a little longer than this before it kills a child.
 SHUTDOWN_GRACE_S = 4.0
 
 

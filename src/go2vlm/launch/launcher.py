@@ -30,6 +30,7 @@ from typing import Any
 import yaml
 
 from ..bus import Node, ShutdownRequested, build_config
+from ..bus.runtime import SHUTDOWN_GRACE_S
 from .registry import NODES, make_node, node_class
 
 __all__ = ["LaunchEntry", "LaunchError", "available", "load_launch", "resolve", "run_in_process", "run_processes"]
@@ -191,7 +192,8 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
     return 1 if all_dead else 0
 
 
-def _stop_children(procs: list[subprocess.Popen[bytes]], timeout_s: float = 5.0) -> None:
+def _stop_children(procs: list[subprocess.Popen[bytes]], timeout_s: float = SHUTDOWN_GRACE_S + 1.0) -> None:
+    # A child's own watchdog prints its stacks at SHUTDOWN_GRACE_S; kill only after that.
     for p in procs:
         if p.poll() is None:
             p.send_signal(signal.SIGINT)
