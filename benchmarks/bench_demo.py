@@ -26,7 +26,7 @@ from typing import Any
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(20, 220)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 
-from go2vlm.sim.demo import DemoOptions, run_demo  # noqa: E402
+from go2vlm.apps.follow_demo import DemoOptions, run_demo  # noqa: E402
 
 
 def group(cpu: dict[str, float]) -> dict[str, float]:

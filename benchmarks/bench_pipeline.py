@@ -44,7 +44,7 @@ def bench_detector(frames: int) -> None:
     from go2vlm.msgs.image import numpy_to_image, to_bgr
     from go2vlm.msgs.std_msgs import Header
     from go2vlm.perception.color import PRESETS, detect_color
-    from go2vlm.sources.test_pattern import draw_pattern
+    from go2vlm.sources.test_pattern_node import draw_pattern
 
     cv2.setNumThreads(1)
     if hasattr(os, "sched_setaffinity"):
@@ -83,7 +83,7 @@ def bench_latency(flips: int, period_s: float) -> None:
     from go2vlm.msgs.geometry_msgs import PointStamped, Twist
     from go2vlm.msgs.image import numpy_to_image
     from go2vlm.msgs.sensor_msgs import Image
-    from go2vlm.sources.test_pattern import draw_pattern
+    from go2vlm.sources.test_pattern_node import draw_pattern
 
     circle_right = draw_pattern(0)  # x = 450: turn right (angular.z < 0)
     circle_left = cv2.flip(circle_right, 1)  # x = 640 - 450 = 190: turn left

@@ -172,7 +172,7 @@ def postprocess(gen: Any) -> tuple[float, int]:
 
     try:  # the message types need cyclonedds; a bare GPU box may lack it (latency/sizes still run)
         from go2vlm.msgs.std_msgs import Header
-        from go2vlm.perception.vlm.node import detections_msg
+        from go2vlm.perception.vlm.vlm_node import detections_msg
     except ImportError:
         detections_msg = None  # type: ignore[assignment]
 
@@ -293,8 +293,8 @@ def bench_freshness(args: argparse.Namespace, inner: Any, hz: float, extra_ms: f
     from go2vlm.msgs.sensor_msgs import Image
     from go2vlm.msgs.std_msgs import Header
     from go2vlm.msgs.vision_msgs import Detection2DArray
-    from go2vlm.perception.vlm.node import VlmConfig, VlmNode, detections_msg, image_to_rgb
     from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
+    from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, detections_msg, image_to_rgb
 
     backend = _Preloaded(inner, extra_ms)
     h, w = args.latency_size

@@ -27,5 +27,5 @@ if [ ! -x .venv/bin/python ]; then
 fi
 .venv/bin/python -m pip install -q --upgrade pip
 echo "setup: installing go2vlm[$extras] (the first time this takes a few minutes)"
-.venv/bin/python -m pip install -q -e ".[$extras]"
+.venv/bin/python -m pip install -q -c scripts/constraints.txt -e ".[$extras]"
 echo "setup: done. Try: .venv/bin/go2vlm --help"

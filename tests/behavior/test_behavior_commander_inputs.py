@@ -14,6 +14,7 @@ import pytest
 from busutil import echo_json, wait_for
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, running
+from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
@@ -75,7 +76,7 @@ class _Cam(Node):
         h = Header(stamp=self.stamp(), frame_id="camera")
         self.headers.append(h)
         self.img.publish(numpy_to_image(frame(self.cx), "bgr8", h))
-        self.info.publish(camera_info(640, 480, 1.274))
+        self.info.publish(camera_info(PinholeCamera.from_hfov(640, 480, 1.274)))
 
     def last(self) -> dict:
         with self.lock:

@@ -14,7 +14,7 @@ pytest.importorskip("mujoco")
 
 from busutil import wait_for  # noqa: E402
 
-from go2vlm.behavior.goal_demo import GoalDemoOptions, run_goal_demo  # noqa: E402
+from go2vlm.apps.goal_demo import GoalDemoOptions, run_goal_demo  # noqa: E402
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ShutdownRequested, running  # noqa: E402
 from go2vlm.launch.registry import make_node  # noqa: E402
 from go2vlm.msgs.geometry_msgs import Twist  # noqa: E402

@@ -9,7 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from go2vlm.behavior.approach import ApproachParams, CameraModel, RangeEstimator, approach_command, normalized_target
+from go2vlm.behavior.approach import ApproachParams, RangeEstimator, approach_command
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.target import normalized_target
 from go2vlm.perception.grounding import ground
 from go2vlm.perception.tracker import HistTracker
 
@@ -126,7 +128,7 @@ def _view(sim, x: float, y: float, yaw: float) -> np.ndarray:
 def test_range_from_sim_frames(sim, color: str, shape: str, center: tuple[float, float], radius: float, yaw: float):
     """Camera -> surface distance within 10 cm from 3.5 m down to 0.4 m (size calibrated on the way in)."""
     hfov = 2 * math.atan(math.tan(math.radians(58.0) / 2) * 640 / 480)
-    cam = CameraModel.from_hfov(640, 480, hfov)
+    cam = PinholeCamera.from_hfov(640, 480, hfov)
     est = RangeEstimator(shape, default_sizes={"ball": 1.0, "box": 1.0, "cylinder": 1.0})  # wrong on purpose
     forward = 0.327  # head camera ahead of the base
     for d in (3.8, 3.0, 2.2, 1.6, 1.2, 0.9, 0.75):  # base -> surface

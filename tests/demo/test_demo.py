@@ -66,7 +66,7 @@ def test_demo_dynamic_trot_follows_without_falling(tmp_path: Path) -> None:
 
 def test_demo_through_the_unitree_protocol(tmp_path: Path) -> None:
     """--robot go2: the go2 driver drives the sim through the sport API and reads its videohub camera."""
-    pytest.importorskip("go2vlm.robots.go2.driver")
+    pytest.importorskip("go2vlm.robots.go2.driver_node")
     m = run_demo(tmp_path, "--robot", "go2", "--mode", "kinematic", "--duration", "15", "--rtf", "2")
     check_follows(m, 15, min_frames=4 * m["wall_s"] - 20)  # the driver polls the camera at 10 Hz of wall time
     check_files(tmp_path)

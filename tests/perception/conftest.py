@@ -26,7 +26,7 @@ def tiny_ckpt() -> Path:
     # Skip (not fail) where the vlm extra is not installed; other perception tests still run.
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
-    from go2vlm.perception.vlm.tiny import DEFAULT_ANSWER, cached_tiny_checkpoint
+    from go2vlm.testing.tiny_qwen import DEFAULT_ANSWER, cached_tiny_checkpoint
 
     return cached_tiny_checkpoint(answer=DEFAULT_ANSWER, steps=300, seed=0)
 

@@ -15,7 +15,7 @@ from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.image import numpy_to_image, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Bool, String
-from go2vlm.sources.test_pattern import draw_pattern
+from go2vlm.sources.test_pattern_node import draw_pattern
 
 
 class _Io(Node):

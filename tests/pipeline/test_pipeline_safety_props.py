@@ -10,8 +10,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from go2vlm.safety.estop import EstopLatch
 from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, ZERO, Limits, Velocity, ramp
-from go2vlm.safety.mux import MAX_DT, EstopLatch, InputSpec, SafetyCore
+from go2vlm.safety.mux import MAX_DT, InputSpec, SafetyCore
 
 TOKEN = "RELEASE"
 NAMES = ("teleop", "follower", "behavior")

@@ -7,14 +7,14 @@ import cv2
 import numpy as np
 import pytest
 
-from go2vlm.behavior.follower import FollowerConfig, follow_command
+from go2vlm.behavior.follower_node import FollowerConfig, follow_command
 from go2vlm.bus import ParamError, build_config
 from go2vlm.launch.launcher import LaunchError, available, parse_entries, resolve
 from go2vlm.perception.color import PRESETS, annotate, detect_color, resolve_ranges
-from go2vlm.perception.color_detector import ColorDetectorConfig
-from go2vlm.safety.gate import SafetyGateConfig
-from go2vlm.sources.test_pattern import draw_pattern
-from go2vlm.sources.video_source import parse_source
+from go2vlm.perception.color_detector_node import ColorDetectorConfig
+from go2vlm.safety.gate_node import SafetyGateConfig
+from go2vlm.sources.test_pattern_node import draw_pattern
+from go2vlm.sources.video_source_node import parse_source
 
 
 def test_detects_the_seed_red_circle() -> None:

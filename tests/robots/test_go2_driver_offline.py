@@ -30,7 +30,7 @@ def test_driver_without_robot_keeps_running() -> None:
         command.publish(String(data="stand"))
         estop.publish(Bool(data=True))
         time.sleep(1.5)
-        assert driver.running and driver.estop
+        assert driver.running and driver.estop.engaged
         assert driver.counters.get("not_connected", 0) > 0 and driver.counters.get("rpc_errors", 0) > 0
         # Damp is retried while the e-stop holds, at a bounded rate (no tight loop without a robot).
         assert 1 <= driver.damps_sent <= 10

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from busutil import GO2VLM, Procs, Recorder, env, wait_for
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.rosgraph_msgs import Clock
@@ -48,15 +48,15 @@ class Harness:
         n.create_subscription(CompressedImage, "/camera/image_raw/compressed", self.jpegs)
         n.create_subscription(CameraInfo, "/camera/camera_info", self.infos, QOS_LATCHED)
         n.create_subscription(String, "/go2/status", lambda m: self.status(json.loads(m.data)), QOS_LATCHED)
-        n.create_subscription(Request, p.request_topic("sport"), self.wire, p.QOS_UNITREE_READER)
+        n.create_subscription(Request, p.request_topic("sport"), self.wire, QOS_UNITREE_READER)
         for service in ("sport", "videohub"):
-            n.create_subscription(Response, p.response_topic(service), self.responses, p.QOS_UNITREE_READER)
+            n.create_subscription(Response, p.response_topic(service), self.responses, QOS_UNITREE_READER)
         self.cmd_vel = n.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.command = n.create_publisher(String, "/go2/command", QOS_DEFAULT)
         self.estop = n.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
         self.release = n.create_publisher(String, "/emergency_stop/release", QOS_DEFAULT)
         self.raw = {
-            s: n.create_publisher(Request, p.request_topic(s), p.QOS_UNITREE_WRITER) for s in ("sport", "videohub")
+            s: n.create_publisher(Request, p.request_topic(s), QOS_UNITREE_WRITER) for s in ("sport", "videohub")
         }
         n.start()
 

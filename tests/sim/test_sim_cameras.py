@@ -25,7 +25,9 @@ def _centroid(mask: np.ndarray) -> np.ndarray:
 
 
 def test_head_frame_shape_and_default_size() -> None:
-    with Go2Sim(SimConfig(world="follow_ball", mode="kinematic")) as sim:
+    # One config for the sim and its node: the default head camera is the node's 640x480.
+    assert (SimConfig().camera_width, SimConfig().camera_height) == (640, 480)
+    with Go2Sim(SimConfig(world="follow_ball", mode="kinematic", camera_width=1280, camera_height=720)) as sim:
         img = sim.render_head()
         assert img.shape == (720, 1280, 3) and img.dtype == np.uint8
         small = sim.render_head(320, 240)

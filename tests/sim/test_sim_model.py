@@ -8,9 +8,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from go2vlm.sim import Go2Sim, SimConfig, available_worlds, intrinsics, legs
+from go2vlm.geometry.camera import PinholeCamera, hfov_to_fovy_deg
+from go2vlm.sim import Go2Sim, SimConfig, available_worlds, legs
 from go2vlm.sim import go2_model as gm
-from go2vlm.sim.camera import gazebo_rpy_to_xyaxes, hfov_to_fovy_deg
+from go2vlm.sim.worlds import gazebo_rpy_to_xyaxes
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +63,7 @@ def test_gazebo_camera_conversion(sim: Go2Sim) -> None:
 
 
 def test_intrinsics() -> None:
-    k = intrinsics(640, 480, 46.817)
+    k = PinholeCamera.from_fovy(640, 480, 46.817)
     assert k.cx == 320 and k.cy == 240 and k.fx == k.fy
     hfov = 2 * math.atan(320 / k.fx)
     assert hfov == pytest.approx(1.047, abs=1e-3)

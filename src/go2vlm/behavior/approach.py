@@ -27,47 +27,14 @@ import math
 import statistics
 from dataclasses import dataclass, field
 
-from go2vlm.msgs.image import focal_length
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.robots.go2.spec import HEAD_CAMERA_HEIGHT
 
-__all__ = ["ApproachParams", "CameraModel", "RangeEstimator", "RangeReading", "approach_command", "normalized_target"]
+__all__ = ["ApproachParams", "RangeEstimator", "RangeReading", "approach_command"]
 
-# Go2 head camera as modelled in go2vlm.sim (go2_model.HEAD_CAMERA_POS, standing height 0.32 m).
-GO2_CAMERA_HEIGHT_M = 0.363
-GO2_CAMERA_FORWARD_M = 0.327
-# Sizes of the seed world's objects (vision_test): ball radius, box face width, cylinder radius.
+# Sizes of the objects in vision_test (the first article's Gazebo world): ball radius, box face
+# width, cylinder radius.
 DEFAULT_SIZES = {"ball": 0.5, "box": 1.0, "cylinder": 0.3}
-
-
-@dataclass(frozen=True)
-class CameraModel:
-    width: int
-    height: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-
-    @classmethod
-    def from_k(cls, width: int, height: int, k: list[float] | tuple[float, ...]) -> CameraModel:
-        """From CameraInfo.k (row-major 3x3). Raises ValueError for an unusable K."""
-        if width <= 0 or height <= 0:
-            raise ValueError(f"camera size {width}x{height} is not positive")
-        fx, fy, cx, cy = float(k[0]), float(k[4]), float(k[2]), float(k[5])
-        if not all(math.isfinite(v) for v in (fx, fy, cx, cy)) or fx <= 0 or fy <= 0:
-            raise ValueError(f"camera K has fx={fx}, fy={fy}, cx={cx}, cy={cy}; fx and fy must be positive")
-        return cls(width, height, fx, fy, cx, cy)
-
-    @classmethod
-    def from_hfov(cls, width: int, height: int, hfov_rad: float) -> CameraModel:
-        f = focal_length(width, hfov_rad)
-        return cls(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
-
-    def scaled_to(self, width: int, height: int) -> CameraModel:
-        """The same camera at another image size (CameraInfo and images may disagree)."""
-        if (width, height) == (self.width, self.height):
-            return self
-        sx, sy = width / self.width, height / self.height
-        return CameraModel(width, height, self.fx * sx, self.fy * sy, self.cx * sx, self.cy * sy)
 
 
 @dataclass(frozen=True)
@@ -81,7 +48,7 @@ class RangeEstimator:
     """Per-target distance estimate with online size calibration (reset it for a new target)."""
 
     shape: str | None  # ball | box | cylinder | None (treated as a box: a flat face)
-    camera_height: float = GO2_CAMERA_HEIGHT_M
+    camera_height: float = HEAD_CAMERA_HEIGHT
     camera_pitch: float = 0.0  # rad, + = looking down
     default_sizes: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_SIZES))
     border_px: int = 3
@@ -98,7 +65,7 @@ class RangeEstimator:
     def calibrated(self) -> bool:
         return bool(self._sizes)
 
-    def estimate(self, xyxy: tuple[float, float, float, float], cam: CameraModel) -> RangeReading:
+    def estimate(self, xyxy: tuple[float, float, float, float], cam: PinholeCamera) -> RangeReading:
         x1, y1, x2, y2 = xyxy
         b = self.border_px
         clip_l, clip_r = x1 <= b, x2 >= cam.width - 1 - b
@@ -159,16 +126,6 @@ class ApproachParams:
     max_angular: float = 0.8
     align_start: float = 0.15  # |x| where forward speed starts to drop
     align_stop: float = 0.4  # |x| where the robot only turns
-
-
-def normalized_target(xyxy: tuple[float, float, float, float], width: int, height: int) -> tuple[float, float, float]:
-    """/detected_target's convention: x, y from the image centre in [-1, 1], z = radius / (w/2), with
-    radius = half the box's larger side."""
-    x1, y1, x2, y2 = xyxy
-    half_w, half_h = width / 2.0, height / 2.0
-    cx, cy = (x1 + x2) / 2.0, (y1 + y2) / 2.0
-    radius = max(x2 - x1, y2 - y1) / 2.0
-    return (cx - half_w) / half_w, (cy - half_h) / half_h, radius / half_w
 
 
 def approach_command(x: float, distance_base: float | None, p: ApproachParams) -> tuple[float, float, bool]:

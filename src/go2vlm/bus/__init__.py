@@ -3,18 +3,32 @@
 from go2vlm.bus import Node, param, QOS_SENSOR
 """
 
-from .domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
-from .log import Logger
-from .node import Node, NoParams, Publisher, Subscription, Timer
-from .params import ParamError, build_config, describe_params, load_params_file, param, parse_overrides
-from .qos import PROFILES, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, QosProfile
-from .runtime import ShutdownRequested, running, spin
+from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
+from go2vlm.bus.log import Logger
+from go2vlm.bus.node import Node, NoParams, Publisher, Subscription, Timer
+from go2vlm.bus.params import ParamError, build_config, describe_params, load_params_file, param, parse_overrides
+from go2vlm.bus.qos import (
+    PROFILES,
+    QOS_ANY,
+    QOS_DEFAULT,
+    QOS_IMAGE,
+    QOS_LATCHED,
+    QOS_SENSOR,
+    QOS_UNITREE_READER,
+    QOS_UNITREE_WRITER,
+    QosProfile,
+)
+from go2vlm.bus.runtime import ShutdownRequested, running, spin
 
 __all__ = [
     "PROFILES",
+    "QOS_ANY",
     "QOS_DEFAULT",
+    "QOS_IMAGE",
     "QOS_LATCHED",
     "QOS_SENSOR",
+    "QOS_UNITREE_READER",
+    "QOS_UNITREE_WRITER",
     "Logger",
     "Node",
     "NoParams",

@@ -21,9 +21,9 @@ from typing import Any
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 
-from ..msgs.rmw_dds_common import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo
-from . import domain
-from .qos import QOS_LATCHED
+from go2vlm.bus import domain
+from go2vlm.bus.qos import QOS_LATCHED
+from go2vlm.msgs.rmw_dds_common import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo
 
 TOPIC = "ros_discovery_info"
 _NODE_NAME_RE = re.compile(r"[^A-Za-z0-9_]")

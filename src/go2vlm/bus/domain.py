@@ -6,7 +6,8 @@
   receiving side). `tune_malloc` keeps them in the heap instead; `GO2VLM_MALLOC_TUNE=0` opts out.
 - Network interface: `GO2VLM_IFACE` or the `interface` argument (`lo` for a local sim, the robot's
   interface such as `eth0` or `enp3s0` for a real Go2). If neither is given and `CYCLONEDDS_URI` is
-  set, Cyclone's own configuration is used unchanged, so a seed-style setup keeps working.
+  set, Cyclone's own configuration is used unchanged, so the VLM article's setup (its
+  CYCLONEDDS_URI with `lo`) keeps working.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from cyclonedds.core import DDSException
 from cyclonedds.domain import Domain, DomainParticipant
 from cyclonedds.topic import Topic
 
-from .params import ParamError
+from go2vlm.bus.params import ParamError
 
 _lock = threading.Lock()
 _participants: dict[int, tuple[DomainParticipant, Domain | None]] = {}
@@ -41,7 +42,7 @@ def domain_id_from_env() -> int:
 
 
 def cyclone_config(interface: str) -> str:
-    """Cyclone XML that binds to one interface, as the seed's CYCLONEDDS_URI does with `lo`."""
+    """Cyclone XML that binds to one interface, as the VLM article's CYCLONEDDS_URI does with `lo`."""
     if not _IFACE_RE.match(interface):
         raise ParamError(f"network interface {interface!r} is not a valid interface name")
     return (

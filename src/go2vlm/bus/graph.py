@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
 from cyclonedds.core import Policy
 
-from . import domain
-from .qos import QosProfile
+from go2vlm.bus import domain
+from go2vlm.bus.qos import QosProfile
 
 
 @dataclass

@@ -21,11 +21,11 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.util import duration
 
-from ..msgs.builtin_interfaces import Time
-from ..msgs.std_msgs import Header
-from . import discovery_info, domain
-from .log import Logger
-from .qos import QOS_DEFAULT, QosProfile
+from go2vlm.bus import discovery_info, domain
+from go2vlm.bus.log import Logger
+from go2vlm.bus.qos import QOS_DEFAULT, QosProfile
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.std_msgs import Header
 
 M = TypeVar("M")
 

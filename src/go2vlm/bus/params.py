@@ -35,9 +35,10 @@ def param(
     min: float | None = None,
     max: float | None = None,
 ) -> Any:
-    """Declare a parameter. A callable default (e.g. `list`) is used as a factory."""
+    """Declare a parameter. A factory default (`list`, `dict`, `tuple` or a dataclass) makes a fresh
+    value for every config; a dataclass-typed parameter is set from a mapping of its fields."""
     meta = {"help": help, "choices": tuple(choices) if choices is not None else None, "min": min, "max": max}
-    if default in (list, dict, tuple):
+    if default in (list, dict, tuple) or (isinstance(default, type) and dataclasses.is_dataclass(default)):
         return dataclasses.field(default_factory=default, metadata=meta)
     if isinstance(default, (list, dict)):
         value = default
@@ -87,6 +88,14 @@ def coerce(value: Any, tp: Any, where: str) -> Any:
         return dict(value)
     if tp is Any:
         return value
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        if isinstance(value, tp):
+            return value
+        if isinstance(value, str):
+            value = _parse_scalar(value)
+        if not isinstance(value, Mapping):
+            raise ParamError(f"{where}: {value!r} is not a mapping of {tp.__name__} fields")
+        return build_config(tp, value, node=where)
     if tp is bool:
         if isinstance(value, bool):
             return value

@@ -43,3 +43,15 @@ QOS_SENSOR = QosProfile(reliable=False, transient_local=False, depth=5)
 QOS_LATCHED = QosProfile(reliable=True, transient_local=True, depth=1)
 
 PROFILES = {"default": QOS_DEFAULT, "sensor": QOS_SENSOR, "latched": QOS_LATCHED}
+
+# A best-effort reader matches every publisher, reliable or not: for inputs that must be heard
+# whatever QoS their sender picked (the safety gate's inputs, the e-stop).
+QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
+# Camera images: reliable, so both reliable and best-effort (sensor-QoS) readers match; depth 2
+# keeps a slow reader from holding more than two frames.
+QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
+# unitree_sdk2 creates every reader and writer with Cyclone's default QoS (qos=None): writers
+# reliable, readers best-effort, volatile, keep-last. Reliable writers and best-effort readers
+# match any peer, so we use exactly that split; depth is local and does not affect matching.
+QOS_UNITREE_WRITER = QosProfile(reliable=True, transient_local=False, depth=10)
+QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)

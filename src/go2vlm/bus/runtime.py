@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
 
-from .node import Node
+from go2vlm.bus.node import Node
 
 # A node's shutdown normally takes well under a second; past this, print every thread's stack and
 # exit hard, so Ctrl-C never hangs and a stuck shutdown says where it is stuck. The launcher waits

@@ -53,7 +53,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def node_params(items: list[str]) -> dict[str, dict]:
-    from ..bus import ParamError, parse_overrides
+    from go2vlm.bus import ParamError, parse_overrides
 
     out: dict[str, dict] = {}
     for item in items:
@@ -67,11 +67,9 @@ def node_params(items: list[str]) -> dict[str, dict]:
 
 def run(args: argparse.Namespace) -> int:
     if args.goal:
-        from ..behavior.goal_demo import run_goal_cli
-
         return run_goal_cli(args)
     args.world = args.world or "follow_ball"
-    from ..sim.demo import DemoOptions, run_demo, summary
+    from go2vlm.apps.follow_demo import DemoOptions, run_demo, summary
 
     if args.duration <= 0:
         print("go2vlm demo: --duration must be positive", file=sys.stderr)
@@ -104,3 +102,38 @@ def run(args: argparse.Namespace) -> int:
         print("go2vlm demo: FAILED: the robot fell", file=sys.stderr)
         return 1
     return 130 if result.metrics.get("interrupted") else 0
+
+
+def run_goal_cli(args: argparse.Namespace) -> int:
+    """`go2vlm demo --goal TEXT`: uses the demo parser's --duration, --rtf/--fast, --mode, --world,
+    --out, --ball-speed, --param, --interface, --domain (a --world of None picks the world from the goal)."""
+    from go2vlm.apps.goal_demo import GoalDemoOptions, goal_summary, run_goal_demo
+    from go2vlm.behavior.goals import GoalParseError, parse_goal
+
+    try:
+        parse_goal(args.goal)
+    except GoalParseError as exc:
+        print(f"go2vlm demo: {exc}", file=sys.stderr)
+        return 2
+    opts = GoalDemoOptions(
+        goal=args.goal,
+        world=getattr(args, "world", None),
+        mode=getattr(args, "mode", "kinematic"),
+        rtf=getattr(args, "rtf", 1.0),
+        fast=getattr(args, "fast", False),
+        timeout_s=getattr(args, "duration", None) or 60.0,
+        follow_duration_s=getattr(args, "duration", None) or 30.0,
+        ball_speed=getattr(args, "ball_speed", 0.3),
+        params=node_params(getattr(args, "param", []) or []),
+        out=getattr(args, "out", None),
+        interface=getattr(args, "interface", None),
+        domain_id=getattr(args, "domain", None),
+        progress=getattr(args, "progress", True),
+    )
+    try:
+        result = run_goal_demo(opts)
+    except RuntimeError as exc:
+        print(f"go2vlm demo: {exc}", file=sys.stderr)
+        return 3
+    print(goal_summary(result))
+    return 0 if result.metrics["goal_reached"] else 1

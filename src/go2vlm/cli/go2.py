@@ -52,19 +52,18 @@ class _Session:
     """A node with a sport client and an /emergency_stop listener, spinning in the background."""
 
     def __init__(self, args: argparse.Namespace) -> None:
-        from ..bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile
-        from ..msgs.std_msgs import Bool, String
-        from ..robots.go2 import protocol as p
-        from ..robots.go2.client import RpcClient
+        from go2vlm.bus import QOS_LATCHED, Node
+        from go2vlm.msgs.std_msgs import String
+        from go2vlm.robots.go2 import protocol as p
+        from go2vlm.robots.go2.client import RpcClient
+        from go2vlm.safety import estop
 
         self.p = p
         self.node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
         self._estop: dict[str, bool] = {}
         # The e-stop as the gate and the driver see it (they latch it; /emergency_stop false does
-        # not release), plus the raw topic for setups without them. All QoS, so any publisher matches.
-        best_effort = QosProfile(reliable=False, transient_local=False, depth=10)
-        for qos in (QOS_LATCHED, QOS_DEFAULT, best_effort):
-            self.node.create_subscription(Bool, "/emergency_stop", self._on_estop, qos)
+        # not release), plus the raw topic for setups without them.
+        estop.listen(self.node, self._on_estop)
         for topic in ("/safety/status", "/go2/status"):
             self.node.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
         self.sport = RpcClient(self.node, p.SPORT_SERVICE, timeout_s=args.timeout)
@@ -142,8 +141,8 @@ def cmd_move(args: argparse.Namespace) -> int:
     the gate's limits, watchdog and e-stop apply as to every other motion command."""
     import math
 
-    from ..bus import Node
-    from ..msgs.geometry_msgs import Twist, Vector3
+    from go2vlm.bus import Node
+    from go2vlm.msgs.geometry_msgs import Twist, Vector3
 
     values = (args.x, args.y, args.z)
     if not all(math.isfinite(v) for v in values):
@@ -194,11 +193,10 @@ def cmd_move(args: argparse.Namespace) -> int:
 def cmd_state(args: argparse.Namespace) -> int:
     import threading
 
-    from ..bus import Node
-    from ..msgs.convert import to_dict
-    from ..msgs.unitree import SportModeState
-    from ..robots.go2 import protocol as p
-    from ..robots.go2.driver import SPORT_MODES
+    from go2vlm.bus import QOS_UNITREE_READER, Node
+    from go2vlm.msgs.convert import to_dict
+    from go2vlm.msgs.unitree import SportModeState
+    from go2vlm.robots.go2 import protocol as p
 
     node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
     got: list[Any] = []
@@ -214,7 +212,7 @@ def cmd_state(args: argparse.Namespace) -> int:
             pos = ", ".join(f"{v:.3f}" for v in msg.position)
             vel = ", ".join(f"{v:.3f}" for v in msg.velocity)
             rpy = ", ".join(f"{v:.3f}" for v in msg.imu_state.rpy)
-            mode = SPORT_MODES.get(int(msg.mode), str(int(msg.mode)))
+            mode = p.SPORT_MODES.get(int(msg.mode), str(int(msg.mode)))
             print(
                 f"mode {mode}  position [{pos}]  velocity [{vel}]  yaw_speed {msg.yaw_speed:.3f}  rpy [{rpy}]  "
                 f"body_height {msg.body_height:.3f}  error_code {msg.error_code}",
@@ -223,7 +221,7 @@ def cmd_state(args: argparse.Namespace) -> int:
         if args.count and len(got) >= args.count:
             done.set()
 
-    node.create_subscription(SportModeState, p.SPORT_STATE_TOPIC, on_state, p.QOS_UNITREE_READER)
+    node.create_subscription(SportModeState, p.SPORT_STATE_TOPIC, on_state, QOS_UNITREE_READER)
     node.start()
     try:
         deadline = time.monotonic() + args.timeout

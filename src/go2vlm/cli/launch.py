@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..launch.launcher import LaunchError, available, load_launch, run_in_process, run_processes
+    from go2vlm.launch.launcher import LaunchError, available, load_launch, run_in_process, run_processes
 
     # Through the environment, so in-process nodes and `--processes` children agree.
     if args.interface:

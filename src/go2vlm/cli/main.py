@@ -6,7 +6,7 @@ import argparse
 import importlib
 import sys
 
-from ..bus import Logger, ParamError
+from go2vlm.bus import Logger, ParamError
 
 # verb -> module with `add_parser(subparsers)`; each sets `func` on its parser.
 COMMANDS = {
@@ -28,13 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--log-level", default=None, help="debug, info, warn or error (env GO2VLM_LOG_LEVEL)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module in COMMANDS.values():
-        try:
-            mod = importlib.import_module(module)
-        except ImportError as exc:
-            if exc.name and exc.name.startswith("go2vlm.cli"):
-                continue  # verb not built yet
-            raise
-        mod.add_parser(sub)
+        importlib.import_module(module).add_parser(sub)
     return parser
 
 

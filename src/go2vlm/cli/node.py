@@ -22,9 +22,9 @@ def cmd_list(args: argparse.Namespace) -> int:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
     from cyclonedds.sub import DataReader
 
-    from ..bus import QosProfile, domain
-    from ..bus.discovery_info import TOPIC
-    from ..msgs.rmw_dds_common import ParticipantEntitiesInfo
+    from go2vlm.bus import QosProfile, domain
+    from go2vlm.bus.discovery_info import TOPIC
+    from go2vlm.msgs.rmw_dds_common import ParticipantEntitiesInfo
 
     dp = domain.participant()
     # The topic is keyless (one instance for all participants): a keep-last-1 reader would keep only

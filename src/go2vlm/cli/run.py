@@ -6,8 +6,8 @@ import argparse
 import sys
 import textwrap
 
-from ..bus import describe_params, parse_overrides, spin
-from ..launch.registry import NODES, make_node, node_class
+from go2vlm.bus import describe_params, parse_overrides, spin
+from go2vlm.launch.registry import NODES, make_node, node_class
 
 
 def parse_remaps(items: list[str]) -> dict[str, str]:

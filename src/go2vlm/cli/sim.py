@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from ..bus import ShutdownRequested, parse_overrides
+from go2vlm.bus import ShutdownRequested, parse_overrides
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             # The interactive viewer uses GLFW; offscreen cameras then share that backend.
             os.environ.setdefault("MUJOCO_GL", "glfw")
-    from ..launch.registry import make_node
+    from go2vlm.launch.registry import make_node
 
     params = {"world": args.world, "mode": args.mode, "rtf": args.rtf, "fast": args.fast, "viewer": args.viewer}
     if args.unitree:

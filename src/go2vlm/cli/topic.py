@@ -14,11 +14,11 @@ from typing import Any
 
 import yaml
 
-from ..bus import PROFILES, QOS_DEFAULT, Node, QosProfile
-from ..bus.graph import compatible_reader_qos, discover
-from ..msgs import get_type as lookup_type
-from ..msgs import ros_name
-from ..msgs.convert import from_dict, to_dict, to_yaml_text
+from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile
+from go2vlm.bus.graph import compatible_reader_qos, discover
+from go2vlm.msgs import get_type as lookup_type
+from go2vlm.msgs import ros_name
+from go2vlm.msgs.convert import from_dict, to_dict, to_yaml_text
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

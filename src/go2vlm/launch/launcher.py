@@ -29,9 +29,9 @@ from typing import Any
 
 import yaml
 
-from ..bus import Node, ShutdownRequested, build_config
-from ..bus.runtime import SHUTDOWN_GRACE_S
-from .registry import NODES, make_node, node_class
+from go2vlm.bus import Node, ShutdownRequested, build_config
+from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
+from go2vlm.launch.registry import NODES, make_node, node_class
 
 __all__ = ["LaunchEntry", "LaunchError", "available", "load_launch", "resolve", "run_in_process", "run_processes"]
 

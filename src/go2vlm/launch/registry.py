@@ -5,18 +5,18 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from ..bus import Node, build_config, load_params_file
+from go2vlm.bus import Node, build_config, load_params_file
 
 NODES: dict[str, str] = {
-    "test_pattern": "go2vlm.sources.test_pattern:TestPatternNode",
-    "video_source": "go2vlm.sources.video_source:VideoSourceNode",
-    "color_detector": "go2vlm.perception.color_detector:ColorDetectorNode",
-    "vlm": "go2vlm.perception.vlm.node:VlmNode",
-    "follower": "go2vlm.behavior.follower:FollowerNode",
-    "commander": "go2vlm.behavior.commander:CommanderNode",
-    "safety": "go2vlm.safety.gate:SafetyGateNode",
-    "sim": "go2vlm.sim.node:SimNode",
-    "go2": "go2vlm.robots.go2.driver:Go2DriverNode",
+    "test_pattern": "go2vlm.sources.test_pattern_node:TestPatternNode",
+    "video_source": "go2vlm.sources.video_source_node:VideoSourceNode",
+    "color_detector": "go2vlm.perception.color_detector_node:ColorDetectorNode",
+    "vlm": "go2vlm.perception.vlm.vlm_node:VlmNode",
+    "follower": "go2vlm.behavior.follower_node:FollowerNode",
+    "commander": "go2vlm.behavior.commander_node:CommanderNode",
+    "safety": "go2vlm.safety.gate_node:SafetyGateNode",
+    "sim": "go2vlm.robots.go2_sim.sim_node:SimNode",
+    "go2": "go2vlm.robots.go2.driver_node:Go2DriverNode",
 }
 
 

@@ -6,7 +6,7 @@ ROS name with `get_type("sensor_msgs/msg/Image")` or its DDS name.
 
 from __future__ import annotations
 
-from . import (
+from go2vlm.msgs import (
     builtin_interfaces,
     geometry_msgs,
     nav_msgs,
@@ -16,7 +16,7 @@ from . import (
     tf2_msgs,
     vision_msgs,
 )
-from ._base import REGISTRY, IdlStruct, ros_typename
+from go2vlm.msgs._base import REGISTRY, IdlStruct, ros_typename
 
 __all__ = [
     "REGISTRY",

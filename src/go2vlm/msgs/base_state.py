@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from .builtin_interfaces import Time
-from .geometry_msgs import (
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.geometry_msgs import (
     Point,
     Pose,
     PoseWithCovariance,
@@ -20,10 +20,10 @@ from .geometry_msgs import (
     TwistWithCovariance,
     Vector3,
 )
-from .nav_msgs import Odometry
-from .sensor_msgs import Imu
-from .std_msgs import Header
-from .tf2_msgs import TFMessage
+from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.sensor_msgs import Imu
+from go2vlm.msgs.std_msgs import Header
+from go2vlm.msgs.tf2_msgs import TFMessage
 
 __all__ = ["base_state_messages", "quaternion", "transform_stamped", "vector3"]
 

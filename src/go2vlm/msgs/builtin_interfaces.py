@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, register
+from go2vlm.msgs._base import IdlStruct, register
 
 
 @register

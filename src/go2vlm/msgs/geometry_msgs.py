@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
-from .std_msgs import Header
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.std_msgs import Header
 
 
 @register

@@ -6,12 +6,11 @@ row) raises `ValueError` naming the fields, never a reshape error deep inside nu
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .sensor_msgs import CameraInfo, Image
-from .std_msgs import Header
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.msgs.sensor_msgs import CameraInfo, Image
+from go2vlm.msgs.std_msgs import Header
 
 # encoding -> (channels, dtype)
 ENCODINGS: dict[str, tuple[int, np.dtype]] = {
@@ -102,22 +101,21 @@ def to_bgr(msg: Image) -> np.ndarray:
     return cv2.cvtColor(arr, cv2.COLOR_GRAY2BGR)
 
 
-def focal_length(size_px: float, fov_rad: float) -> float:
-    """Pinhole focal length in pixels of an image `size_px` wide (or high) that spans `fov_rad`."""
-    return (size_px / 2.0) / math.tan(fov_rad / 2.0)
-
-
-def camera_info(width: int, height: int, hfov_rad: float, header: Header | None = None) -> CameraInfo:
-    """A pinhole CameraInfo with no distortion, from the horizontal field of view."""
-    fx = focal_length(width, hfov_rad)
-    cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
+def camera_info(camera: PinholeCamera, header: Header | None = None) -> CameraInfo:
+    """A CameraInfo for this pinhole camera, without distortion."""
+    fx, fy, cx, cy = camera.fx, camera.fy, camera.cx, camera.cy
     return CameraInfo(
         header=header or Header(),
-        height=height,
-        width=width,
+        height=camera.height,
+        width=camera.width,
         distortion_model="plumb_bob",
         d=[0.0] * 5,
-        k=[fx, 0.0, cx, 0.0, fx, cy, 0.0, 0.0, 1.0],
+        k=camera.k,
         r=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-        p=[fx, 0.0, cx, 0.0, 0.0, fx, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
+        p=[fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0],
     )
+
+
+def camera_model(info: CameraInfo) -> PinholeCamera:
+    """The pinhole model of a CameraInfo; ValueError if its K is unusable."""
+    return PinholeCamera.from_k(int(info.width), int(info.height), list(info.k))

@@ -2,9 +2,9 @@
 
 from dataclasses import dataclass
 
-from ._base import IdlStruct, default, register
-from .geometry_msgs import PoseWithCovariance, TwistWithCovariance
-from .std_msgs import Header
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.geometry_msgs import PoseWithCovariance, TwistWithCovariance
+from go2vlm.msgs.std_msgs import Header
 
 
 @register

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
+from go2vlm.msgs._base import IdlStruct, default, register
 
 
 @register

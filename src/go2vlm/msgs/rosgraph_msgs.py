@@ -2,8 +2,8 @@
 
 from dataclasses import dataclass
 
-from ._base import IdlStruct, default, register
-from .builtin_interfaces import Time
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.builtin_interfaces import Time
 
 
 @register

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
-from .geometry_msgs import Quaternion, Vector3
-from .std_msgs import Header
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.geometry_msgs import Quaternion, Vector3
+from go2vlm.msgs.std_msgs import Header
 
 
 @register

@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
-from .geometry_msgs import TransformStamped
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.geometry_msgs import TransformStamped
 
 
 @register

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
+from go2vlm.msgs._base import IdlStruct, default, register
 
 # -- unitree_api/msg: the request/response envelope of every Unitree RPC service --------------
 

@@ -5,9 +5,9 @@ from dataclasses import dataclass
 
 from cyclonedds.idl import types
 
-from ._base import IdlStruct, default, register
-from .geometry_msgs import PoseWithCovariance
-from .std_msgs import Header
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.geometry_msgs import PoseWithCovariance
+from go2vlm.msgs.std_msgs import Header
 
 
 @register

@@ -1,11 +1,11 @@
-"""Pure HSV colour detection, the second seed's color_detector.py without ROS.
+"""Pure HSV colour detection, the follow article's color_detector.py (section 5.2) without ROS.
 
     det = detect_color(bgr, "red")             # a preset
     det = detect_color(bgr, [((0, 120, 70), (10, 255, 255))])  # custom HSV ranges
     if det is not None:
         x, y, z = det.normalized()             # what /detected_target carries
 
-The seed's steps, in order: BGR -> HSV; one mask per HSV range, OR-ed (red wraps around hue 0, so it
+The article's steps, in order: BGR -> HSV; one mask per HSV range, OR-ed (red wraps around hue 0, so it
 is two ranges); erode then dilate with OpenCV's default 3x3 kernel, 2 iterations each; external
 contours; the largest by area; its minimum enclosing circle; kept only if the radius is > 10 px.
 OpenCV hue runs 0..179, saturation and value 0..255.
@@ -19,10 +19,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from go2vlm.geometry.target import circle_target
+
 Hsv = tuple[int, int, int]
 HsvRange = tuple[Hsv, Hsv]
 
-# Presets: red is the seed's pair of ranges; the others are common starting points to tune on site.
+# Presets: red is the follow article's pair of ranges; the others are common starting points to tune on site.
 PRESETS: dict[str, tuple[HsvRange, ...]] = {
     "red": (((0, 120, 70), (10, 255, 255)), ((170, 120, 70), (180, 255, 255))),
     "green": (((35, 80, 60), (85, 255, 255)),),
@@ -45,9 +47,8 @@ class Detection:
     height: int
 
     def normalized(self) -> tuple[float, float, float]:
-        """The seed's /detected_target point: x, y in [-1, 1] from the image centre, z = radius / (w/2)."""
-        half_w, half_h = self.width / 2.0, self.height / 2.0
-        return (self.cx - half_w) / half_w, (self.cy - half_h) / half_h, self.radius / half_w
+        """The /detected_target point (geometry/target.py)."""
+        return circle_target(self.cx, self.cy, self.radius, self.width, self.height)
 
 
 def _check_hsv(value: Sequence[int], what: str) -> Hsv:
@@ -127,7 +128,7 @@ def detect_color(
 
 
 def annotate(bgr: np.ndarray, det: Detection | None) -> np.ndarray:
-    """A copy of the image with the seed's yellow circle (and the bbox) drawn on the detection."""
+    """A copy of the image with the follow article's yellow circle (and the bbox) drawn on the detection."""
     out = bgr.copy()
     if det is not None:
         cv2.circle(out, (int(det.cx), int(det.cy)), int(det.radius), (0, 255, 255), 2)

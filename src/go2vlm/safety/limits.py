@@ -1,9 +1,9 @@
 """Velocity limits for the Go2, pure and deterministic.
 
-The hard ceilings are the Go2 sport-mode Move() range (vx -2.5..3.8 m/s, vy +-1.0 m/s,
-vyaw +-4.0 rad/s). Configured limits can only be lower: `Limits` clamps every configured value
-to the ceiling, whatever it is given. Only vx, vy and wz are ever commanded; the other Twist
-components are not something a walking Go2 can do and are always output as zero.
+The hard ceilings are the Go2 sport-mode Move() range (robots/go2/spec.py). Configured limits can
+only be lower: `Limits` clamps every configured value to the ceiling, whatever it is given. Only
+vx, vy and wz are ever commanded; the other Twist components are not something a walking Go2 can
+do and are always output as zero.
 
 Acceleration limits apply when a component speeds up (or reverses); slowing down towards zero is
 never limited, so a stop is always immediate.
@@ -14,11 +14,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-# Go2 sport mode hard ceilings.
-HARD_VX_FORWARD = 3.8
-HARD_VX_BACKWARD = 2.5
-HARD_VY = 1.0
-HARD_WZ = 4.0
+from go2vlm.robots.go2.spec import VX_MAX_BACKWARD as HARD_VX_BACKWARD
+from go2vlm.robots.go2.spec import VX_MAX_FORWARD as HARD_VX_FORWARD
+from go2vlm.robots.go2.spec import VY_MAX as HARD_VY
+from go2vlm.robots.go2.spec import VYAW_MAX as HARD_WZ
+
+__all__ = ["ABSURD", "HARD_VX_BACKWARD", "HARD_VX_FORWARD", "HARD_VY", "HARD_WZ", "ZERO", "Limits", "Velocity"]
 
 # A component beyond this is garbage (unit mix-up, uninitialised memory), not a fast command.
 ABSURD = 100.0

@@ -20,11 +20,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .limits import ZERO, Limits, Velocity, check, ramp
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopLatch
+from go2vlm.safety.limits import ZERO, Limits, Velocity, check, ramp
 
-__all__ = ["InputSpec", "SafetyCore", "EstopLatch", "DEFAULT_INPUTS", "RELEASE_TOKEN"]
+__all__ = ["InputSpec", "SafetyCore", "DEFAULT_INPUTS"]
 
-RELEASE_TOKEN = "RELEASE"
 MAX_DT = 0.1  # a stalled loop must not turn into one big acceleration step
 
 
@@ -41,26 +41,6 @@ DEFAULT_INPUTS = (
     InputSpec("follower", "/follower/cmd_vel", 50, 0.5),
     InputSpec("behavior", "/behavior/cmd_vel", 10, 0.5),
 )
-
-
-class EstopLatch:
-    """Engaged by `engage()`; only `release(token)` with the right token disengages it."""
-
-    def __init__(self, token: str = RELEASE_TOKEN, engaged: bool = False) -> None:
-        if not token:
-            raise ValueError("the e-stop release token must not be empty")
-        self._token = token
-        self.engaged = engaged
-
-    def engage(self) -> None:
-        self.engaged = True
-
-    def release(self, token: str) -> bool:
-        """True when the latch was engaged and is now released."""
-        if not self.engaged or token.strip() != self._token:
-            return False
-        self.engaged = False
-        return True
 
 
 @dataclass

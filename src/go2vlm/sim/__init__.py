@@ -1,6 +1,6 @@
 """go2vlm.sim: a pure-Python MuJoCo simulation of the Unitree Go2.
 
-No DDS/ROS here; a ROS node wraps this API.  Importing the package selects a
+No DDS/ROS here: the sim node (robots/go2_sim/) wraps this API.  Importing the package selects a
 headless GL backend (``MUJOCO_GL=egl``, else ``osmesa``) *before* MuJoCo is
 imported, so import ``go2vlm.sim`` before ``mujoco`` if you can (a late import
 is repaired when the first renderer is created).
@@ -15,27 +15,27 @@ Quick start::
     sim.advance(1.0)                      # simulate one second (500 physics steps)
     rgb = sim.render_head()               # (480, 640, 3) uint8, robot never visible
     st = sim.state()                      # RobotState dataclass
-    k = sim.head_intrinsics()             # fx, fy, cx, cy, .k for CameraInfo
+    k = sim.head_intrinsics()             # a PinholeCamera: fx, fy, cx, cy, .k
 
 API
 ---
-``SimConfig`` (dataclass), main fields and defaults::
+``SimConfig`` (sim/config.py; the sim node's parameters are the same fields), main fields::
 
-    world="vision_test"        # "vision_test" | "follow_ball" | "obstacles" | path to .xml
+    world="follow_ball"        # "vision_test" | "follow_ball" | "obstacles" | "empty" | path to .xml
     mode="dynamic"             # "dynamic" (torque-controlled trot) | "kinematic" (animated)
     spawn=None                 # (x, y, yaw) or None for the world's default
     start_standing=True        # False: start lying on the belly
-    camera_width=1280, camera_height=720, camera_fovy=58.0   # head camera (vertical fov, deg)
+    camera_width=640, camera_height=480, camera_fovy_deg=58.0   # head camera (vertical fov)
     world_camera_width=640, world_camera_height=480
-    ball_speed=0.3, ball_path=None ("ellipse" | "figure8"), seed=0, init_noise=0.0
+    ball_speed=0.3, ball_path="" ("ellipse" | "figure8"), seed=0, init_noise=0.0
     timestep=0.002, control_decimation=2 (250 Hz controller), fall_tilt=1.0, fall_height=0.14
     gait=GaitParams()          # trot period, gains, ... (go2vlm.sim.controller)
 
 ``Go2Sim(config: SimConfig | None = None)``:
 
 - ``step(n: int = 1) -> None``; ``advance(dt_s: float) -> None``; ``reset() -> None``
-- ``set_command(vx, vy, vyaw) -> np.ndarray`` clamped to vx -2.5..3.8, vy +-1.0,
-  vyaw +-4.0 (Go2 sport limits); ``stop()``
+- ``set_command(vx, vy, vyaw) -> np.ndarray`` clamped to the Go2 sport-mode ranges
+  (robots/go2/spec.py); ``stop()``
 - ``stand_up(duration=1.2)``, ``lie_down(duration=1.5)``, ``damp()``,
   ``recovery_stand() -> bool`` (rolls over from side/back, then stands; False if
   already standing); ``set_ball_speed(speed)``
@@ -53,7 +53,7 @@ API
   ``render_world_camera(width=None, height=None)`` likewise (static camera).
 - ``render_head_segmentation(width=None, height=None)`` (H, W) geom ids;
   ``robot_geom_ids()``
-- ``head_intrinsics(width=None, height=None) -> CameraIntrinsics``,
+- ``head_intrinsics(width=None, height=None) -> PinholeCamera``,
   ``world_camera_intrinsics()``; ``head_camera_pose() -> Pose`` (ROS optical
   frame: z forward, x right, y down); ``project_to_head(points_world, width=None,
   height=None) -> (uv, in_front)``; ``close()`` (also a context manager).
@@ -68,21 +68,19 @@ from go2vlm.sim.gl import preload_triton, setup_gl
 setup_gl()
 preload_triton()  # before any GL context: Mesa's libLLVM first would crash a later `import torch._dynamo`
 
-from go2vlm.sim.camera import CameraIntrinsics, intrinsics  # noqa: E402
+from go2vlm.sim.config import SimConfig  # noqa: E402
 from go2vlm.sim.controller import GaitParams  # noqa: E402
-from go2vlm.sim.go2sim import MODES, Go2Sim, SimConfig  # noqa: E402
+from go2vlm.sim.go2sim import MODES, Go2Sim  # noqa: E402
 from go2vlm.sim.state import Pose, RobotState  # noqa: E402
 from go2vlm.sim.worlds import available_worlds  # noqa: E402
 
 __all__ = [
     "MODES",
-    "CameraIntrinsics",
     "GaitParams",
     "Go2Sim",
     "Pose",
     "RobotState",
     "SimConfig",
     "available_worlds",
-    "intrinsics",
     "setup_gl",
 ]

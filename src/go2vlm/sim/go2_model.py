@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from go2vlm.robots.go2.spec import HEAD_CAMERA_FOVY_DEG, HEAD_CAMERA_POS, STAND_HEIGHT
+
 LEG_NAMES: tuple[str, ...] = ("FR", "FL", "RR", "RL")  # Unitree motor order
 JOINT_KINDS: tuple[str, ...] = ("hip", "thigh", "calf")
 JOINT_NAMES: tuple[str, ...] = tuple(f"{leg}_{k}_joint" for leg in LEG_NAMES for k in JOINT_KINDS)
@@ -34,7 +36,6 @@ THIGH_RANGE_REAR = (-0.5236, 4.5379)
 CALF_RANGE = (-2.7227, -0.83776)
 TORQUE_LIMITS = np.tile([23.7, 23.7, 45.43], 4)
 
-HEAD_CAMERA_POS = (0.32715, 0.0, 0.04297)
 IMU_POS = (-0.02557, 0.0, 0.04232)
 
 # Published link masses (kg): trunk 6.921, hip 0.678, thigh 1.152, calf 0.154, foot 0.04.
@@ -44,7 +45,6 @@ TOTAL_MASS = TRUNK_MASS + 4 * (HIP_MASS + THIGH_MASS + CALF_MASS + FOOT_MASS)
 
 STAND_Q = np.tile([0.0, 0.78, -1.56], 4)  # foot under the hip, base ~0.32 m
 LIE_Q = np.tile([0.0, 1.25, -2.70], 4)  # folded legs, belly near the ground
-STAND_HEIGHT = 0.32
 LIE_HEIGHT = 0.11
 
 GREY = "0.62 0.64 0.66 1"
@@ -132,7 +132,7 @@ def robot_body_xml(pos: tuple[float, float, float] = (0.0, 0.0, STAND_HEIGHT), y
     <geom class="go2_collision" type="box" size="{hx} {hy} {hz}"/>
     <geom class="go2_collision" type="box" size="0.055 0.046 0.045" pos="0.245 0 0.012"/>
     <site name="imu" pos="{_f(IMU_POS)}" size="0.01"/>
-    <camera name="head_camera" pos="{_f(HEAD_CAMERA_POS)}" xyaxes="0 -1 0 0 0 1" fovy="58"/>
+    <camera name="head_camera" pos="{_f(HEAD_CAMERA_POS)}" xyaxes="0 -1 0 0 0 1" fovy="{HEAD_CAMERA_FOVY_DEG:g}"/>
     {legs}
   </body>"""
 
@@ -152,23 +152,3 @@ def robot_sensors_xml() -> str:
     <gyro name="imu_gyro" site="imu"/>
     <accelerometer name="imu_acc" site="imu"/>
     <framequat name="imu_quat" objtype="site" objname="imu"/>"""
-
-
-def standalone_xml() -> str:
-    """A minimal scene with only the Go2 on a plane (handy for quick checks)."""
-    return f"""<mujoco model="go2vlm_go2">
-  <compiler angle="radian"/>
-  <option timestep="0.002" integrator="implicitfast"/>
-  <visual><quality offsamples="0"/><global offwidth="1920" offheight="1080"/></visual>
-  <default>{robot_defaults_xml()}</default>
-  <worldbody>
-    <light pos="0 0 4" dir="0 0 -1" castshadow="false"/>
-    <geom name="ground" type="plane" size="0 0 0.05" rgba="0.8 0.8 0.8 1"/>
-    {robot_body_xml()}
-  </worldbody>
-  <actuator>
-{robot_actuators_xml()}
-  </actuator>
-  <sensor>{robot_sensors_xml()}
-  </sensor>
-</mujoco>"""

@@ -2,53 +2,25 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Literal
-
 import mujoco
 import numpy as np
 
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.rotations import mat_to_rpy, quat_to_mat, tilt_angle, yaw_quat
+from go2vlm.robots.go2.spec import clamp_velocity
 from go2vlm.sim import go2_model as gm
 from go2vlm.sim import legs
 from go2vlm.sim.ball import BallPath
-from go2vlm.sim.camera import CameraIntrinsics, intrinsics
-from go2vlm.sim.controller import GaitParams, JointTrajectory, RobotInput, TrotController
+from go2vlm.sim.config import SimConfig
+from go2vlm.sim.controller import JointTrajectory, RobotInput, TrotController
 from go2vlm.sim.gl import RenderingUnavailable, patch_late_import
 from go2vlm.sim.kinematic_gait import KinematicGait
 from go2vlm.sim.render import camera_scene_option
-from go2vlm.sim.rotations import mat_to_rpy, quat_to_mat, tilt_angle, yaw_quat
 from go2vlm.sim.state import Pose, RobotState
 from go2vlm.sim.worlds import build_world_xml
 
-# Unitree sport-mode command limits.
-VX_LIMITS = (-2.5, 3.8)
-VY_LIMIT = 1.0
-VYAW_LIMIT = 4.0
-
 RECOVERY_ATTEMPTS = 4
 MODES = ("lying", "standing_up", "standing", "walking", "lying_down", "damped", "fallen", "recovering")
-
-
-@dataclass
-class SimConfig:
-    world: str = "vision_test"  # name in go2vlm/sim/worlds or a path to an .xml
-    mode: Literal["dynamic", "kinematic"] = "dynamic"
-    spawn: tuple[float, float, float] | None = None  # x, y, yaw; None: the world's default
-    start_standing: bool = True  # False: start lying down
-    camera_width: int = 1280
-    camera_height: int = 720
-    camera_fovy: float = 58.0  # vertical field of view of the head camera, degrees
-    world_camera_width: int = 640
-    world_camera_height: int = 480
-    ball_speed: float = 0.3  # m/s along the world's ball path
-    ball_path: str | None = None  # override the world's path type: "ellipse" | "figure8"
-    seed: int = 0  # seeds the initial joint noise (only used if init_noise > 0)
-    init_noise: float = 0.0  # rad, uniform noise added to the initial joint angles
-    timestep: float = 0.002
-    control_decimation: int = 2  # controller runs every N physics steps (2 -> 250 Hz, 1 -> 500 Hz)
-    fall_tilt: float = 1.0  # rad
-    fall_height: float = 0.14  # m, base height below which standing/walking counts as fallen
-    gait: GaitParams = field(default_factory=GaitParams)
 
 
 class Go2Sim:
@@ -69,7 +41,7 @@ class Go2Sim:
         m = self.model
         self._base_id = m.body("base").id
         self._head_cam = m.camera("head_camera").id
-        m.cam_fovy[self._head_cam] = cfg.camera_fovy
+        m.cam_fovy[self._head_cam] = cfg.camera_fovy_deg
         self._world_cam = m.camera("world_camera").id if "world_camera" in _names(m, mujoco.mjtObj.mjOBJ_CAMERA) else -1
         self._qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in gm.JOINT_NAMES])
         self._vadr = np.array([m.jnt_dofadr[m.joint(n).id] for n in gm.JOINT_NAMES])
@@ -162,10 +134,7 @@ class Go2Sim:
 
     def set_command(self, vx: float, vy: float, vyaw: float) -> np.ndarray:
         """Velocity command in the heading frame, clamped to the Go2 sport-mode limits."""
-        self._cmd = np.array(
-            [np.clip(vx, *VX_LIMITS), np.clip(vy, -VY_LIMIT, VY_LIMIT), np.clip(vyaw, -VYAW_LIMIT, VYAW_LIMIT)],
-            dtype=float,
-        )
+        self._cmd = np.array(clamp_velocity(vx, vy, vyaw), dtype=float)
         self.controller.set_command(*self._cmd)
         return self._cmd.copy()
 
@@ -426,13 +395,13 @@ class Go2Sim:
         return out
 
     # -------------------------------------------------------------- cameras
-    def head_intrinsics(self, width: int | None = None, height: int | None = None) -> CameraIntrinsics:
+    def head_intrinsics(self, width: int | None = None, height: int | None = None) -> PinholeCamera:
         w, h = width or self.config.camera_width, height or self.config.camera_height
-        return intrinsics(w, h, self.config.camera_fovy)
+        return PinholeCamera.from_fovy(w, h, self.config.camera_fovy_deg)
 
-    def world_camera_intrinsics(self) -> CameraIntrinsics:
+    def world_camera_intrinsics(self) -> PinholeCamera:
         fovy = float(self.model.cam_fovy[self._world_cam]) if self._world_cam >= 0 else 45.0
-        return intrinsics(self.config.world_camera_width, self.config.world_camera_height, fovy)
+        return PinholeCamera.from_fovy(self.config.world_camera_width, self.config.world_camera_height, fovy)
 
     def head_camera_pose(self) -> Pose:
         """World pose of the head camera in the ROS optical convention (z forward, x right, y down)."""
@@ -492,7 +461,7 @@ class Go2Sim:
         return np.flatnonzero(np.isin(self.model.geom_bodyid, sorted(self._robot_bodies)))
 
     def render_world_camera(self, width: int | None = None, height: int | None = None) -> np.ndarray:
-        """RGB frame from the world's static "world_camera" (seed: 640x480)."""
+        """RGB frame from the world's static "world_camera" (the VLM article's: 640x480)."""
         if self._world_cam < 0:
             raise ValueError(f"world {self.world_info.name!r} has no 'world_camera'")
         w, h = width or self.config.world_camera_width, height or self.config.world_camera_height

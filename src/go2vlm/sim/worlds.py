@@ -8,9 +8,12 @@ Angles in world files are radians (the loader forces ``<compiler angle="radian"/
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from go2vlm.sim import go2_model
 
@@ -99,3 +102,20 @@ def build_world_xml(
     _child(root, "actuator").extend(ET.fromstring(f"<a>{go2_model.robot_actuators_xml()}</a>"))
     _child(root, "sensor").extend(ET.fromstring(f"<s>{go2_model.robot_sensors_xml()}</s>"))
     return ET.tostring(root, encoding="unicode"), info
+
+
+def gazebo_rpy_to_xyaxes(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """MuJoCo camera ``xyaxes`` for a Gazebo camera pose with this rpy (for world authors porting a
+    Gazebo world, as vision_test.xml ports the article's).
+
+    Gazebo (R = Rz(yaw) Ry(pitch) Rx(roll)) cameras look along +x with +z up;
+    MuJoCo cameras look along -z with +y up, so x_mj = -y_gz and y_mj = z_gz.
+    """
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    r = rz @ ry @ rx
+    return np.concatenate([-r[:, 1], r[:, 2]])

@@ -2,11 +2,11 @@
 
 Light to import: torch/transformers/openai load only when a backend is created.
 
-* :mod:`.node` -- the ``vlm`` node (``go2vlm run vlm --param model=DIR``)
-* :mod:`.backend`, :mod:`.hf_backend`, :mod:`.openai_backend` -- in-process or OpenAI-compatible server
+* :mod:`.vlm_node` -- the ``vlm`` node (``go2vlm run vlm --param model=DIR``)
+* :mod:`.backend`, :mod:`.factory`, :mod:`.hf_backend`, :mod:`.openai_backend` -- in-process or
+  OpenAI-compatible server
 * :mod:`.parse` -- untrusted model output -> boxes, with counters
 * :mod:`.geometry` -- Qwen smart resize, coordinate conventions
-* :mod:`.tiny` -- a tiny real Qwen2.5-VL checkpoint built offline, for tests and benchmarks
 """
 
 from go2vlm.perception.vlm.geometry import CoordSystem, smart_resize, visual_tokens

@@ -1,7 +1,8 @@
 """What a VLM backend is: settings in, (image, prompt) -> answer text + geometry + timings out.
 
 Two implementations: ``transformers`` (the model in this process, :mod:`.hf_backend`)
-and ``openai`` (any OpenAI-compatible chat-completions server, :mod:`.openai_backend`).
+and ``openai`` (any OpenAI-compatible chat-completions server, :mod:`.openai_backend`);
+:func:`go2vlm.perception.vlm.factory.make_backend` picks one.
 Both return the size of the image the model actually saw, so boxes can be mapped back
 to camera pixels the same way (:mod:`.geometry`).
 """
@@ -24,7 +25,6 @@ __all__ = [
     "Generation",
     "Secret",
     "VlmOutOfMemory",
-    "make_backend",
     "resolve_api_key",
 ]
 
@@ -118,16 +118,3 @@ class Backend(Protocol):
     def generate(self, rgb: np.ndarray, prompt: str) -> Generation: ...
 
     def close(self) -> None: ...
-
-
-def make_backend(settings: BackendSettings) -> Backend:
-    """The backend named by ``settings.backend`` (imports its heavy dependencies lazily)."""
-    if settings.backend == "transformers":
-        from go2vlm.perception.vlm.hf_backend import TransformersBackend
-
-        return TransformersBackend(settings)
-    if settings.backend == "openai":
-        from go2vlm.perception.vlm.openai_backend import OpenAIBackend
-
-        return OpenAIBackend(settings)
-    raise ValueError(f"unknown backend {settings.backend!r}; use 'transformers' or 'openai'")

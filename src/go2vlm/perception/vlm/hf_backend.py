@@ -3,7 +3,7 @@
 Loads a local directory or hub id with ``AutoProcessor`` and
 ``Qwen2_5_VLForConditionalGeneration`` (``AutoModelForImageTextToText`` for the other
 Qwen-VL families), picks dtype/device, optionally quantizes with bitsandbytes (nf4
-with double quantization as in the seed article, or int8), and reports where the
+with double quantization as in the VLM article, or int8), and reports where the
 time went: preprocess, prefill (to the first token), decode.
 """
 
@@ -71,7 +71,7 @@ def _quantization_config(quantization: str, device: str, dtype: Any) -> Any:
 
     if quantization == "int8":
         return BitsAndBytesConfig(load_in_8bit=True)
-    # The seed's settings: 4-bit NF4 weights, double quantization of the scales, fp16 compute
+    # The VLM article's settings: 4-bit NF4 weights, double quantization of the scales, fp16 compute
     # (bf16 where the dtype says so; fp32 compute would throw away the speed).
     compute = dtype if dtype in (torch.float16, torch.bfloat16) else torch.float16
     return BitsAndBytesConfig(
@@ -253,13 +253,6 @@ class TransformersBackend:
                 "total": (t3 - t0) * 1e3,
             },
         )
-
-    def peak_memory_bytes(self) -> int:
-        if not self.device.startswith("cuda"):
-            return 0
-        import torch
-
-        return int(torch.cuda.max_memory_allocated())
 
     def close(self) -> None:
         self.model = None

@@ -1,7 +1,7 @@
 """A one-frame mailbox: the camera callback puts, the inference worker takes, newest wins.
 
 Inference takes hundreds of milliseconds to seconds; a camera sends 10-30 frames a second.
-Queueing frames (the seed article ran inference inside the callback with a depth-10 queue)
+Queueing frames (the VLM article ran inference inside the callback with a depth-10 queue)
 makes every answer describe the past, later and later. Here the callback never waits: it
 overwrites the slot, and each overwritten frame is counted as dropped.
 """

@@ -1,6 +1,6 @@
 """Prompts the VLM node sends.
 
-``describe`` mode sends the user's prompt (the seed article's Chinese scene
+``describe`` mode sends the user's prompt (the VLM article's Chinese scene
 description prompt by default). ``detect`` mode asks for Qwen2.5-VL's native
 grounding format -- a JSON list of ``{"bbox_2d": [x1, y1, x2, y2], "label": ...}``
 -- which the model was trained to emit, so no custom output grammar is needed.
@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 __all__ = ["DEFAULT_PROMPT", "build_prompt", "detect_prompt"]
 
-# From the seed article's node (3.2): "describe the scene, point out object colours, shapes, positions".
+# From the VLM article's node (section 3.2): "describe the scene, point out object colours, shapes, positions".
 DEFAULT_PROMPT = "描述图片中的场景,指出物体颜色、形状和位置。"
 
 

@@ -17,9 +17,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from ...bus import Node
-from ...msgs.unitree import Request, Response
-from . import protocol as p
+from go2vlm.bus import QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
+from go2vlm.msgs.unitree import Request, Response
+from go2vlm.robots.go2 import protocol as p
 
 
 class RpcFuture:
@@ -78,10 +78,8 @@ class RpcClient:
         self.timeout_s = timeout_s
         self._pending: dict[int, RpcFuture] = {}
         self._lock = threading.Lock()
-        self._pub = node.create_publisher(Request, p.request_topic(service), p.QOS_UNITREE_WRITER)
-        self._sub = node.create_subscription(
-            Response, p.response_topic(service), self._on_response, p.QOS_UNITREE_READER
-        )
+        self._pub = node.create_publisher(Request, p.request_topic(service), QOS_UNITREE_WRITER)
+        self._sub = node.create_subscription(Response, p.response_topic(service), self._on_response, QOS_UNITREE_READER)
         node.create_timer(0.05, self._expire)
         self.sent = 0
         self.foreign_responses = 0

@@ -16,8 +16,7 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from ...bus import QosProfile
-from ...msgs.unitree import (
+from go2vlm.msgs.unitree import (
     Request,
     RequestHeader,
     RequestIdentity,
@@ -27,6 +26,7 @@ from ...msgs.unitree import (
     ResponseHeader,
     ResponseStatus,
 )
+from go2vlm.robots.go2 import spec
 
 SPORT_SERVICE = "sport"
 VIDEO_SERVICE = "videohub"
@@ -116,21 +116,28 @@ def describe_code(code: int) -> str:
     return f"{code} ({CODE_NAMES.get(code, 'unknown code')})"
 
 
+# -- sport modes ------------------------------------------------------------------------------
+# SportModeState.mode (Unitree sport-mode documentation); SPORT_MODE_CODES is the inverse.
+SPORT_MODES = {
+    0: "idle",
+    1: "balance_stand",
+    2: "pose",
+    3: "locomotion",
+    5: "lie_down",
+    6: "joint_lock",
+    7: "damping",
+    8: "recovery_stand",
+    10: "sit",
+    11: "front_flip",
+    12: "front_jump",
+    13: "front_pounce",
+}
+SPORT_MODE_CODES: dict[str, int] = {name: code for code, name in SPORT_MODES.items()}
+
 # -- limits -----------------------------------------------------------------------------------
-# Sport-mode velocity limits (Unitree's documented Move ranges).
-VX_RANGE = (-2.5, 3.8)
-VY_LIMIT = 1.0
-VYAW_LIMIT = 4.0
 MAX_PARAMETER_CHARS = 64 * 1024  # JSON parameters are tiny; anything huge is a bug or an attack
 MAX_REQUEST_BINARY = 64 * 1024  # sport/videohub requests carry no payload
 MAX_IMAGE_BYTES = 8 * 1024 * 1024  # a 1280x720 JPEG is ~100-300 KB
-
-# -- QoS ----------------------------------------------------------------------------------------
-# unitree_sdk2 creates every reader and writer with Cyclone's default QoS (qos=None): writers
-# reliable, readers best-effort, volatile, keep-last. Reliable writers and best-effort readers
-# match any peer, so we use exactly that split; depth is local and does not affect matching.
-QOS_UNITREE_WRITER = QosProfile(reliable=True, transient_local=False, depth=10)
-QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)
 
 
 class ProtocolError(ValueError):
@@ -225,15 +232,7 @@ def parse_move(params: Any) -> tuple[float, float, float]:
     if not isinstance(params, dict):
         raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter must be a JSON object, got {params!r:.80}")
     vx, vy, vyaw = _number(params, "x"), _number(params, "y"), _number(params, "z")
-    return clamp_velocity(vx, vy, vyaw)
-
-
-def clamp_velocity(vx: float, vy: float, vyaw: float) -> tuple[float, float, float]:
-    return (
-        min(max(vx, VX_RANGE[0]), VX_RANGE[1]),
-        min(max(vy, -VY_LIMIT), VY_LIMIT),
-        min(max(vyaw, -VYAW_LIMIT), VYAW_LIMIT),
-    )
+    return spec.clamp_velocity(vx, vy, vyaw)
 
 
 @dataclass(frozen=True)

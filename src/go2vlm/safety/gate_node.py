@@ -35,16 +35,15 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile, param
+from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, Node, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
-from go2vlm.msgs.std_msgs import Bool, String
+from go2vlm.msgs.std_msgs import String
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput
 from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
-from go2vlm.safety.mux import DEFAULT_INPUTS, RELEASE_TOKEN, InputSpec, SafetyCore
+from go2vlm.safety.mux import DEFAULT_INPUTS, InputSpec, SafetyCore
 
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
-
-QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
 
 
 def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
@@ -115,10 +114,9 @@ class SafetyGateNode(Node):
         self._last_status = 0.0
         for spec in self.core.specs:
             self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
-        for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
-            self.create_subscription(Bool, "/emergency_stop", self.on_estop, qos)
-        for qos in (QOS_DEFAULT, QOS_ANY):
-            self.create_subscription(String, "/emergency_stop/release", self.on_release, qos)
+        self.estop = EstopInput(
+            self, self.core.latch, held="/cmd_vel held at zero", on_engage=self.tick, on_release=self.tick
+        )
         if c.start_engaged:
             self.log.warning(
                 f"starting with the e-stop latched; publish {c.release_token!r} on /emergency_stop/release"
@@ -141,35 +139,6 @@ class SafetyGateNode(Node):
             self.log.throttled("error", 2.0, f"rejecting a command from {name} ({n} so far): {why}", key=f"rej:{name}")
         if was_active and (why is not None or v.is_zero) and not self.core.output.is_zero:
             self.tick()  # a stop goes out now, not at the next tick
-
-    def on_estop(self, msg: Bool) -> None:
-        if msg.data:
-            if self.core.estopped:
-                return  # already latched (we read the topic with three QoS, and senders repeat)
-            self.log.warning(
-                f"EMERGENCY STOP: /cmd_vel held at zero until {self.config.release_token!r} is published "
-                "on /emergency_stop/release"
-            )
-            self.core.estop(True)
-            self.tick()  # the zero goes out now, not at the next tick
-        elif self.core.estopped:
-            self.core.estop(False)
-            self.log.throttled(
-                "warning",
-                2.0,
-                "/emergency_stop false does not release the e-stop; use /emergency_stop/release",
-                key="false",
-            )
-
-    def on_release(self, msg: String) -> None:
-        if not self.core.estopped:
-            return  # a duplicate (we read the topic with two QoS) or nothing to release
-        if self.core.release(msg.data):
-            self.log.warning("e-stop released")
-            self.tick()
-        else:
-            n = self.core.counters.get("release_refused", 0)
-            self.log.throttled("warning", 2.0, f"e-stop release refused: wrong token ({n} so far)", key="refused")
 
     # -- output ------------------------------------------------------------------------------
     def tick(self) -> None:

@@ -58,27 +58,20 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.behavior.approach import (
-    DEFAULT_SIZES,
-    GO2_CAMERA_FORWARD_M,
-    GO2_CAMERA_HEIGHT_M,
-    ApproachParams,
-    CameraModel,
-    RangeEstimator,
-    RangeReading,
-    approach_command,
-    normalized_target,
-)
+from go2vlm.behavior.approach import DEFAULT_SIZES, ApproachParams, RangeEstimator, RangeReading, approach_command
 from go2vlm.behavior.decisions import DECISION_PROMPT, Decision, DecisionRejected, parse_decision
 from go2vlm.behavior.goals import Goal, GoalParseError, Target, parse_goal, parse_target
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.target import normalized_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
-from go2vlm.msgs.image import to_bgr
+from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
 from go2vlm.perception.grounding import ground
 from go2vlm.perception.tracker import HistTracker
+from go2vlm.robots.go2 import spec
 
 __all__ = ["CommanderConfig", "CommanderNode", "match_detection"]
 
@@ -111,10 +104,15 @@ class CommanderConfig:
     reground_period_s: float = param(0.5, help="color grounding: re-ground this often while tracking", min=0.0)
     min_shape_score: float = param(0.35, help="color grounding: shape score needed to accept", min=0.0, max=1.0)
     vlm_max_age_s: float = param(5.0, help="vlm grounding: ignore answers about frames older than this", min=0.1)
-    camera_height_m: float = param(GO2_CAMERA_HEIGHT_M, help="camera height above the floor (ranging)", min=0.05)
-    camera_forward_m: float = param(GO2_CAMERA_FORWARD_M, help="camera ahead of the base centre", min=-1.0, max=1.0)
+    camera_height_m: float = param(spec.HEAD_CAMERA_HEIGHT, help="camera height above the floor (ranging)", min=0.05)
+    camera_forward_m: float = param(spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0)
     camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
-    default_hfov_deg: float = param(73.0, help="horizontal FOV used until a CameraInfo arrives", min=10.0, max=170.0)
+    default_hfov_deg: float = param(
+        round(spec.head_camera_hfov_deg(640, 480), 1),
+        help="horizontal FOV used until a CameraInfo arrives",
+        min=10.0,
+        max=170.0,
+    )
     object_sizes: dict = param(
         dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width (m)"
     )
@@ -174,10 +172,6 @@ def match_detection(target: Target, labels: list[str]) -> int | None:
     return None if best is None else best[1]
 
 
-def _stamp_sec(h: Header) -> float:
-    return float(h.stamp.sec) + float(h.stamp.nanosec) * 1e-9
-
-
 class CommanderNode(Node):
     """The ``commander`` node; its contract (topics, goals, parameters) is the module docstring."""
 
@@ -229,7 +223,7 @@ class CommanderNode(Node):
         self._turn_dir = 0.0
         self.last_decision: dict[str, Any] | None = None
         # inputs
-        self._cam: CameraModel | None = None
+        self._cam: PinholeCamera | None = None
         self._pending_image: Image | None = None
         self._pending_dets: Detection2DArray | None = None
         self._history: deque[tuple[float, np.ndarray]] = deque(maxlen=HISTORY_FRAMES)
@@ -264,7 +258,7 @@ class CommanderNode(Node):
 
     def on_camera_info(self, msg: CameraInfo) -> None:
         try:
-            self._cam = CameraModel.from_k(int(msg.width), int(msg.height), list(msg.k))
+            self._cam = camera_model(msg)
         except (ValueError, IndexError) as exc:
             n = self.count("bad_camera_info")
             self.log.throttled("error", 5.0, f"ignoring a CameraInfo ({n} so far): {exc}", key="caminfo")
@@ -338,9 +332,9 @@ class CommanderNode(Node):
         self.publish_status()
 
     # -- perception ----------------------------------------------------------------------------
-    def _camera(self, width: int, height: int) -> CameraModel:
+    def _camera(self, width: int, height: int) -> PinholeCamera:
         if self._cam is None:
-            return CameraModel.from_hfov(width, height, math.radians(self.config.default_hfov_deg))
+            return PinholeCamera.from_hfov(width, height, math.radians(self.config.default_hfov_deg))
         return self._cam.scaled_to(width, height)
 
     def _decode(self, msg: Image) -> np.ndarray | None:
@@ -357,7 +351,7 @@ class CommanderNode(Node):
         bgr = self._decode(msg) if msg is not None else None
         if bgr is not None:
             self._size = (bgr.shape[1], bgr.shape[0])
-            stamp = _stamp_sec(msg.header)
+            stamp = msg.header.stamp.to_sec()
             self._history.append((stamp, bgr))
             with self._frame_lock:
                 self._latest_bgr = bgr
@@ -405,7 +399,7 @@ class CommanderNode(Node):
             self.count("vlm_no_match")
             return
         det = msg.detections[idx]
-        stamp = _stamp_sec(msg.header)
+        stamp = msg.header.stamp.to_sec()
         if not self._history:
             return
         if stamp > 0 and self._history[-1][0] - stamp > self.config.vlm_max_age_s:
@@ -595,7 +589,8 @@ class CommanderNode(Node):
                 self._enter("sat", "a VLM decision said sit: sent 'sit' on /go2/command", now)
 
     def _decide_loop(self) -> None:
-        from go2vlm.perception.vlm.backend import BackendSettings, make_backend, resolve_api_key
+        from go2vlm.perception.vlm.backend import BackendSettings, resolve_api_key
+        from go2vlm.perception.vlm.factory import make_backend
 
         cfg: CommanderConfig = self.config
         settings = BackendSettings(

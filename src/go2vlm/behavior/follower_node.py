@@ -1,11 +1,12 @@
-"""follower: turns towards the detected target and walks up to it (the second seed's follower.py).
+"""follower: turns towards the detected target and walks up to it (the follow article's
+follower.py, section 5.3).
 
 Topics
   subscribes  /detected_target     geometry_msgs/PointStamped: x = horizontal offset -1..1, z = size
   publishes   /follower/cmd_vel    geometry_msgs/Twist at rate_hz (20 Hz); the safety gate turns it
                                    into /cmd_vel
 
-Control law, per target (the seed's numbers are the defaults):
+Control law, per target (the article's numbers are the defaults):
   angular.z = clamp(-kp_angular * x - kd_angular * dx/dt, +-max_angular)
   linear.x  = clamp(kp_linear * (1 - z), 0, max_linear) while |x| < align_threshold, else 0
               (forward only: it turns first, then walks)
@@ -14,7 +15,7 @@ at once, not at the next 20 Hz tick. Zeros keep going out for idle_after_lost_s 
 follower falls silent until a target returns: a zero is a live command to the safety gate's mux, and
 a follower that streams zeros forever would block lower-priority inputs (/behavior/cmd_vel from the
 commander's search or approach). The gate's own watchdog keeps /cmd_vel at zero meanwhile.
-Optional, off by default (the seed's troubleshooting table against oscillation): a D term on x
+Optional, off by default (the article's troubleshooting table, section 7, against oscillation): a D term on x
 (kd_angular) and a first-order low-pass on the output (filter_alpha: weight of the new command per
 tick, 1.0 = no filtering).
 A target with NaN/inf or absurd values is dropped with a rate-limited error and counted in

@@ -17,7 +17,8 @@ Subscribes:
 Publishes:
   /camera/image_raw           sensor_msgs/Image     head camera, rgb8, frame camera_optical_frame
   /camera/camera_info         sensor_msgs/CameraInfo  latched, also sent with every frame (same stamp)
-  /world_camera/image_raw     sensor_msgs/Image     static world camera (the seed's 640x480, 10 Hz), rgb8
+  /world_camera/image_raw     sensor_msgs/Image     static world camera, rgb8 (the VLM article's Gazebo
+                                                    camera: 640x480, 10 Hz)
   /world_camera/camera_info   sensor_msgs/CameraInfo  latched
   /odom                       nav_msgs/Odometry     odom -> base_link; twist in base_link
   /imu                        sensor_msgs/Imu       frame base_link (the IMU frame is the base frame)
@@ -45,7 +46,7 @@ sim time. /clock carries sim time only for tools that want it.
 
 With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport/request Move,
 StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
-`go2vlm.sim.unitree_bridge.UnitreeSimBridge`, so `go2vlm run go2 --param interface=lo` drives it like
+`go2vlm.robots.go2_sim.unitree_bridge.UnitreeSimBridge`, so `go2vlm run go2 --param interface=lo` drives it like
 a real Go2. While /cmd_vel is silent the sport API has the robot; a live /cmd_vel overrides it.
 """
 
@@ -62,7 +63,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, QosProfile, param
+from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, Node, ParamError, param
+from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.msgs.base_state import base_state_messages, transform_stamped
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.geometry_msgs import Twist
@@ -72,13 +74,9 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.robots.go2 import spec
 from go2vlm.sim import Go2Sim, SimConfig
-from go2vlm.sim.camera import fovy_to_hfov
 from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
-
-# Images: reliable so that both reliable and best-effort (sensor-QoS) readers match; depth 2 keeps
-# a slow reader from holding more than two frames.
-QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
 
 # A real-time run that falls behind by less than this catches up (briefly faster than real time),
 # so that a short stall (another process, a GC pause) does not lower the real-time factor for good.
@@ -91,28 +89,14 @@ _MJ_TO_OPTICAL = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
 
 
 @dataclass
-class SimConfigParams:
-    world: str = param("follow_ball", help="world name (vision_test, follow_ball, obstacles) or an .xml path")
-    mode: str = param(
-        "dynamic", help="physics: dynamic (torque-controlled trot) or kinematic", choices=("dynamic", "kinematic")
-    )
+class SimNodeConfig(SimConfig):
+    """The sim's own config (world, physics, cameras: sim/config.py) plus how the node runs it."""
+
     rtf: float = param(1.0, help="target real-time factor (sim seconds per wall second)", min=0.01, max=100.0)
     fast: bool = param(False, help="run as fast as possible (ignores rtf)")
-    ball_speed: float = param(0.3, help="speed of the red ball on its path, m/s", min=0.0, max=3.0)
-    ball_path: str = param(
-        "",
-        help="override the world's ball path: ellipse or figure8 ('' = world default)",
-        choices=("", "ellipse", "figure8"),
-    )
-    spawn: list[float] = param(list, help="robot spawn [x, y, yaw] in the world ([] = the world's default)")
     camera: bool = param(True, help="render and publish the head camera")
-    camera_width: int = param(640, help="head camera width (the real Go2 camera is 1280x720)", min=16, max=3840)
-    camera_height: int = param(480, help="head camera height", min=16, max=2160)
     camera_rate_hz: float = param(10.0, help="head camera rate in sim time", min=0.1, max=60.0)
-    camera_fovy_deg: float = param(58.0, help="head camera vertical field of view, degrees", min=10.0, max=150.0)
     world_camera: bool = param(True, help="render and publish the static world camera")
-    world_camera_width: int = param(640, help="world camera width", min=16, max=3840)
-    world_camera_height: int = param(480, help="world camera height", min=16, max=2160)
     world_camera_rate_hz: float = param(10.0, help="world camera rate in sim time", min=0.1, max=60.0)
     state_rate_hz: float = param(
         50.0, help="rate of /odom, /imu, /joint_states, /tf, /clock (sim time)", min=1.0, max=500.0
@@ -123,11 +107,6 @@ class SimConfigParams:
     )
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
-    seed: int = param(0, help="seed of the initial joint noise")
-
-    def validate(self) -> None:
-        if self.spawn and len(self.spawn) != 3:
-            raise ValueError(f"parameter 'spawn' must be [x, y, yaw] or [], got {self.spawn}")
 
 
 def _mat_quat(r: np.ndarray) -> np.ndarray:
@@ -248,14 +227,13 @@ _POSTURES: dict[str, Callable[[Go2Sim], Any]] = {
 
 class SimNode(Node):
     name = "sim"
-    Config = SimConfigParams
+    Config = SimNodeConfig
 
-    def __init__(self, config: SimConfigParams | None = None, **kwargs: Any) -> None:
+    def __init__(self, config: SimNodeConfig | None = None, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
-        cfg: SimConfigParams = self.config
-        spawn = (float(cfg.spawn[0]), float(cfg.spawn[1]), float(cfg.spawn[2])) if cfg.spawn else None
+        cfg: SimNodeConfig = self.config
         try:
-            self.sim = self._make_sim(cfg, spawn)
+            self.sim = Go2Sim(cfg)
         except (ValueError, FileNotFoundError) as exc:  # unknown world, bad world file
             raise ParamError(f"node {self.node_name!r}: {exc}") from None
         self._cmd_lock = threading.Lock()
@@ -286,12 +264,9 @@ class SimNode(Node):
         self._renderer = _Renderer(self, self.sim.model)
         self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
         if cfg.camera:
-            info = camera_info(
-                cfg.camera_width,
-                cfg.camera_height,
-                fovy_to_hfov(cfg.camera_fovy_deg, cfg.camera_width, cfg.camera_height),
-            )
-            info.header.frame_id = "camera_optical_frame"
+            w, h = cfg.camera_width, cfg.camera_height
+            info = camera_info(PinholeCamera.from_hfov(w, h, fovy_to_hfov(cfg.camera_fovy_deg, w, h)))
+            info.header.frame_id = spec.CAMERA_FRAME
             self._cams["head"] = (
                 self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE),
                 self.create_publisher(type(info), "/camera/camera_info", QOS_LATCHED),
@@ -300,7 +275,7 @@ class SimNode(Node):
         if cfg.world_camera and self._renderer.has_world_camera:
             w, h = cfg.world_camera_width, cfg.world_camera_height
             fovy = float(self.sim.model.cam_fovy[self.sim.model.camera("world_camera").id])
-            info = camera_info(w, h, fovy_to_hfov(fovy, w, h))
+            info = camera_info(PinholeCamera.from_hfov(w, h, fovy_to_hfov(fovy, w, h)))
             info.header.frame_id = "world_camera_optical_frame"
             self._cams["world"] = (
                 self.create_publisher(Image, "/world_camera/image_raw", QOS_IMAGE),
@@ -312,10 +287,10 @@ class SimNode(Node):
 
         if cfg.unitree:
             try:
-                from go2vlm.sim.unitree_bridge import UnitreeSimBridge
+                from go2vlm.robots.go2_sim.unitree_bridge import UnitreeSimBridge
             except ImportError as exc:
                 raise RuntimeError(
-                    f"unitree: true needs go2vlm.sim.unitree_bridge, which cannot be imported: {exc}"
+                    f"unitree: true needs go2vlm.robots.go2_sim.unitree_bridge, which cannot be imported: {exc}"
                 ) from exc
             self.bridge = UnitreeSimBridge(self, self.sim)
 
@@ -323,24 +298,6 @@ class SimNode(Node):
         for _, info_pub, info in self._cams.values():
             info.header.stamp = self.stamp()
             info_pub.publish(info)
-
-    @staticmethod
-    def _make_sim(cfg: SimConfigParams, spawn: tuple[float, float, float] | None) -> Go2Sim:
-        return Go2Sim(
-            SimConfig(
-                world=cfg.world,
-                mode=cfg.mode,  # type: ignore[arg-type]
-                spawn=spawn,
-                camera_width=cfg.camera_width,
-                camera_height=cfg.camera_height,
-                camera_fovy=cfg.camera_fovy_deg,
-                world_camera_width=cfg.world_camera_width,
-                world_camera_height=cfg.world_camera_height,
-                ball_speed=cfg.ball_speed,
-                ball_path=cfg.ball_path or None,
-                seed=cfg.seed,
-            )
-        )
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_cmd_vel(self, msg: Twist) -> None:
@@ -374,12 +331,6 @@ class SimNode(Node):
             return
         self.log.info(f"posture: {word}")
         self.call_in_physics(action)
-
-    def set_velocity(self, vx: float, vy: float, wz: float) -> None:
-        """Command the robot as /cmd_vel would (same timeout). For in-process drivers and bridges."""
-        with self._cmd_lock:
-            self._cmd = (vx, vy, wz)
-            self._cmd_wall = time.monotonic()
 
     def call_in_physics(self, fn: Callable[[Go2Sim], None]) -> None:
         """Run `fn(sim)` on the physics thread before the next step (Go2Sim is not thread-safe)."""
@@ -421,7 +372,7 @@ class SimNode(Node):
             self.log.error(f"physics thread stopped: {type(exc).__name__}: {exc}")
 
     def _physics_loop(self) -> None:
-        cfg: SimConfigParams = self.config
+        cfg: SimNodeConfig = self.config
         sim = self.sim
         dt = sim.dt
         chunk = max(1, int(round(1.0 / (cfg.state_rate_hz * dt))))
@@ -538,7 +489,15 @@ class SimNode(Node):
     def _publish_state(self, s: Any, now_wall: float) -> None:
         stamp = self.stamp(now_wall)
         odom, imu, tf = base_state_messages(
-            stamp, "odom", "base_link", s.position, s.quaternion, s.lin_vel_body, s.ang_vel_body, s.imu_gyro, s.imu_acc
+            stamp,
+            spec.ODOM_FRAME,
+            spec.BASE_FRAME,
+            s.position,
+            s.quaternion,
+            s.lin_vel_body,
+            s.ang_vel_body,
+            s.imu_gyro,
+            s.imu_acc,
         )
         self.pub_odom.publish(odom)
         self.pub_imu.publish(imu)
@@ -563,7 +522,7 @@ class SimNode(Node):
         self.pub_gt.publish(TFMessage(transforms=tfs))
 
     def _publish_status(self, s: Any) -> None:
-        cfg: SimConfigParams = self.config
+        cfg: SimNodeConfig = self.config
         status = {
             "sim_time": round(s.time, 4),
             "wall_time": round(self.now(), 3),
@@ -593,7 +552,7 @@ class SimNode(Node):
 
     def _publish_static_tf(self) -> None:
         m, d = self.sim.model, self.sim.data
-        header = Header(stamp=self.stamp(), frame_id="base_link")
+        header = Header(stamp=self.stamp(), frame_id=spec.BASE_FRAME)
         base = m.body("base").id
         rb = d.xmat[base].reshape(3, 3)
         cam = m.camera("head_camera").id
@@ -602,10 +561,10 @@ class SimNode(Node):
         rel = rb.T @ rc
         tfs = [
             transform_stamped(
-                Header(stamp=header.stamp, frame_id="world"), "odom", np.zeros(3), np.array([1.0, 0, 0, 0])
+                Header(stamp=header.stamp, frame_id="world"), spec.ODOM_FRAME, np.zeros(3), np.array([1.0, 0, 0, 0])
             ),
             transform_stamped(header, "camera_link", pos, _mat_quat(rel @ _MJ_TO_LINK)),
-            transform_stamped(header, "camera_optical_frame", pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
+            transform_stamped(header, spec.CAMERA_FRAME, pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
         ]
         if self._renderer.has_world_camera:
             wc = m.camera("world_camera").id

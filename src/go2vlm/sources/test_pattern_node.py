@@ -1,4 +1,4 @@
-"""test_pattern: the first seed's test image publisher, a camera without a camera.
+"""test_pattern: the VLM article's test image publisher (section 3.3), a camera without a camera.
 
 Topics
   publishes  /camera/image_raw    sensor_msgs/Image, 640x480 bgr8, frame_id = frame_id: black, a filled
@@ -8,7 +8,7 @@ Topics
 
 QoS: reliable keep-last (ROS default), so best-effort and reliable readers both match. The first
 frame goes out at start-up, and a fresh frame whenever a new reader matches, so a late joiner does
-not wait a whole period_s (5 s by default, as in the seed).
+not wait a whole period_s (5 s by default, as in the article).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 
@@ -29,7 +30,7 @@ WIDTH, HEIGHT = 640, 480
 
 
 def draw_pattern(n: int) -> np.ndarray:
-    """The seed's frame number `n` as a 480x640x3 BGR array."""
+    """The article's frame number `n` as a 480x640x3 BGR array."""
     img = np.zeros((HEIGHT, WIDTH, 3), dtype=np.uint8)
     cv2.rectangle(img, (100, 200), (300, 400), (0, 255, 0), -1)
     cv2.circle(img, (450, 150), 80, (0, 0, 255), -1)
@@ -39,7 +40,7 @@ def draw_pattern(n: int) -> np.ndarray:
 
 @dataclass
 class TestPatternConfig:
-    period_s: float = param(5.0, help="seconds between frames (the seed: 5.0)", min=0.001, max=3600.0)
+    period_s: float = param(5.0, help="seconds between frames (the article: 5.0)", min=0.001, max=3600.0)
     frame_id: str = param("camera", help="header.frame_id of image and camera_info")
     hfov_rad: float = param(1.2, help="horizontal field of view for camera_info", min=0.01, max=3.1)
 
@@ -62,7 +63,7 @@ class TestPatternNode(Node):
 
     def publish_frame(self) -> None:
         header = self.header(self.config.frame_id)
-        self.info_pub.publish(camera_info(WIDTH, HEIGHT, self.config.hfov_rad, header=header))
+        self.info_pub.publish(camera_info(PinholeCamera.from_hfov(WIDTH, HEIGHT, self.config.hfov_rad), header=header))
         self.image_pub.publish(numpy_to_image(draw_pattern(self.frame), "bgr8", header=header))
         self.log.debug(f"published frame #{self.frame}")
         self.frame += 1

@@ -1,4 +1,5 @@
-"""color_detector: finds the largest blob of one colour in the camera image (the second seed's node).
+"""color_detector: finds the largest blob of one colour in the camera image (the follow article's
+color_detector.py, section 5.2).
 
 Topics
   subscribes  /camera/image_raw           sensor_msgs/Image (sensor-data QoS: matches reliable and

@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, ShutdownRequested
+from go2vlm.geometry.camera import fovy_to_hfov
+from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.nav_msgs import Odometry
@@ -33,7 +35,6 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.sim.camera import fovy_to_hfov
 
 VIDEO_WIDTH = 320  # frames are downscaled before encoding: a quarter of the pixels of 640x480
 
@@ -69,15 +70,6 @@ class DemoResult:
     @property
     def fell(self) -> bool:
         return bool(self.metrics.get("fell"))
-
-
-def _sec(stamp: Any) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
-def quat_yaw(q: Any) -> float:
-    """Yaw (rad) of a geometry_msgs Quaternion."""
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
 
 
 class DemoRecorder(Node):
@@ -117,7 +109,7 @@ class DemoRecorder(Node):
         if not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
             self.count("bad_targets")
             return
-        t = _sec(msg.header.stamp)
+        t = msg.header.stamp.to_sec()
         if t < self.t_start:
             return
         with self.lock:
@@ -139,11 +131,12 @@ class DemoRecorder(Node):
                 ball = tf.transform
         if robot is None or ball is None:
             return
-        yaw = quat_yaw(robot.rotation)
+        q = robot.rotation
+        yaw = quat_yaw(q.w, q.x, q.y, q.z)
         with self.lock:
             self.gt.append(
                 (
-                    _sec(msg.transforms[0].header.stamp),
+                    msg.transforms[0].header.stamp.to_sec(),
                     robot.translation.x,
                     robot.translation.y,
                     yaw,
@@ -155,7 +148,7 @@ class DemoRecorder(Node):
     def _on_odom(self, msg: Odometry) -> None:
         p = msg.pose.pose.position
         with self.lock:
-            self.odom.append((_sec(msg.header.stamp), p.x, p.y))
+            self.odom.append((msg.header.stamp.to_sec(), p.x, p.y))
 
     def _on_status(self, msg: String) -> None:
         try:
@@ -170,10 +163,10 @@ class DemoRecorder(Node):
             self.fell = self.fell or bool(st.get("fell"))
 
     def _on_clock(self, msg: Clock) -> None:
-        self.sim_time = _sec(msg.clock)
+        self.sim_time = msg.clock.to_sec()
 
     def _on_info(self, msg: CameraInfo) -> None:
-        t = _sec(msg.header.stamp)
+        t = msg.header.stamp.to_sec()
         if t < self.t_start:
             return
         with self.lock:
@@ -197,7 +190,7 @@ class DemoRecorder(Node):
         elif small.shape[2] == 4:
             small = np.ascontiguousarray(small[:, :, :3])
         # A frame waits for its detection (same stamp) until newer frames push it out.
-        self._pending[_sec(msg.header.stamp)] = small
+        self._pending[msg.header.stamp.to_sec()] = small
         while len(self._pending) > 3:
             oldest = min(self._pending)
             self._emit(self._pending.pop(oldest), None)
@@ -438,7 +431,7 @@ def cpu_by_thread() -> dict[str, float]:
     return out
 
 
-# -- orchestration (shared with go2vlm.behavior.goal_demo) ---------------------------------------
+# -- orchestration (shared with go2vlm.apps.goal_demo) ---------------------------------------
 
 
 def sim_node_params(opts: Any, world: str) -> dict[str, Any]:
@@ -505,7 +498,7 @@ def build_nodes(opts: DemoOptions) -> list[Node]:
             node_class("go2")
         except (ImportError, AttributeError) as exc:
             raise RuntimeError(
-                "--robot go2 needs the Go2 driver node (go2vlm.robots.go2.driver:Go2DriverNode), "
+                "--robot go2 needs the Go2 driver node (go2vlm.robots.go2.driver_node:Go2DriverNode), "
                 f"which is not available: {exc}"
             ) from None
         # The sim is reached only through the Unitree protocol (sport API, videohub camera,

@@ -3,7 +3,7 @@
     sim -> /camera/image_raw -> commander (colour-shape grounder + tracker) -> /behavior/cmd_vel
         (follow goals: -> /detected_target -> follower -> /follower/cmd_vel) -> safety gate -> /cmd_vel -> sim
 
-World: `vision_test` (the seed's red sphere, green box, blue cylinder; the Go2 starts at (0, -1.5)
+World: `vision_test` (the VLM article's Gazebo world: red sphere, green box, blue cylinder; the Go2 starts at (0, -1.5)
 facing +x, so only the red sphere is in view at first), or `follow_ball` for "follow the red ball"
 (a red ball moving on a circle). All nodes run in this process on their own threads, over DDS.
 
@@ -21,14 +21,13 @@ Metrics (from the simulator's ground truth, /sim/ground_truth, and the commander
                     size) overlapped an object's footprint; min_clearance_m is the smallest gap.
                     Geometric, so it is the same in kinematic and dynamic physics.
 
-    from go2vlm.behavior.goal_demo import GoalDemoOptions, run_goal_demo
+    from go2vlm.apps.goal_demo import GoalDemoOptions, run_goal_demo
     result = run_goal_demo(GoalDemoOptions(goal="go to the blue cylinder", mode="kinematic", rtf=2.0))
     print(goal_summary(result))
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -38,19 +37,20 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from go2vlm.apps.follow_demo import shutdown_nodes, shutdown_request, sim_clock, sim_node_params, start_nodes
 from go2vlm.behavior.goals import GoalParseError, parse_goal, parse_target
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ShutdownRequested
+from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.sim.camera import fovy_to_hfov
-from go2vlm.sim.demo import quat_yaw, shutdown_nodes, shutdown_request, sim_clock, sim_node_params, start_nodes
+from go2vlm.robots.go2 import spec
 
-__all__ = ["GoalDemoOptions", "GoalDemoResult", "goal_summary", "run_goal_cli", "run_goal_demo"]
+__all__ = ["GoalDemoOptions", "GoalDemoResult", "goal_summary", "run_goal_demo"]
 
-ROBOT_HALF_LENGTH = 0.35  # Go2: 0.70 m long, 0.31 m wide (standing, legs included)
-ROBOT_HALF_WIDTH = 0.155
+ROBOT_HALF_LENGTH = spec.FOOTPRINT_LENGTH / 2
+ROBOT_HALF_WIDTH = spec.FOOTPRINT_WIDTH / 2
 SUCCESS_STATES = {"go_to": "reached", "look_for": "found"}
 
 
@@ -117,7 +117,7 @@ class GoalRecorder(Node):
         self.create_subscription(TFMessage, "/sim/ground_truth", self._on_gt, QOS_DEFAULT)
 
     def _on_clock(self, msg: Clock) -> None:
-        self.sim_time = msg.clock.sec + msg.clock.nanosec * 1e-9
+        self.sim_time = msg.clock.to_sec()
 
     def _on_status(self, msg: String) -> None:
         try:
@@ -136,7 +136,8 @@ class GoalRecorder(Node):
         poses = {}
         for tf in msg.transforms:
             t = tf.transform.translation
-            poses[tf.child_frame_id.removeprefix("gt/")] = (t.x, t.y, quat_yaw(tf.transform.rotation))
+            q = tf.transform.rotation
+            poses[tf.child_frame_id.removeprefix("gt/")] = (t.x, t.y, quat_yaw(q.w, q.x, q.y, q.z))
         with self.lock:
             self.poses.append((self.sim_time, poses))
 
@@ -363,7 +364,7 @@ def compute_metrics(
         tx, ty = poses[-1][1].get(target, (shapes[target].x, shapes[target].y, 0.0))[:2]
         bearing = math.atan2(ty - ry, tx - rx) - ryaw
         bearing = math.atan2(math.sin(bearing), math.cos(bearing))
-        hfov = fovy_to_hfov(58.0, opts.camera_width, opts.camera_height)
+        hfov = math.radians(spec.head_camera_hfov_deg(opts.camera_width, opts.camera_height))
         in_view = abs(bearing) < hfov / 2
     travelled = 0.0
     track = [p["go2"] for _, p in poses if "go2" in p]
@@ -449,59 +450,3 @@ def goal_summary(result: GoalDemoResult) -> str:
     if result.out_dir is not None:
         lines.append(f"  wrote:           {result.out_dir / 'metrics.json'}")
     return "\n".join(lines)
-
-
-def run_goal_cli(args: argparse.Namespace) -> int:
-    """For `go2vlm demo --goal TEXT`: uses the demo parser's --duration, --rtf/--fast, --mode, --world,
-    --out, --ball-speed, --param, --interface, --domain (a --world of None picks the world from the goal)."""
-    from go2vlm.cli.demo import node_params
-
-    try:
-        parse_goal(args.goal)
-    except GoalParseError as exc:
-        print(f"go2vlm demo: {exc}", file=sys.stderr)
-        return 2
-    opts = GoalDemoOptions(
-        goal=args.goal,
-        world=getattr(args, "world", None),
-        mode=getattr(args, "mode", "kinematic"),
-        rtf=getattr(args, "rtf", 1.0),
-        fast=getattr(args, "fast", False),
-        timeout_s=getattr(args, "duration", None) or 60.0,
-        follow_duration_s=getattr(args, "duration", None) or 30.0,
-        ball_speed=getattr(args, "ball_speed", 0.3),
-        params=node_params(getattr(args, "param", []) or []),
-        out=getattr(args, "out", None),
-        interface=getattr(args, "interface", None),
-        domain_id=getattr(args, "domain", None),
-        progress=getattr(args, "progress", True),
-    )
-    try:
-        result = run_goal_demo(opts)
-    except RuntimeError as exc:
-        print(f"go2vlm demo: {exc}", file=sys.stderr)
-        return 3
-    print(goal_summary(result))
-    return 0 if result.metrics["goal_reached"] else 1
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`python -m go2vlm.behavior.goal_demo --goal TEXT [...]` (same as `go2vlm demo --goal`)."""
-    p = argparse.ArgumentParser(prog="python -m go2vlm.behavior.goal_demo", description=__doc__.split("\n")[0])
-    p.add_argument("--goal", required=True)
-    p.add_argument("--world", default=None)
-    p.add_argument("--mode", default="kinematic", choices=("dynamic", "kinematic"))
-    p.add_argument("--rtf", type=float, default=1.0)
-    p.add_argument("--fast", action="store_true")
-    p.add_argument("--duration", type=float, default=None, help="sim seconds (timeout; follow: run time)")
-    p.add_argument("--ball-speed", type=float, default=0.3)
-    p.add_argument("--param", "-p", action="append", default=[], metavar="NODE.NAME=VALUE")
-    p.add_argument("--out", type=Path, default=None)
-    p.add_argument("--interface", default=None)
-    p.add_argument("--domain", type=int, default=None)
-    p.add_argument("--no-progress", dest="progress", action="store_false")
-    return run_goal_cli(p.parse_args(argv))
-
-
-if __name__ == "__main__":
-    sys.exit(main())

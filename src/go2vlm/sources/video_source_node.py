@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 
@@ -198,7 +199,7 @@ class VideoSourceNode(Node):
     def _publish(self, frame: Any) -> None:
         header = self.header(self.config.frame_id)
         h, w = frame.shape[:2]
-        self.info_pub.publish(camera_info(w, h, self.config.hfov_rad, header=header))
+        self.info_pub.publish(camera_info(PinholeCamera.from_hfov(w, h, self.config.hfov_rad), header=header))
         self.image_pub.publish(numpy_to_image(frame, "bgr8", header=header))
         self.frames += 1
 

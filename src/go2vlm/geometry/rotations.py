@@ -29,3 +29,8 @@ def yaw_quat(yaw: float) -> np.ndarray:
 def tilt_angle(r: np.ndarray) -> float:
     """Angle between the base z axis and world up."""
     return float(np.arccos(np.clip(r[2, 2], -1.0, 1.0)))
+
+
+def quat_yaw(w: float, x: float, y: float, z: float) -> float:
+    """Yaw (rad) of the rotation (w, x, y, z)."""
+    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))

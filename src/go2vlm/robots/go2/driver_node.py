@@ -37,37 +37,21 @@ from typing import Any
 
 import numpy as np
 
-from ...bus import QOS_DEFAULT, QOS_LATCHED, Node, QosProfile, param
-from ...msgs.base_state import base_state_messages
-from ...msgs.geometry_msgs import Twist
-from ...msgs.image import camera_info, numpy_to_image
-from ...msgs.nav_msgs import Odometry
-from ...msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
-from ...msgs.std_msgs import Bool, String
-from ...msgs.tf2_msgs import TFMessage
-from ...msgs.unitree import SportModeState
-from ...safety.mux import RELEASE_TOKEN
-from . import protocol as p
-from .client import RpcClient
-
-QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
-QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
-
-# SportModeState.mode (Unitree sport-mode documentation).
-SPORT_MODES = {
-    0: "idle",
-    1: "balance_stand",
-    2: "pose",
-    3: "locomotion",
-    5: "lie_down",
-    6: "joint_lock",
-    7: "damping",
-    8: "recovery_stand",
-    10: "sit",
-    11: "front_flip",
-    12: "front_jump",
-    13: "front_pounce",
-}
+from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_READER, Node, param
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.rotations import quat_to_mat
+from go2vlm.msgs.base_state import base_state_messages
+from go2vlm.msgs.geometry_msgs import Twist
+from go2vlm.msgs.image import camera_info, numpy_to_image
+from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
+from go2vlm.msgs.std_msgs import String
+from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.unitree import SportModeState
+from go2vlm.robots.go2 import protocol as p
+from go2vlm.robots.go2 import spec
+from go2vlm.robots.go2.client import RpcClient
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch
 
 
 @dataclass
@@ -81,7 +65,10 @@ class Go2DriverConfig:
         10.0, help="front camera polling rate (videohub GetImageSample); 0 = camera off", min=0.0, max=30.0
     )
     camera_hfov_deg: float = param(
-        89.2, help="front camera horizontal FOV for /camera/camera_info (sim default; calibrate)", min=10.0, max=179.0
+        round(spec.head_camera_hfov_deg(1280, 720), 1),
+        help="front camera horizontal FOV for /camera/camera_info (the sim's camera at 1280x720; calibrate)",
+        min=10.0,
+        max=179.0,
     )
     publish_raw: bool = param(True, help="also publish the decoded bgr8 /camera/image_raw")
     state_rate_hz: float = param(50.0, help="max rate of /odom, /imu, /tf from rt/sportmodestate", min=1.0, max=500.0)
@@ -89,9 +76,9 @@ class Go2DriverConfig:
         p.SPORT_STATE_TOPIC, help="the robot's state topic (ROS form of rt/sportmodestate; e.g. /lf/sportmodestate)"
     )
     stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
-    odom_frame: str = param("odom", help="odometry frame")
-    base_frame: str = param("base_link", help="robot base frame")
-    camera_frame: str = param("camera_optical_frame", help="frame_id of the camera images")
+    odom_frame: str = param(spec.ODOM_FRAME, help="odometry frame")
+    base_frame: str = param(spec.BASE_FRAME, help="robot base frame")
+    camera_frame: str = param(spec.CAMERA_FRAME, help="frame_id of the camera images")
     release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
 
     def validate(self) -> None:
@@ -117,7 +104,7 @@ class Go2DriverNode(Node):
         self._cmd = (0.0, 0.0, 0.0)
         self._cmd_time = -math.inf
         self.moving = False  # a non-zero Move was sent since the last StopMove
-        self.estop = False
+        self.estop = EstopLatch(cfg.release_token.strip())
         self._damp_acked = False
         self._damp_in_flight = False
         self._damp_last_try = -math.inf
@@ -144,14 +131,16 @@ class Go2DriverNode(Node):
             self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
-        # Read three ways (as the safety gate does) so that every publisher QoS matches, and a
-        # latched e-stop reaches a driver started late.
-        for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
-            self.create_subscription(Bool, "/emergency_stop", self._on_estop, qos)
-        for qos in (QOS_DEFAULT, QOS_ANY):
-            self.create_subscription(String, "/emergency_stop/release", self._on_release, qos)
+        EstopInput(
+            self,
+            self.estop,
+            held="Damp, no Move, no standing up",
+            on_engage=self._on_estop,
+            on_release=self._on_release,
+            released_note="the robot stays down until 'recover' or 'stand'",
+        )
         self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
-        self.create_subscription(SportModeState, cfg.state_topic, self._on_state, p.QOS_UNITREE_READER)
+        self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self._status_tick)
 
@@ -163,28 +152,15 @@ class Go2DriverNode(Node):
             self.log.throttled("error", 2.0, f"rejected /cmd_vel with a non-finite value {vals}: stopping instead")
             self._cmd, self._cmd_time = (0.0, 0.0, 0.0), time.monotonic()
             return
-        self._cmd = p.clamp_velocity(*vals)
+        self._cmd = spec.clamp_velocity(*vals)
         self._cmd_time = time.monotonic()
 
-    def _on_estop(self, msg: Bool) -> None:
-        if msg.data and not self.estop:
-            self.log.warning("emergency stop: Damp")
-            self.estop = True
-            self._damp_acked = False
-            self._damp()
-        elif not msg.data and self.estop:
-            self.log.throttled("warning", 5.0, "/emergency_stop false does not release; use /emergency_stop/release")
+    def _on_estop(self) -> None:
+        self._damp_acked = False
+        self._damp()
 
-    def _on_release(self, msg: String) -> None:
-        if not self.estop:
-            return  # nothing to release, or the duplicate of a release read with the other QoS
-        if msg.data.strip() != self.config.release_token.strip():
-            self.count("release_refused")
-            self.log.throttled("warning", 2.0, "e-stop release refused: wrong token", key="release")
-            return
-        self.estop = False
+    def _on_release(self) -> None:
         self._need_zero = True
-        self.log.warning("emergency stop released; the robot stays down until 'recover' or 'stand'")
 
     def _on_command(self, msg: String) -> None:
         name = msg.data.strip().lower()
@@ -194,7 +170,7 @@ class Go2DriverNode(Node):
                 "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; use one of {', '.join(p.COMMANDS)}"
             )
             return
-        if self.estop and name not in p.ESTOP_ALLOWED:
+        if self.estop.engaged and name not in p.ESTOP_ALLOWED:
             self.count("refused_command")
             self.log.throttled("error", 2.0, f"refused {name!r}: emergency stop latched (release it first)")
             return
@@ -220,7 +196,7 @@ class Go2DriverNode(Node):
                 self.count("rpc_errors")
                 self.log.error(f"{name}: {p.SPORT_API_NAMES.get(api, api)} failed: {result.describe()}")
                 return
-            if self.estop and name not in p.ESTOP_ALLOWED:
+            if self.estop.engaged and name not in p.ESTOP_ALLOWED:
                 self._busy_command = None
                 return  # an e-stop came in between: do not finish standing up
             self._chain(name, api_ids[1:])
@@ -230,7 +206,7 @@ class Go2DriverNode(Node):
     def _on_state(self, msg: SportModeState) -> None:
         self.state = msg
         self._state_time = time.monotonic()
-        if not self._stood_on_start and self.sport.matched and not self.estop:
+        if not self._stood_on_start and self.sport.matched and not self.estop.engaged:
             self._stood_on_start = True
             self.log.info("stand_on_start: StandUp + BalanceStand")
             self.run_command("stand")
@@ -247,7 +223,7 @@ class Go2DriverNode(Node):
         return self._cmd
 
     def _move_tick(self) -> None:
-        if self.estop:
+        if self.estop.engaged:
             if not self._damp_acked and not self._damp_in_flight and time.monotonic() - self._damp_last_try > 0.25:
                 self._damp()  # keep trying while the e-stop holds: it must not be lost
             return
@@ -302,7 +278,7 @@ class Go2DriverNode(Node):
             return
         qw, qx, qy, qz = qw / norm, qx / norm, qy / norm, qz / norm
         # velocity is in the odom (world) frame; Odometry's twist is in base_link.
-        rot = _quat_to_mat(qw, qx, qy, qz)
+        rot = quat_to_mat(np.array([qw, qx, qy, qz]))
         v_body = rot.T @ np.array([float(v) for v in s.velocity])
         odom, imu, tf = base_state_messages(
             self.stamp(),
@@ -324,10 +300,10 @@ class Go2DriverNode(Node):
         status = {
             "connected": self.sport.matched,
             "state_age_s": None if s is None else round(time.monotonic() - self._state_time, 3),
-            "estop": self.estop,
+            "estop": self.estop.engaged,
             "moving": self.moving,
             "command": [round(v, 3) for v in self.current_command()],
-            "mode": None if s is None else SPORT_MODES.get(int(s.mode), str(int(s.mode))),
+            "mode": None if s is None else p.SPORT_MODES.get(int(s.mode), str(int(s.mode))),
             "body_height": None if s is None else round(float(s.body_height), 3),
             "busy": self._busy_command,
             "moves_sent": self.moves_sent,
@@ -369,15 +345,5 @@ class Go2DriverNode(Node):
         if self.pub_image is not None:
             self.pub_image.publish(numpy_to_image(bgr, "bgr8", header))
         h, w = bgr.shape[:2]
-        self.pub_info.publish(camera_info(w, h, math.radians(cfg.camera_hfov_deg), header))
+        self.pub_info.publish(camera_info(PinholeCamera.from_hfov(w, h, math.radians(cfg.camera_hfov_deg)), header))
         self.frames += 1
-
-
-def _quat_to_mat(w: float, x: float, y: float, z: float) -> np.ndarray:
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )

@@ -52,8 +52,8 @@ from go2vlm.perception.vlm.backend import (
     Generation,
     Secret,
     VlmOutOfMemory,
-    make_backend,
 )
+from go2vlm.perception.vlm.factory import make_backend
 from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
 from go2vlm.perception.vlm.latest import LatestSlot, Stamped
 from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding, sanitize_text
@@ -71,7 +71,7 @@ MAX_ANSWER_CHARS = 8192
 class VlmConfig:
     model: str = param("", help="local checkpoint dir or hub id (openai: the served model name)")
     backend: str = param("transformers", choices=("transformers", "openai"))
-    prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the seed's scene-description prompt)")
+    prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)")
     mode: str = param("describe", choices=("describe", "detect"), help="detect: Qwen grounding JSON -> boxes")
     labels: list[str] = param(list, help="detect: object categories to ground (empty: all objects)")
     max_pixels: int = param(DEFAULT_MAX_PIXELS, help="max H'*W' after smart resize; visual tokens = /784", min=784)
@@ -133,10 +133,6 @@ def image_to_rgb(msg: Image) -> np.ndarray:
     if enc in ("bgr8", "bgra8", "8UC3"):  # 8UC3 is OpenCV data, so BGR
         return np.ascontiguousarray(arr[:, :, 2::-1])
     return np.ascontiguousarray(arr[:, :, :3])
-
-
-def _stamp_sec(stamp: Time) -> float:
-    return float(stamp.sec) + float(stamp.nanosec) * 1e-9
 
 
 def detections_msg(boxes: list[Box], header: Header) -> Detection2DArray:
@@ -292,7 +288,7 @@ class VlmNode(Node):
         if cfg.mode == "detect":
             self.pub_dets.publish(detections_msg(boxes, header))
         post_ms = (time.perf_counter() - t0) * 1e3
-        src_t = _stamp_sec(src.stamp) if (src.stamp.sec or src.stamp.nanosec) else frame.received_wall
+        src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_wall
         age_ms = (self.now() - src_t) * 1e3
         with self._stats:
             self.inferences += 1

@@ -34,22 +34,22 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import Node
+from go2vlm.bus import QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
 from go2vlm.msgs.unitree import IMUState, Request, Response, SportModeState, TimeSpec
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
 from go2vlm.sim.state import RobotState
 
-# SportModeState.mode for each Go2Sim mode.
-_MODE_CODES = {
-    "lying": 5,
-    "lying_down": 5,
-    "standing_up": 6,
-    "standing": 1,
-    "walking": 3,
-    "damped": 7,
-    "fallen": 7,
-    "recovering": 8,
+# The Go2's sport mode for each Go2Sim mode.
+_SPORT_MODE = {
+    "lying": "lie_down",
+    "lying_down": "lie_down",
+    "standing_up": "joint_lock",
+    "standing": "balance_stand",
+    "walking": "locomotion",
+    "damped": "damping",
+    "fallen": "damping",
+    "recovering": "recovery_stand",
 }
 MAX_PENDING_CAMERA = 16  # answered in one batch per frame; more waiting clients are refused
 
@@ -95,15 +95,11 @@ class UnitreeSimBridge:
         self.ignored_moves = 0
         self.frames = 0
 
-        self.pub_state = node.create_publisher(SportModeState, p.SPORT_STATE_TOPIC, p.QOS_UNITREE_WRITER)
-        self.pub_sport = node.create_publisher(Response, p.response_topic(p.SPORT_SERVICE), p.QOS_UNITREE_WRITER)
-        self.pub_video = node.create_publisher(Response, p.response_topic(p.VIDEO_SERVICE), p.QOS_UNITREE_WRITER)
-        node.create_subscription(
-            Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, p.QOS_UNITREE_READER
-        )
-        node.create_subscription(
-            Request, p.request_topic(p.VIDEO_SERVICE), self._on_video_request, p.QOS_UNITREE_READER
-        )
+        self.pub_state = node.create_publisher(SportModeState, p.SPORT_STATE_TOPIC, QOS_UNITREE_WRITER)
+        self.pub_sport = node.create_publisher(Response, p.response_topic(p.SPORT_SERVICE), QOS_UNITREE_WRITER)
+        self.pub_video = node.create_publisher(Response, p.response_topic(p.VIDEO_SERVICE), QOS_UNITREE_WRITER)
+        node.create_subscription(Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER)
+        node.create_subscription(Request, p.request_topic(p.VIDEO_SERVICE), self._on_video_request, QOS_UNITREE_READER)
         self._render = _JpegRenderer(self)
         self._render.start()  # GL context up front: the first camera request must not time out
 
@@ -259,7 +255,7 @@ class UnitreeSimBridge:
 
     def sport_state(self, s: RobotState) -> SportModeState:
         now = time.time()
-        mode = 10 if self._sitting else _MODE_CODES.get(s.mode, 0)
+        mode = p.SPORT_MODE_CODES["sit" if self._sitting else _SPORT_MODE.get(s.mode, "idle")]
         if mode == 1 and not self._balance:
             mode = 6  # upright but joints locked (StandUp without BalanceStand)
         forces = [int(min(max(f, -32768), 32767)) for f in s.foot_force]

@@ -95,7 +95,7 @@ TINY_MIN_PIXELS = 56 * 56
 _TRAIN_MAX_PIXELS = (TINY_MAX_PIXELS, TINY_MAX_PIXELS, 64 * 784, 256 * 784, 512 * 784)
 
 # Text the BPE is trained on: chat scaffolding, JSON grounding syntax, digits, the
-# seed's Chinese prompt. Byte-level BPE encodes anything anyway; this only keeps
+# VLM article's Chinese prompt. Byte-level BPE encodes anything anyway; this only keeps
 # common strings short.
 _TOKENIZER_CORPUS = [
     "system\nYou are a helpful assistant.\nuser\nassistant\n",

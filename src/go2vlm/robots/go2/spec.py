@@ -1,0 +1,65 @@
+"""The Unitree Go2, as facts: every number about the robot that more than one module needs, once.
+
+Pure, so the safety gate, the driver, the simulator and the behaviours
+all read the same figures.
+"""
+
+from __future__ import annotations
+
+import math
+
+from go2vlm.geometry.camera import fovy_to_hfov
+
+__all__ = [
+    "BASE_FRAME",
+    "CAMERA_FRAME",
+    "FOOTPRINT_LENGTH",
+    "FOOTPRINT_WIDTH",
+    "HEAD_CAMERA_FOVY_DEG",
+    "HEAD_CAMERA_HEIGHT",
+    "HEAD_CAMERA_POS",
+    "ODOM_FRAME",
+    "STAND_HEIGHT",
+    "VX_MAX_BACKWARD",
+    "VX_MAX_FORWARD",
+    "VYAW_MAX",
+    "VY_MAX",
+    "clamp_velocity",
+    "head_camera_hfov_deg",
+]
+
+# Sport-mode Move() ranges (Unitree's documented limits): the hard ceiling of every speed limit.
+VX_MAX_FORWARD = 3.8  # m/s
+VX_MAX_BACKWARD = 2.5  # m/s, as a positive number
+VY_MAX = 1.0  # m/s
+VYAW_MAX = 4.0  # rad/s
+
+# Body: base height standing (m) and the footprint, legs included (m).
+STAND_HEIGHT = 0.32
+FOOTPRINT_LENGTH = 0.70
+FOOTPRINT_WIDTH = 0.31
+
+# Head camera: position in the base frame (m), looking along base +x, and its vertical field of
+# view (degrees); the real camera streams 1280x720.
+HEAD_CAMERA_POS = (0.32715, 0.0, 0.04297)
+HEAD_CAMERA_FOVY_DEG = 58.0
+HEAD_CAMERA_HEIGHT = STAND_HEIGHT + HEAD_CAMERA_POS[2]  # above the floor, standing
+
+# Frame names on /tf, /odom and the camera topics.
+ODOM_FRAME = "odom"
+BASE_FRAME = "base_link"
+CAMERA_FRAME = "camera_optical_frame"
+
+
+def clamp_velocity(vx: float, vy: float, vyaw: float) -> tuple[float, float, float]:
+    """A velocity command clamped to the sport-mode ranges."""
+    return (
+        min(max(vx, -VX_MAX_BACKWARD), VX_MAX_FORWARD),
+        min(max(vy, -VY_MAX), VY_MAX),
+        min(max(vyaw, -VYAW_MAX), VYAW_MAX),
+    )
+
+
+def head_camera_hfov_deg(width: int, height: int) -> float:
+    """The head camera's horizontal field of view at this image size (square pixels)."""
+    return math.degrees(fovy_to_hfov(HEAD_CAMERA_FOVY_DEG, width, height))
