@@ -1,19 +1,30 @@
-"""Shared test set-up: every test session gets its own DDS domain on loopback, so parallel runs on
-one machine never hear each other."""
+"""Shared test set-up.
+
+- The tests import this checkout's `src/` (also in the processes they start), so a worktree tests
+  its own code whatever `.venv` it borrows.
+- Every test session gets a DDS domain that nothing on this host is using: a lock file per domain
+  keeps concurrent sessions apart, and a discovery probe skips domains where any participant (a
+  running demo, a ROS 2 node) already speaks. Traffic stays on loopback.
+"""
 
 from __future__ import annotations
 
 import os
-import random
+import sys
+from pathlib import Path
 
-# Before go2vlm creates a participant: a private domain on loopback for this session (<= 101: higher
-# domains put discovery ports into the ephemeral range on Linux).
-os.environ.setdefault("ROS_DOMAIN_ID", str(random.Random(os.getpid()).randint(20, 101)))
-os.environ.setdefault("GO2VLM_IFACE", "lo")
-os.environ.setdefault("MUJOCO_GL", os.environ.get("MUJOCO_GL", "egl"))
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+sys.path.insert(0, SRC)
+os.environ["PYTHONPATH"] = os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])])
+os.environ["GO2VLM_IFACE"] = "lo"
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from busutil import Procs, claim_free_domain  # noqa: E402
+
+# Before go2vlm creates a participant: an explicit GO2VLM_TEST_DOMAIN wins, else a free one.
+os.environ["ROS_DOMAIN_ID"] = str(claim_free_domain())
 
 import pytest  # noqa: E402
-from busutil import Procs  # noqa: E402
 
 
 @pytest.fixture

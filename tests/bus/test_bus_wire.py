@@ -262,6 +262,20 @@ def test_cli_tools_stop_cleanly(procs: Procs, node: Listener, sig: int) -> None:
         assert "Traceback" not in out
 
 
+def test_ctrl_c_stops_a_tool_started_with_sigint_ignored(procs: Procs) -> None:
+    """`nohup go2vlm topic echo ... &` inherits SIGINT ignored; Ctrl-C must still stop it."""
+    echo = procs.start(
+        "topic", "echo", "/wire/nohup", "std_msgs/msg/String",
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )  # fmt: skip
+    assert wait_for(lambda: echo.poll() is None, 2)
+    time.sleep(1.0)  # past start-up: the tool is waiting for messages
+    echo.send_signal(signal.SIGINT)
+    out, _ = echo.communicate(timeout=10)  # before the fix: no exit at all
+    assert echo.returncode in (0, 130), out
+    assert "Traceback" not in out
+
+
 def test_domain_isolation(procs: Procs, node: Listener) -> None:
     rec = Recorder()
     node.create_subscription(String, "/wire/isolated", rec)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
 from go2vlm.bus import Logger, ParamError
@@ -33,6 +34,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A shell starts background jobs (`nohup go2vlm ... &`) with SIGINT ignored, and Python keeps an
+    # inherited SIG_IGN: restore the default so that Ctrl-C stops every command.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.log_level:
