@@ -17,6 +17,9 @@ from pipeutil import Probe, is_zero, logs_tail, start, wait_settled, wait_up
 
 from go2vlm.msgs.std_msgs import Bool, String
 
+# Slow: the whole pipeline as four processes, started and stopped per test.
+pytestmark = pytest.mark.slow
+
 
 def _status(probe: Probe) -> dict:
     msgs = probe.status.msgs()
