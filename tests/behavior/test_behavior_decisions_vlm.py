@@ -24,6 +24,9 @@ from go2vlm.msgs.image import numpy_to_image  # noqa: E402
 from go2vlm.msgs.sensor_msgs import Image  # noqa: E402
 from go2vlm.msgs.std_msgs import Header, String  # noqa: E402
 
+# Slow: decisions through a real tiny model (trained on first use), commander and gate as processes.
+pytestmark = pytest.mark.slow
+
 MAX_ANGULAR = 0.8  # commander default
 GATE_MAX_WZ = 1.0  # safety gate default
 

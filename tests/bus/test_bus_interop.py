@@ -12,7 +12,6 @@ from typing import Any
 import bus_probe_node
 import numpy as np
 import pytest
-from bus_rosbags import typestore
 from busutil import GO2VLM, Procs, Recorder, env, wait_for
 from cyclonedds._clayer import ddspy_take
 from cyclonedds.builtin import (
@@ -25,6 +24,7 @@ from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.idl._xt_builder import XTBuilder
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
+from rosbagsutil import typestore
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, QosProfile, domain, running
 from go2vlm.bus import discovery_info as di

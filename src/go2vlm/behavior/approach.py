@@ -32,7 +32,7 @@ from go2vlm.robots.go2.spec import HEAD_CAMERA_HEIGHT
 
 __all__ = ["ApproachParams", "RangeEstimator", "RangeReading", "approach_command"]
 
-# Sizes of the objects in vision_test (the first article's Gazebo world): ball radius, box face
+# Sizes of the objects in vision_test (the VLM article's Gazebo world): ball radius, box face
 # width, cylinder radius.
 DEFAULT_SIZES = {"ball": 0.5, "box": 1.0, "cylinder": 0.3}
 

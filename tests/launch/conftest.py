@@ -1,4 +1,4 @@
-"""Fixtures for the pipeline tests."""
+"""Fixtures for the launched-pipeline tests: the in-process probe."""
 
 from __future__ import annotations
 

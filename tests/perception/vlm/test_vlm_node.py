@@ -302,6 +302,7 @@ def test_cli_node_with_tiny_model_over_dds(tiny_ckpt: Path, procs, harness: Harn
     assert "model ready" in log
 
 
+@pytest.mark.slow
 def test_node_with_openai_backend_over_dds(
     tiny_server: str, tiny_ckpt: Path, harness: Harness, capfd: pytest.CaptureFixture[str]
 ) -> None:

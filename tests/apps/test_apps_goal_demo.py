@@ -21,6 +21,9 @@ from go2vlm.msgs.geometry_msgs import Twist  # noqa: E402
 from go2vlm.msgs.std_msgs import String  # noqa: E402
 from go2vlm.msgs.tf2_msgs import TFMessage  # noqa: E402
 
+# Slow: every test is a goal-demo run in the MuJoCo sim.
+pytestmark = pytest.mark.slow
+
 RTF = 2.0
 
 

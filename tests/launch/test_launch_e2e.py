@@ -1,4 +1,5 @@
-"""Acceptance: the seed pipeline as four real processes over real DDS.
+"""Acceptance: the follow pipeline (the VLM article's test pattern, section 3.3, then the follow article's
+colour detector and follower, sections 5.2/5.3, then the safety gate) as four real processes over real DDS.
 
 test_pattern -> color_detector -> follower -> safety -> /cmd_vel, observed by an in-process probe.
 Deadlines are measured from the event (just before the kill / publish) to the probe's receipt of
@@ -15,6 +16,9 @@ from busutil import wait_for
 from pipeutil import Probe, is_zero, logs_tail, start, wait_settled, wait_up
 
 from go2vlm.msgs.std_msgs import Bool, String
+
+# Slow: the whole pipeline as four processes, started and stopped per test.
+pytestmark = pytest.mark.slow
 
 
 def _status(probe: Probe) -> dict:

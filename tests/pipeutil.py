@@ -1,5 +1,6 @@
-"""Helpers for the seed-pipeline tests: an in-process probe node on the real bus, and the pipeline's
-nodes started as real `go2vlm run` processes."""
+"""Helpers for the follow-pipeline tests (the VLM article's test pattern, section 3.3, into the follow
+article's colour detector and follower, sections 5.2/5.3, behind the safety gate): an in-process probe
+node on the real bus, and the pipeline's nodes started as real `go2vlm run` processes."""
 
 from __future__ import annotations
 
@@ -15,9 +16,9 @@ from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Bool, String
 
-EXPECTED_WZ = -0.8 * (450 - 320) / 320  # the seed's follower on the seed's test pattern: -0.325
+EXPECTED_WZ = -0.8 * (450 - 320) / 320  # the follow article's follower on the VLM article's test pattern: -0.325
 
-# Per-node arguments for the seed pipeline in tests: a fast camera so the loop settles quickly.
+# Per-node arguments for the follow pipeline in tests: a fast camera so the loop settles quickly.
 PIPELINE: dict[str, list[str]] = {
     "test_pattern": ["run", "test_pattern", "--param", "period_s=0.1"],
     "color_detector": ["run", "color_detector"],

@@ -78,6 +78,7 @@ def hf_backend(tiny_ckpt: Path):
     b.close()
 
 
+@pytest.mark.slow
 def test_transformers_backend_end_to_end(hf_backend) -> None:  # noqa: ANN001
     gen = hf_backend.generate(frame(), "Detect all objects.")
     assert gen.text == DEFAULT_ANSWER
@@ -88,6 +89,7 @@ def test_transformers_backend_end_to_end(hf_backend) -> None:  # noqa: ANN001
     assert "qwen2_5_vl" in hf_backend.description and "cpu" in hf_backend.description
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hw", [(480, 640), (300, 500), (97, 1203), (1080, 1920), (30, 40)])
 def test_processor_resize_is_smart_resize(hf_backend, hw: tuple[int, int]) -> None:  # noqa: ANN001
     """What the in-process processor did is what the pure function (used by the openai backend) predicts."""
@@ -102,6 +104,7 @@ def test_processor_resize_is_smart_resize(hf_backend, hw: tuple[int, int]) -> No
     assert (gh * 14, gw * 14) == smart_resize(*hw, min_pixels=s.min_pixels, max_pixels=s.max_pixels)
 
 
+@pytest.mark.slow
 def test_out_of_memory_becomes_clear_error(hf_backend, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
     import torch
 
@@ -115,6 +118,7 @@ def test_out_of_memory_becomes_clear_error(hf_backend, monkeypatch: pytest.Monke
     assert "nf4" in text and "max_pixels" in text and "6.76 GiB" in text
 
 
+@pytest.mark.slow
 def test_quantization_needs_cuda(tiny_ckpt: Path) -> None:
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
 
@@ -131,6 +135,7 @@ def test_bad_model_dir_is_backend_error(tmp_path: Path) -> None:
         TransformersBackend(settings_for(str(tmp_path))).load()
 
 
+@pytest.mark.slow
 def test_openai_backend_end_to_end(tiny_server: str, tiny_ckpt: Path) -> None:
     """A real OpenAI-compatible server (`transformers serve` on loopback) in front of the same checkpoint."""
     from go2vlm.perception.vlm.openai_backend import OpenAIBackend
@@ -171,6 +176,7 @@ def test_api_key_never_printed(monkeypatch: pytest.MonkeyPatch) -> None:
     assert resolve_api_key(cfg.api_key).reveal() == "sk-param-SECRET"  # the parameter wins over the env
 
 
+@pytest.mark.slow
 def test_tiny_learns_any_text() -> None:
     """Other tests reuse the tiny builder to plant answers (e.g. a prompt injection): any text, exactly."""
     pytest.importorskip("transformers")

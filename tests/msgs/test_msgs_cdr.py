@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from bus_rosbags import fields_of, rosbags_cdr, strategy, to_ours
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from rosbagsutil import fields_of, rosbags_cdr, strategy, to_ours
 
 from go2vlm.msgs import get_type, ros_name
 

@@ -1,6 +1,7 @@
-"""video_source over real DDS: a missing file is a clear error and a retry (the node stays up); once
-the file appears it streams; loop=true restarts the file, loop=false idles at its end; an HTTP stream
-that ends is reconnected, and one whose server is gone is retried with backoff."""
+"""video_source: its source argument parsed (device, URL, file); and over real DDS: a missing file is a
+clear error and a retry (the node stays up); once the file appears it streams; loop=true restarts the
+file, loop=false idles at its end; an HTTP stream that ends is reconnected, and one whose server is
+gone is retried with backoff."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 from busutil import Recorder, wait_for
 
 from go2vlm.bus import QOS_SENSOR, Node, running
@@ -19,6 +21,7 @@ from go2vlm.launch.registry import make_node
 from go2vlm.msgs.image import to_bgr
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.perception.color import detect_color
+from go2vlm.sources.video_source_node import parse_source
 
 FRAMES = 12
 
@@ -99,3 +102,12 @@ def test_http_stream_reconnects_and_survives_its_server(tmp_path, capsys) -> Non
         assert node.running and node.state == "retrying"
     err = capsys.readouterr().err
     assert "reconnecting" in err and "cannot open url" in err
+
+
+def test_video_source_parsing() -> None:
+    assert parse_source("0") == ("device", 0)
+    assert parse_source("/dev/video2") == ("device", 2)
+    assert parse_source("rtsp://192.168.123.161:8554/cam") == ("url", "rtsp://192.168.123.161:8554/cam")
+    assert parse_source("clip.mp4") == ("file", "clip.mp4")
+    with pytest.raises(ValueError):
+        parse_source("  ")

@@ -24,6 +24,9 @@ from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.unitree import Request, Response
 from go2vlm.robots.go2 import protocol as p
 
+# Slow: the sim and the driver run as processes for the whole module.
+pytestmark = pytest.mark.slow
+
 SIM_ARGS = [
     "run",
     "sim",

@@ -16,6 +16,9 @@ from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import String
 
+# Slow: every test is a `go2vlm demo` run (the sim, nodes and recording, in real time).
+pytestmark = pytest.mark.slow
+
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 

@@ -23,6 +23,9 @@ from go2vlm.msgs.sensor_msgs import CameraInfo, Image, Imu, JointState
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 
+# Slow: the sim runs in real time for the whole module.
+pytestmark = pytest.mark.slow
+
 HEAD = (320, 240)  # not the default, so that the parameters are seen to apply
 
 TOPICS: dict[str, tuple[type, Any]] = {
