@@ -26,7 +26,6 @@ from go2vlm.msgs.std_msgs import String
 
 # Slow: ~30 s as a module (`go2vlm` processes per test, shutdown bounds waited out); the interop and
 # params tests keep real DDS in the fast set.
-pytestmark = pytest.mark.slow
 
 HERE = Path(__file__).parent
 QOS = {"default": QOS_DEFAULT, "sensor": QOS_SENSOR}
@@ -109,6 +108,7 @@ def test_node_vga_image_to_cli_echo(procs: Procs, node: Listener, qos: str, tmp_
     np.testing.assert_array_equal(image_to_numpy(img), arr)
 
 
+@pytest.mark.slow
 def test_latched_late_joiner(procs: Procs, node: Listener) -> None:
     latched = node.create_publisher(String, "/wire/latched", QOS_LATCHED)
     volatile = node.create_publisher(String, "/wire/volatile", QOS_DEFAULT)
@@ -231,6 +231,7 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     assert len(ticks) == n  # it really stopped publishing
 
 
+@pytest.mark.slow
 def test_stuck_shutdown_is_bounded_and_says_where(procs: Procs) -> None:
     p = bus_probe_node.start(procs, "--param", "stuck_close=true")
     time.sleep(2.0)  # running: the signal handler is installed
@@ -240,6 +241,7 @@ def test_stuck_shutdown_is_bounded_and_says_where(procs: Procs) -> None:
     assert "in close" in out and "bus_probe_node.py" in out, out  # the stuck frame is named
 
 
+@pytest.mark.slow
 def test_second_signal_exits_at_once(procs: Procs) -> None:
     p = bus_probe_node.start(procs, "--param", "stuck_close=true")
     time.sleep(2.0)
