@@ -24,9 +24,6 @@ from go2vlm.msgs.image import image_to_numpy, numpy_to_image
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import String
 
-# Slow: ~30 s as a module (`go2vlm` processes per test, shutdown bounds waited out); the interop and
-# params tests keep real DDS in the fast set.
-
 HERE = Path(__file__).parent
 QOS = {"default": QOS_DEFAULT, "sensor": QOS_SENSOR}
 
