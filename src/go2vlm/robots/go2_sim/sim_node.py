@@ -418,7 +418,10 @@ class SimNode(Node):
         cam_period = 1.0 / cfg.camera_rate_hz
         wcam_period = 1.0 / cfg.world_camera_rate_hz
         gt_period = 1.0 / cfg.ground_truth_rate_hz
-        next_state = next_cam = next_wcam = next_gt = sim.time
+        # Due times on a grid of their periods from the start (0.02, 0.04 ... for 50 Hz), so that
+        # stamps are whole multiples of the period in sim time.
+        next_state, next_cam = sim.time + state_period, sim.time + cam_period
+        next_wcam, next_gt = sim.time + wcam_period, sim.time + gt_period
         viewer = self._open_viewer() if cfg.viewer else None
         next_viewer = 0.0
         # Wall time from here on where it says so: start-up, pacing against the wall (rtf), the
