@@ -36,7 +36,7 @@ Publishes:
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
                                                     command, cmd_timed_out, frames, frames_dropped,
-                                                    overruns, render_error
+                                                    overruns, render_error, use_sim_time
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
