@@ -7,6 +7,10 @@ Every node runs on its own thread (the sim on three: executor, physics, render).
 listens like any other node (/detected_target, /cmd_vel, /sim/ground_truth, /odom, /sim/status,
 /camera/camera_info and, for the video, /camera/image_raw) and turns what it heard into
 metrics.json, a plot and a video of the head camera with the detection drawn on it.
+
+Every node here, the recorder included, runs with use_sim_time: stamps and timers are sim time, so
+a run at --fast behaves as one at --rtf 1 (up to how late the nodes answer in sim time). The demo's
+own deadlines (start-up, a stalled sim) and wall_s are wall time: they are about the host.
 """
 
 from __future__ import annotations
@@ -80,10 +84,11 @@ class DemoRecorder(Node):
     def __init__(self, config: Any = None, *, video: bool = True, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
         # Latched topics may still hold a previous run's last sample (another demo in this process).
-        self.t_start = time.time()
+        self.t_start = self.now()  # stamps before this are not ours (0.0 on sim time: none are)
+        self.wall_start = time.time()  # wall time: /sim/status carries the wall time it was sent at
         self.lock = threading.Lock()
         self.targets: list[tuple[float, float, float, float]] = []  # stamp, x, y, z
-        self.cmds: list[tuple[float, float, float, float]] = []  # receive wall time, vx, vy, wz
+        self.cmds: list[tuple[float, float, float, float]] = []  # receive time (recorder's clock), vx, vy, wz
         self.gt: list[tuple[float, float, float, float, float, float]] = []  # stamp, robot xy yaw, ball xy
         self.odom: list[tuple[float, float, float]] = []  # stamp, x, y
         self.frames: list[float] = []  # camera_info stamps: one per head-camera frame
@@ -120,7 +125,7 @@ class DemoRecorder(Node):
 
     def _on_cmd(self, msg: Twist) -> None:
         with self.lock:
-            self.cmds.append((time.time(), msg.linear.x, msg.linear.y, msg.angular.z))
+            self.cmds.append((self.now(), msg.linear.x, msg.linear.y, msg.angular.z))
 
     def _on_gt(self, msg: TFMessage) -> None:
         robot = ball = None
@@ -156,7 +161,7 @@ class DemoRecorder(Node):
         except ValueError:
             self.count("bad_status")
             return
-        if float(st.get("wall_time", 0.0)) < self.t_start:
+        if float(st.get("wall_time", 0.0)) < self.wall_start:
             return
         with self.lock:
             self.status.append(st)
@@ -305,6 +310,8 @@ def compute_metrics(rec: DemoRecorder, wall_s: float, opts: DemoOptions) -> dict
         frames = np.array(sorted(set(rec.frames)), dtype=float)
         status = list(rec.status)
     ref = _wall_to_sim(status)
+    if rec.use_sim_time:  # stamps are sim time already
+        ref = (np.array([0.0, 1.0]), np.array([0.0, 1.0]))
     sim_times = [float(s["sim_time"]) for s in status]
     walls = [float(s["wall_time"]) for s in status]
 
@@ -474,7 +481,8 @@ def sim_clock(
     stop: ShutdownRequested, recorder: Any, started: float, timeout_s: float, period_s: float
 ) -> Iterator[float]:
     """The sim time the recorder last heard on /clock, every `period_s` (once the sim is up), until
-    `stop` is requested; RuntimeError when no /clock came within `timeout_s` of `started` (monotonic)."""
+    `stop` is requested; RuntimeError when no /clock came within `timeout_s` of `started` (monotonic).
+    Wall time: these are the demo's own deadlines on the host, not the nodes' time."""
     while not stop.event.wait(period_s):
         t = recorder.sim_time
         if t < 0:
@@ -482,6 +490,11 @@ def sim_clock(
                 raise RuntimeError(f"the sim published no /clock within {timeout_s:g} s")
             continue
         yield t
+
+
+def sim_time(params: dict[str, Any]) -> dict[str, Any]:
+    """A demo node's parameters with use_sim_time on (unless the caller's own params say otherwise)."""
+    return {"use_sim_time": True, **params}
 
 
 def build_nodes(opts: DemoOptions) -> list[Node]:
@@ -508,15 +521,15 @@ def build_nodes(opts: DemoOptions) -> list[Node]:
         sim_params["camera"] = False
         sim_remap = {t: "/sim" + t for t in ("/cmd_vel", "/odom", "/imu", "/tf")}
     sim_params.update(opts.params.get("sim", {}))
-    nodes.append(make_node("sim", params=sim_params, remap=sim_remap, **common))
+    nodes.append(make_node("sim", params=sim_time(sim_params), remap=sim_remap, **common))
     if opts.robot == "go2":
         fovy = float(sim_params.get("camera_fovy_deg", 58.0))
         hfov = math.degrees(fovy_to_hfov(fovy, opts.camera_width, opts.camera_height))
         go2_params: dict[str, Any] = {"camera_rate_hz": opts.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
         go2_params.update(opts.params.get("go2", {}))
-        nodes.append(make_node("go2", params=go2_params, **common))
+        nodes.append(make_node("go2", params=sim_time(go2_params), **common))
     for kind in ("color_detector", "follower", "safety", *opts.extra_nodes):
-        nodes.append(make_node(kind, params=opts.params.get(kind, {}), **common))
+        nodes.append(make_node(kind, params=sim_time(opts.params.get(kind, {})), **common))
     return nodes
 
 
@@ -529,7 +542,7 @@ def run_demo(opts: DemoOptions, shutdown: ShutdownRequested | None = None) -> De
     out = Path(opts.out) if opts.out else default_out_dir()
     out.mkdir(parents=True, exist_ok=True)
     stop = shutdown_request(shutdown)
-    recorder = DemoRecorder(video=opts.video, interface=opts.interface, domain_id=opts.domain_id)
+    recorder = DemoRecorder(video=opts.video, interface=opts.interface, domain_id=opts.domain_id, use_sim_time=True)
     nodes = build_nodes(opts)
     sim = nodes[0]
     writer = VideoWriter(out / "video.mp4", recorder.video_frames, opts.camera_rate_hz) if opts.video else None
@@ -545,7 +558,7 @@ def run_demo(opts: DemoOptions, shutdown: ShutdownRequested | None = None) -> De
             bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.0f} sim s [{elapsed}<{remaining}{postfix}]",
             disable=None,  # no bar when stderr is not a terminal: a line every 10 s instead
         )
-    wall0 = time.monotonic()
+    wall0 = time.monotonic()  # wall time: the demo's deadlines on the host and wall_s
     cpu0, threads0 = os.times(), cpu_by_thread()
     start_nodes(recorder, nodes)
     interrupted = False

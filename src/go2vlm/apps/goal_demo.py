@@ -5,7 +5,8 @@
 
 World: `vision_test` (the VLM article's Gazebo world: red sphere, green box, blue cylinder; the Go2 starts at (0, -1.5)
 facing +x, so only the red sphere is in view at first), or `follow_ball` for "follow the red ball"
-(a red ball moving on a circle). All nodes run in this process on their own threads, over DDS.
+(a red ball moving on a circle). All nodes run in this process on their own threads, over DDS, with
+use_sim_time (the recorder too): their timers and timeouts are sim time, so --fast and --rtf 1 agree.
 
 Metrics (from the simulator's ground truth, /sim/ground_truth, and the commander's /commander/status):
   goal_reached      go to: the commander reported `reached`, the robot ended within
@@ -37,7 +38,14 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from go2vlm.apps.follow_demo import shutdown_nodes, shutdown_request, sim_clock, sim_node_params, start_nodes
+from go2vlm.apps.follow_demo import (
+    shutdown_nodes,
+    shutdown_request,
+    sim_clock,
+    sim_node_params,
+    sim_time,
+    start_nodes,
+)
 from go2vlm.behavior.goals import GoalParseError, parse_goal, parse_target
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ShutdownRequested
 from go2vlm.geometry.rotations import quat_yaw
@@ -261,14 +269,17 @@ def build_nodes(opts: GoalDemoOptions, world: str) -> list[Node]:
     sim_params.update(opts.params.get("sim", {}))
     cmd_params: dict[str, Any] = {"goal": opts.goal, "grounding": opts.grounding}
     cmd_params.update(opts.params.get("commander", {}))
-    nodes = [make_node("sim", params=sim_params, **common), make_node("commander", params=cmd_params, **common)]
+    nodes = [
+        make_node("sim", params=sim_time(sim_params), **common),
+        make_node("commander", params=sim_time(cmd_params), **common),
+    ]
     try:
         kind = parse_goal(opts.goal).kind
     except GoalParseError:
         kind = "invalid"
     if kind == "follow" and cmd_params.get("follow_control", "follower") == "follower":
-        nodes.append(make_node("follower", params=opts.params.get("follower", {}), **common))
-    nodes.append(make_node("safety", params=opts.params.get("safety", {}), **common))
+        nodes.append(make_node("follower", params=sim_time(opts.params.get("follower", {})), **common))
+    nodes.append(make_node("safety", params=sim_time(opts.params.get("safety", {})), **common))
     return nodes
 
 
@@ -280,11 +291,11 @@ def run_goal_demo(opts: GoalDemoOptions, shutdown: ShutdownRequested | None = No
     except GoalParseError:
         kind = "invalid"
     world = _pick_world(opts)
-    recorder = GoalRecorder(interface=opts.interface, domain_id=opts.domain_id)
+    recorder = GoalRecorder(interface=opts.interface, domain_id=opts.domain_id, use_sim_time=True)
     nodes = build_nodes(opts, world)
     sim = nodes[0]
     shapes = world_shapes(sim.sim.model)  # type: ignore[attr-defined]
-    wall0 = time.monotonic()
+    wall0 = time.monotonic()  # wall time: the demo's start-up deadline and wall_s
     start_nodes(recorder, nodes)
     interrupted = False
     t0: float | None = None

@@ -43,6 +43,11 @@ must answer with the schema of behavior/decisions.py: stop | continue | turn (|a
 sit. Anything else is ignored, logged and counted (decisions_rejected). The text never becomes a
 velocity: stop holds still for decision_hold_s, turn turns in place at decision_turn_rate for
 angle/rate seconds, and all motion still goes through the safety gate.
+
+Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
+reground_period_s, decision_period_s, decision_hold_s, turns, the zero burst) is in the node's clock:
+sim time with use_sim_time. vlm_max_age_s compares the answer's stamp with the newest frame's stamp,
+so it holds in either mode as long as the camera and the vlm node stamp on the same clock.
 """
 
 from __future__ import annotations
@@ -51,7 +56,6 @@ import json
 import math
 import queue
 import threading
-import time
 from collections import deque
 from dataclasses import dataclass
 from typing import Any
@@ -206,7 +210,7 @@ class CommanderNode(Node):
         self.reason = "no goal yet"
         self.tracker = HistTracker()
         self.ranger = RangeEstimator(None)
-        self._t_state = time.monotonic()
+        self._t_state = self.clock.monotonic()
         self._t_search = 0.0
         self._last_seen: float | None = None
         self._ever_seen = False
@@ -269,7 +273,7 @@ class CommanderNode(Node):
     # -- goals -------------------------------------------------------------------------------
     def set_goal(self, text: str) -> None:
         cfg: CommanderConfig = self.config
-        now = time.monotonic()
+        now = self.clock.monotonic()
         try:
             goal = parse_goal(text)
             if goal.moves and goal.target is not None and cfg.grounding == "color" and not goal.target.classical:
@@ -428,7 +432,7 @@ class CommanderNode(Node):
 
     # -- control -------------------------------------------------------------------------------
     def tick(self) -> None:
-        now = time.monotonic()
+        now = self.clock.monotonic()
         self._perceive(now)
         self._apply_decisions(now)
         goal = self.goal
@@ -611,7 +615,7 @@ class CommanderNode(Node):
             return
         self.log.info(f"decision model ready: {getattr(backend, 'description', cfg.decision_model)}")
         try:
-            while not self._halt.wait(cfg.decision_period_s):
+            while not self.clock.sleep(cfg.decision_period_s, self._halt):
                 goal, state = self.goal, self.state  # read across threads: a stale value only skips a turn
                 if goal is None or not goal.moves or state in TERMINAL:
                     continue
@@ -639,7 +643,7 @@ class CommanderNode(Node):
     # -- status --------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
         goal = self.goal
-        now = time.monotonic()
+        now = self.clock.monotonic()
         seen = self._last_seen is not None and now - self._last_seen < self.config.lost_timeout_s
         return {
             "goal": goal.text if goal else "",

@@ -20,12 +20,13 @@ Optional, off by default (the article's troubleshooting table, section 7, agains
 tick, 1.0 = no filtering).
 A target with NaN/inf or absurd values is dropped with a rate-limited error and counted in
 `bad_targets`; it does not refresh the target, so the robot stops on the timeout as if none came.
+Time: rate_hz, lost_timeout_s and idle_after_lost_s are in the node's clock: sim time with
+use_sim_time (the lost watchdog then runs every 10 ms of sim time).
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 from go2vlm.bus import QOS_DEFAULT, Node, param
@@ -73,12 +74,12 @@ class FollowerNode(Node):
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         self.cmd_pub = self.create_publisher(Twist, "/follower/cmd_vel", QOS_DEFAULT)
         self.create_subscription(PointStamped, "/detected_target", self.on_target, QOS_DEFAULT)
-        self._last_target: float | None = None  # monotonic receive time
+        self._last_target: float | None = None  # receive time (clock.monotonic())
         self._last_x: float | None = None
         self._goal = (0.0, 0.0)  # linear.x, angular.z from the latest target
         self._cmd = (0.0, 0.0)  # what goes out (after the optional low-pass)
         self._lost = True
-        self._lost_at: float | None = None  # monotonic time the target was lost; None: never had one
+        self._lost_at: float | None = None  # clock time the target was lost; None: never had one
         self.create_timer(1.0 / self.config.rate_hz, self.tick)
         self.create_timer(0.01, self._watchdog)
 
@@ -91,7 +92,7 @@ class FollowerNode(Node):
         if not 0.0 <= z <= MAX_SIZE:
             self._reject(f"size z={z} is outside 0..{MAX_SIZE}")
             return
-        now = time.monotonic()
+        now = self.clock.monotonic()
         dx_dt = 0.0
         if self.config.kd_angular > 0 and self._last_x is not None and self._last_target is not None:
             dx_dt = (x - self._last_x) / max(now - self._last_target, 1e-3)
@@ -109,9 +110,10 @@ class FollowerNode(Node):
         """True when the target just became lost; the command is then zero."""
         if self._lost:
             return False
-        if self._last_target is None or time.monotonic() - self._last_target >= self.config.lost_timeout_s:
+        now = self.clock.monotonic()
+        if self._last_target is None or now - self._last_target >= self.config.lost_timeout_s:
             self._lost = True
-            self._lost_at = time.monotonic()
+            self._lost_at = now
             self._goal = self._cmd = (0.0, 0.0)
             self._last_x = None
             self.log.throttled("info", 2.0, "target lost, stopping", key="lost")
@@ -130,7 +132,7 @@ class FollowerNode(Node):
                 a * self._goal[0] + (1 - a) * self._cmd[0],
                 a * self._goal[1] + (1 - a) * self._cmd[1],
             )
-        elif self._lost_at is None or time.monotonic() - self._lost_at > self.config.idle_after_lost_s:
+        elif self._lost_at is None or self.clock.monotonic() - self._lost_at > self.config.idle_after_lost_s:
             return
         self._publish()
 

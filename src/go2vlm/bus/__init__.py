@@ -3,13 +3,25 @@
 from go2vlm.bus import Node, param, QOS_SENSOR
 """
 
+from go2vlm.bus.clock import Clock
 from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
 from go2vlm.bus.log import Logger
 from go2vlm.bus.node import Node, NoParams, Publisher, Subscription, Timer
-from go2vlm.bus.params import ParamError, build_config, describe_params, load_params_file, param, parse_overrides
+from go2vlm.bus.params import (
+    BASE_PARAMS,
+    NodeParams,
+    ParamError,
+    build_config,
+    build_node_config,
+    describe_params,
+    load_params_file,
+    param,
+    parse_overrides,
+)
 from go2vlm.bus.qos import (
     PROFILES,
     QOS_ANY,
+    QOS_CLOCK,
     QOS_DEFAULT,
     QOS_IMAGE,
     QOS_LATCHED,
@@ -21,17 +33,21 @@ from go2vlm.bus.qos import (
 from go2vlm.bus.runtime import ShutdownRequested, running, spin
 
 __all__ = [
+    "BASE_PARAMS",
     "PROFILES",
     "QOS_ANY",
+    "QOS_CLOCK",
     "QOS_DEFAULT",
     "QOS_IMAGE",
     "QOS_LATCHED",
     "QOS_SENSOR",
     "QOS_UNITREE_READER",
     "QOS_UNITREE_WRITER",
+    "Clock",
     "Logger",
     "Node",
     "NoParams",
+    "NodeParams",
     "ParamError",
     "Publisher",
     "QosProfile",
@@ -39,6 +55,7 @@ __all__ = [
     "Subscription",
     "Timer",
     "build_config",
+    "build_node_config",
     "cyclone_config",
     "dds_topic_name",
     "describe_params",

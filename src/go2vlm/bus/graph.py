@@ -27,7 +27,7 @@ def discover(wait_s: float = 1.0, own: bool = False) -> dict[str, TopicInfo]:
     subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
     me = dp.guid
     found: dict[str, TopicInfo] = {}
-    deadline = time.monotonic() + wait_s
+    deadline = time.monotonic() + wait_s  # wall time: waiting for DDS discovery (a CLI tool)
     while True:
         for reader, is_pub in ((pubs, True), (subs, False)):
             for ep in reader.take(N=256):

@@ -33,7 +33,7 @@ class Logger:
     def log(self, level: int, msg: str) -> None:
         if level < Logger.level:
             return
-        t = time.time()
+        t = time.time()  # wall time: a log line says when it was written, whatever the node's clock
         line = f"[{_NAMES[level]}] [{t:.9f}] [{self.name}]: {msg}\n"
         with _write_lock:
             sys.stderr.write(line)
@@ -56,7 +56,7 @@ class Logger:
     def throttled(self, level: str, period_s: float, msg: str, key: str | None = None) -> None:
         """Log at most once per `period_s` for `key` (default: the level), like rclpy's throttle."""
         k = key or level
-        now = time.monotonic()
+        now = time.monotonic()  # wall time: throttling protects the console, in wall seconds
         if now - self._last.get(k, -1e18) >= period_s:
             self._last[k] = now
             self.log(LEVELS[level], msg)

@@ -1,14 +1,30 @@
-"""The node runtime: publishers, subscriptions, timers, parameters and logging, one executor thread
-per node.
+"""The node runtime: publishers, subscriptions, timers, parameters, a clock and logging, one executor
+thread per node.
 
 A subscription callback and the node's timers run on the node's own thread, one at a time, as in
 rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises
 is logged (rate-limited) and counted; the node keeps running. Work that takes long (VLM inference)
 belongs on a worker thread that the node starts itself, so that the newest message always wins.
+
+Time: every node has a `Clock` (bus/clock.py), `self.clock`, and reads time only through it:
+`now()`/`stamp()`/`header()` for stamps, `self.clock.monotonic()` for timeouts and ages. With the
+base parameter `use_sim_time` the clock follows `/clock` (rosgraph_msgs/Clock, read best-effort
+keep-last 1 so that any publisher matches and only the newest time counts): the executor takes
+/clock before the other subscriptions, so callbacks and timers see the newest time.
+Timers run on the node's clock: a timer of period p fires once the clock reaches its due time. In
+sim mode the executor wakes on each /clock; before the first one arrives time is 0 and timers do not
+fire. Rule, in both modes: a timer fires at most once per executor pass; when the clock has passed
+more than one due time (a slow pass, a sim at --fast outrunning this node), the missed periods are
+skipped (counted in `Timer.skipped`), not fired in a burst, and the timer keeps its phase
+(due times stay start + k * period). The first /clock, and a /clock that goes backwards (a restarted
+sim), re-anchor every sim-time timer to now + period. `create_timer(..., wall=True)` makes a timer
+on the steady wall clock whatever use_sim_time says, for watchdogs that must fire while /clock
+stalls (the safety gate's).
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -22,12 +38,19 @@ from cyclonedds.sub import DataReader
 from cyclonedds.util import duration
 
 from go2vlm.bus import discovery_info, domain
+from go2vlm.bus.clock import Clock
 from go2vlm.bus.log import Logger
-from go2vlm.bus.qos import QOS_DEFAULT, QosProfile
+from go2vlm.bus.qos import QOS_CLOCK, QOS_DEFAULT, QosProfile
 from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
 
 M = TypeVar("M")
+
+# Sim times arrive in whole nanoseconds and due times are sums of float periods: a due time within
+# this much of the clock counts as reached, so that a 50 ms timer on a 10 ms /clock fires at 0.15 s,
+# not at 0.16 s because 0.05 + 0.05 + 0.05 > 0.15 in floating point.
+DUE_EPS_S = 1e-6
 
 
 @dataclass
@@ -109,11 +132,27 @@ class Subscription(Generic[M]):
 class Timer:
     period_s: float
     callback: Callable[[], None]
-    next_due: float
+    next_due: float  # on the node's clock (`clock.monotonic()`), or on time.monotonic() when `wall`
+    wall: bool = False
     cancelled: bool = False
+    skipped: int = 0  # periods skipped because the clock passed more than one due time at once
 
     def cancel(self) -> None:
         self.cancelled = True
+
+    def advance(self, now: float) -> None:
+        """After a call at `now`: the next due time, skipping missed periods but keeping the phase."""
+        self.next_due += self.period_s
+        if self.next_due <= now + DUE_EPS_S:
+            missed = math.floor((now + DUE_EPS_S - self.next_due) / self.period_s) + 1
+            self.next_due += missed * self.period_s
+            while self.next_due <= now + DUE_EPS_S:  # float rounding
+                self.next_due += self.period_s
+                missed += 1
+            self.skipped += missed
+
+    def due(self, now: float) -> bool:
+        return now + DUE_EPS_S >= self.next_due
 
 
 class Node:
@@ -122,6 +161,9 @@ class Node:
 
     name: ClassVar[str] = "node"
     Config: ClassVar[type] = NoParams
+    # True for a node that is itself the source of sim time (the sim): it feeds its clock with
+    # `set_sim_time` instead of subscribing to /clock.
+    provides_clock: ClassVar[bool] = False
 
     def __init__(
         self,
@@ -131,11 +173,15 @@ class Node:
         remap: dict[str, str] | None = None,
         domain_id: int | None = None,
         interface: str | None = None,
+        use_sim_time: bool = False,
     ) -> None:
         self.node_name = node_name or self.name
         self.config = config if config is not None else self.Config()
         self.remap = dict(remap or {})
         self.log = Logger(self.node_name)
+        self.clock = Clock(sim=use_sim_time)
+        self._clock_started_seen = False  # the executor has seen sim time start (timers re-anchored)
+        self._jumps_seen = 0
         self.participant = domain.participant(domain_id, interface)
         self.counters: dict[str, int] = {}
         self.publishers: list[Publisher[Any]] = []
@@ -148,6 +194,9 @@ class Node:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         discovery_info.node_added(self)  # so `ros2 node list` sees us
+        if use_sim_time and not self.provides_clock:
+            # First subscription, so each executor pass takes /clock before anything else.
+            self.create_subscription(ClockMsg, "/clock", self._node_clock_msg, QOS_CLOCK)
 
     # -- graph -------------------------------------------------------------------------------
     def resolve(self, topic: str) -> str:
@@ -175,19 +224,37 @@ class Node:
         self._wake()
         return sub
 
-    def create_timer(self, period_s: float, callback: Callable[[], None]) -> Timer:
+    def create_timer(self, period_s: float, callback: Callable[[], None], *, wall: bool = False) -> Timer:
+        """Call `callback` every `period_s` seconds of the node's clock (sim time with use_sim_time).
+        `wall=True`: of the steady wall clock whatever use_sim_time says (watchdogs of a stalled /clock)."""
         if not period_s > 0:
             raise ValueError(f"timer period must be positive, got {period_s}")
-        timer = Timer(period_s, callback, time.monotonic() + period_s)
+        # A wall timer is what it says: wall time even on a sim clock (see the module docstring).
+        start = time.monotonic() if wall or not self.clock.sim else self.clock.monotonic()
+        timer = Timer(period_s, callback, start + period_s, wall=wall)
         with self._lock:
             self._timers.append(timer)
         self._wake()
         return timer
 
+    # -- time --------------------------------------------------------------------------------
+    @property
+    def use_sim_time(self) -> bool:
+        return self.clock.sim
+
+    def _node_clock_msg(self, msg: ClockMsg) -> None:  # a name no subclass uses for its own /clock
+        self.clock.set(msg.clock.to_sec())
+
+    def set_sim_time(self, t: float) -> None:
+        """For a node that provides the clock (the sim): its sim time is `t` now. Any thread."""
+        self.clock.set(t)
+        if self._timers:
+            self._wake()  # its sim-time timers may be due
+
     # -- helpers -----------------------------------------------------------------------------
     def now(self) -> float:
-        """Wall-clock seconds since the epoch (ROS time without use_sim_time)."""
-        return time.time()
+        """ROS time in seconds: the epoch, or sim time with use_sim_time (0.0 until /clock starts)."""
+        return self.clock.now()
 
     def stamp(self, t: float | None = None) -> Time:
         return Time.from_sec(self.now() if t is None else t)
@@ -200,21 +267,29 @@ class Node:
         return self.counters[name]
 
     def params(self) -> dict[str, Any]:
+        """The node's parameters: its Config's fields, then the base parameters every node has."""
         cfg = self.config
-        return {f.name: getattr(cfg, f.name) for f in fields(cfg)} if is_dataclass(cfg) else {}
+        own = {f.name: getattr(cfg, f.name) for f in fields(cfg)} if is_dataclass(cfg) else {}
+        return {**own, "use_sim_time": self.clock.sim}
 
     # -- execution ---------------------------------------------------------------------------
     def _wake(self) -> None:
         self._guard.set(True)
 
+    def _timer_now(self, timer: Timer) -> float:
+        # Wall timers, and every timer in wall mode, run on the steady clock (see the module docstring).
+        return time.monotonic() if timer.wall or not self.clock.sim else self.clock.monotonic()
+
     def spin_once(self, timeout_s: float = 0.1) -> None:
-        """Wait for data or the next timer (at most `timeout_s`), then run what is due."""
+        """Wait for data, /clock or the next timer (at most `timeout_s` wall seconds), then run what is due."""
         with self._lock:
             timers = [t for t in self._timers if not t.cancelled]
-        now = time.monotonic()
         wait = timeout_s
-        if timers:
-            wait = max(0.0, min(wait, min(t.next_due for t in timers) - now))
+        for t in timers:
+            if t.wall or not self.clock.sim:
+                wait = min(wait, t.next_due - time.monotonic())
+            elif self.clock.started and t.due(self.clock.monotonic()):
+                wait = 0.0  # due already (a clock fed from another thread); else a /clock wakes us
         if wait > 0:
             self._waitset.wait(duration(seconds=wait))
         self._guard.take()
@@ -231,12 +306,31 @@ class Node:
                 continue
             for msg in msgs:
                 self._call(sub.callback, msg, sub.topic)
-        now = time.monotonic()
+        if self.clock.sim:
+            self._check_time_jump(timers)
         for t in timers:
-            if not t.cancelled and now >= t.next_due:
-                # Skip missed periods rather than bursting to catch up.
-                t.next_due = max(t.next_due + t.period_s, now)
+            if t.cancelled or (self.clock.sim and not t.wall and not self.clock.started):
+                continue  # sim time has not started: sim-time timers wait for the first /clock
+            now = self._timer_now(t)
+            if t.due(now):
+                t.advance(now)  # at most once per pass: missed periods are skipped, not burst
                 self._call(t.callback, None, "timer")
+
+    def _check_time_jump(self, timers: list[Timer]) -> None:
+        """Re-anchor sim-time timers when sim time starts or goes backwards (a restarted sim)."""
+        if not self.clock.started:
+            return
+        back = self.clock.jumps_back != self._jumps_seen
+        if self._clock_started_seen and not back:
+            return
+        now = self.clock.monotonic()
+        if back:
+            self.log.warning(f"sim time went back to {now:.3f} s: timers restart from there")
+        for t in timers:
+            if not t.wall:
+                t.next_due = now + t.period_s
+        self._clock_started_seen = True
+        self._jumps_seen = self.clock.jumps_back
 
     def _call(self, fn: Callable[..., None], arg: Any, where: str) -> None:
         try:
@@ -274,6 +368,7 @@ class Node:
             return
         self._stop.set()
         self._wake()
+        self.clock.wake()  # worker threads waiting on sim time see their stop events now
         discovery_info.node_removed(self)
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout_s)

@@ -20,7 +20,17 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ParamError", "param", "build_config", "load_params_file", "parse_overrides", "describe_params"]
+__all__ = [
+    "BASE_PARAMS",
+    "NodeParams",
+    "ParamError",
+    "build_config",
+    "build_node_config",
+    "describe_params",
+    "load_params_file",
+    "param",
+    "parse_overrides",
+]
 
 
 class ParamError(ValueError):
@@ -147,17 +157,19 @@ def _validate(field: dataclasses.Field, value: Any, where: str) -> None:
             raise ParamError(f"{where}: {value!r} is above the maximum {hi}")
 
 
-def build_config(config_cls: type, values: Mapping[str, Any], node: str = "node") -> Any:
-    """Instantiate `config_cls` from raw values (strings or YAML types), validating every field."""
+def build_config(
+    config_cls: type, values: Mapping[str, Any], node: str = "node", also_known: Iterable[str] = ()
+) -> Any:
+    """Instantiate `config_cls` from raw values (strings or YAML types), validating every field.
+    `also_known`: names accepted elsewhere (the base parameters), listed when a name is unknown."""
     if not dataclasses.is_dataclass(config_cls):
         raise TypeError(f"{config_cls!r} is not a dataclass")
     hints = typing.get_type_hints(config_cls)
     fields = {f.name: f for f in dataclasses.fields(config_cls)}
     unknown = sorted(set(values) - set(fields))
     if unknown:
-        raise ParamError(
-            f"node {node!r}: unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(fields))}"
-        )
+        known = sorted({*fields, *also_known})
+        raise ParamError(f"node {node!r}: unknown parameter(s) {', '.join(unknown)}; known: {', '.join(known)}")
     kwargs = {}
     for name, raw in values.items():
         kwargs[name] = coerce(raw, hints[name], f"node {node!r}: parameter {name!r}")
@@ -178,6 +190,29 @@ def build_config(config_cls: type, values: Mapping[str, Any], node: str = "node"
         except ValueError as exc:
             raise ParamError(f"node {node!r}: {exc}") from None
     return cfg
+
+
+@dataclasses.dataclass
+class NodeParams:
+    """Parameters every node has, whatever its own Config declares (as ROS 2 declares use_sim_time on
+    every node). `build_node_config` splits them off; `Node` takes them as keyword arguments."""
+
+    use_sim_time: bool = param(
+        False, help="run on /clock (rosgraph_msgs/Clock) instead of the wall clock: stamps, timers, timeouts"
+    )
+
+
+BASE_PARAMS = frozenset(f.name for f in dataclasses.fields(NodeParams))
+
+
+def build_node_config(config_cls: type, values: Mapping[str, Any], node: str = "node") -> tuple[Any, NodeParams]:
+    """A node's own Config and its base parameters (`NodeParams`) from one mapping of raw values."""
+    clash = BASE_PARAMS & {f.name for f in dataclasses.fields(config_cls)}
+    if clash:
+        raise TypeError(f"{config_cls.__name__} declares base parameter(s) {sorted(clash)}; Node handles them")
+    own = {k: v for k, v in values.items() if k not in BASE_PARAMS}
+    base = {k: v for k, v in values.items() if k in BASE_PARAMS}
+    return build_config(config_cls, own, node, also_known=BASE_PARAMS), build_config(NodeParams, base, node)
 
 
 def load_params_file(path: str | Path, node: str) -> dict[str, Any]:
@@ -216,8 +251,8 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
     return out
 
 
-def describe_params(config_cls: type) -> list[tuple[str, str, str, str]]:
-    """(name, type, default, help) rows for `--help` and docs."""
+def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str, str, str]]:
+    """(name, type, default, help) rows for `--help` and docs; `base` appends the `NodeParams` rows."""
     hints = typing.get_type_hints(config_cls)
     rows = []
     for f in dataclasses.fields(config_cls):
@@ -231,4 +266,4 @@ def describe_params(config_cls: type) -> list[tuple[str, str, str, str]]:
         if f.metadata.get("choices"):
             help_text += f" [{'|'.join(map(str, f.metadata['choices']))}]"
         rows.append((f.name, _type_name(hints[f.name]), default, help_text))
-    return rows
+    return rows + (describe_params(NodeParams) if base else [])

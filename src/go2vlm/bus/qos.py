@@ -47,6 +47,9 @@ PROFILES = {"default": QOS_DEFAULT, "sensor": QOS_SENSOR, "latched": QOS_LATCHED
 # A best-effort reader matches every publisher, reliable or not: for inputs that must be heard
 # whatever QoS their sender picked (the safety gate's inputs, the e-stop).
 QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
+# /clock as rclcpp reads it (ClockQoS): best-effort matches any publisher, and keep-last 1 because
+# only the newest time matters.
+QOS_CLOCK = QosProfile(reliable=False, transient_local=False, depth=1)
 # Camera images: reliable, so both reliable and best-effort (sensor-QoS) readers match; depth 2
 # keeps a slow reader from holding more than two frames.
 QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)

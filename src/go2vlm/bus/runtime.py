@@ -54,7 +54,7 @@ def spin(
         stop.install()
     for node in nodes:
         node.start()
-    elapsed = 0.0
+    elapsed = 0.0  # wall seconds: `duration_s` is a deadline for the process, not node time
     try:
         while not stop.event.is_set():
             if until is not None and until():

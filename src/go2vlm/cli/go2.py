@@ -6,6 +6,9 @@ highest-priority input, so the gate's limits, watchdog and e-stop apply; it is a
 CLI_LIMITS and `--duration` (max 10 s) and ends with zero commands. It needs a running safety gate
 and `go2` driver (or the sim). Posture verbs call the sport RPC directly and refuse while
 /emergency_stop is latched.
+
+Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
+the terminal and for DDS discovery, not a node's clock.
 """
 
 from __future__ import annotations

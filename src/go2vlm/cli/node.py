@@ -1,6 +1,9 @@
 """`go2vlm node list [-v]`: the nodes on the bus, ours and ROS 2's, as `ros2 node list` shows them.
 
 Read from `ros_discovery_info`, which every ROS 2 process (and every go2vlm process) publishes.
+
+Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
+the terminal and for DDS discovery, not a node's clock.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ def nodes_help() -> str:
         lines.append(f"\n  {name}  ({cls.__module__}.{cls.__name__})")
         for line in textwrap.dedent(module_doc).strip().splitlines():
             lines.append("    " + line)
-        rows = describe_params(cls.Config)
+        rows = describe_params(cls.Config, base=True)
         if rows:
             lines.append("    parameters (name: type = default  help):")
             for pname, ptype, pdefault, phelp in rows:

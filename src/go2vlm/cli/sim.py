@@ -1,4 +1,8 @@
-"""`go2vlm sim [--world NAME] [--duration S] [--rtf X | --fast] [--viewer] [--mode dynamic|kinematic]`."""
+"""`go2vlm sim [--world NAME] [--duration S] [--rtf X | --fast] [--viewer] [--mode dynamic|kinematic]`.
+
+Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
+the terminal and for DDS discovery, not a node's clock.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,8 @@
-"""`go2vlm topic list | echo | hz | pub`, behaving like `ros2 topic` for our message types."""
+"""`go2vlm topic list | echo | hz | pub`, behaving like `ros2 topic` for our message types.
+
+Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
+the terminal and for DDS discovery, not a node's clock.
+"""
 
 from __future__ import annotations
 

@@ -8,6 +8,7 @@ Launch file: a list of nodes (or a mapping with a `nodes:` list):
     - node: follower
       name: follower              # optional; default: the kind; names must be unique
       remap: {/detected_target: /ball}
+      params: {use_sim_time: true}  # every node kind takes use_sim_time (bus/params.py NodeParams)
 
 There is no start-up ordering and no readiness dependency: topics use late-joiner-safe QoS, so any
 start order works. Children that die are reported, not restarted.
@@ -29,7 +30,7 @@ from typing import Any
 
 import yaml
 
-from go2vlm.bus import Node, ShutdownRequested, build_config
+from go2vlm.bus import Node, ShutdownRequested, build_node_config
 from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
 from go2vlm.launch.registry import NODES, make_node, node_class
 
@@ -121,6 +122,7 @@ def _say(msg: str) -> None:
 
 
 def _wait(stop: ShutdownRequested, duration_s: float | None, alive: Callable[[], bool] = lambda: True) -> None:
+    # Wall time: `--duration` is how long the launcher runs, whatever clock its nodes are on.
     start = time.monotonic()
     while not stop.event.is_set() and alive():
         if duration_s is not None and time.monotonic() - start >= duration_s:
@@ -193,7 +195,8 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
 
 
 def _stop_children(procs: list[subprocess.Popen[bytes]], timeout_s: float = SHUTDOWN_GRACE_S + 1.0) -> None:
-    # A child's own watchdog prints its stacks at SHUTDOWN_GRACE_S; kill only after that.
+    # A child's own watchdog prints its stacks at SHUTDOWN_GRACE_S; kill only after that (wall time:
+    # process management).
     for p in procs:
         if p.poll() is None:
             p.send_signal(signal.SIGINT)
@@ -209,4 +212,4 @@ def _stop_children(procs: list[subprocess.Popen[bytes]], timeout_s: float = SHUT
 def check_entries(entries: list[LaunchEntry]) -> None:
     """Raise ParamError for a node whose parameters would not build (imports the node classes)."""
     for e in entries:
-        build_config(node_class(e.kind).Config, e.params, node=e.name)
+        build_node_config(node_class(e.kind).Config, e.params, node=e.name)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from go2vlm.bus import Node, build_config, load_params_file
+from go2vlm.bus import Node, build_node_config, load_params_file
 
 NODES: dict[str, str] = {
     "test_pattern": "go2vlm.sources.test_pattern_node:TestPatternNode",
@@ -36,12 +36,13 @@ def make_node(
     remap: dict[str, str] | None = None,
     **kwargs: Any,
 ) -> Node:
-    """Build a node the way `go2vlm run` and `go2vlm launch` do: file params, then overrides."""
+    """Build a node the way `go2vlm run` and `go2vlm launch` do: file params, then overrides. The
+    base parameters every node has (`use_sim_time`) go to `Node`, the rest to the node's Config."""
     cls = node_class(kind)
     name = node_name or cls.name
     values: dict[str, Any] = {}
     if params_file:
         values.update(load_params_file(params_file, name))
     values.update(params or {})
-    config = build_config(cls.Config, values, node=name)
-    return cls(config, node_name=name, remap=remap, **kwargs)
+    config, base = build_node_config(cls.Config, values, node=name)
+    return cls(config, node_name=name, remap=remap, use_sim_time=base.use_sim_time, **kwargs)

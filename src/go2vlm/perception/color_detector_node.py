@@ -73,6 +73,8 @@ class ColorDetectorNode(Node):
     def _want_debug(self) -> bool:
         if self.config.debug_image:
             return True
+        # Wall time: this only bounds the CPU spent asking DDS for matches (a cost in wall time; on a
+        # fast sim, sim time would ask more often), it decides nothing the robot does.
         now = time.monotonic()
         if now - self._debug_checked > 0.5:  # asking DDS for matches every frame would cost more than drawing
             self._debug_checked = now

@@ -25,6 +25,13 @@ The winner is clamped to the limits (configurable, never above the Go2 sport-mod
 down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
 QoS: inputs are read best-effort (matches any publisher); /emergency_stop is read three ways (latched,
 reliable, best-effort) so every publisher QoS matches and a latched e-stop reaches a late gate.
+Time (use_sim_time, bus/clock.py): timeouts, ramps and the output rate are in the node's time, sim
+time on a sim. On sim time the gate also keeps a wall-clock bound, because sim time that stops
+(a hung or killed sim, a paused /clock) ages nothing: an input silent for wall_timeout_s (2 s) of wall
+time is absent, and once /clock has not advanced for wall_timeout_s of wall time the gate publishes
+exactly zero /cmd_vel at rate_hz of wall time until it advances again (reason "clock stalled"), so
+that a robot, a bridge or a tool that is not on sim time hears an explicit stop rather than the last
+command or silence. Before the first /clock the sim-time ticks wait; the same bound then applies.
 """
 
 from __future__ import annotations
@@ -41,7 +48,7 @@ from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import String
 from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput
 from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
-from go2vlm.safety.mux import DEFAULT_INPUTS, InputSpec, SafetyCore
+from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec, SafetyCore
 
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
 
@@ -92,6 +99,13 @@ class SafetyGateConfig:
     release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
     start_engaged: bool = param(False, help="start with the e-stop latched (a release is needed to move)")
     status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0)
+    wall_timeout_s: float = param(
+        DEFAULT_WALL_TIMEOUT_S,
+        help="on sim time: an input silent this many wall seconds is absent, and a /clock that stands "
+        "still this long makes /cmd_vel zero at rate_hz of wall time",
+        min=0.1,
+        max=60.0,
+    )
 
     def validate(self) -> None:
         parse_inputs(self.inputs)
@@ -107,7 +121,9 @@ class SafetyGateNode(Node):
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         c = self.config
         limits = Limits(c.max_vx_forward, c.max_vx_backward, c.max_vy, c.max_vyaw, c.accel_linear, c.accel_angular)
-        self.core = SafetyCore(parse_inputs(c.inputs), limits, c.release_token.strip(), c.start_engaged)
+        self.core = SafetyCore(
+            parse_inputs(c.inputs), limits, c.release_token.strip(), c.start_engaged, c.wall_timeout_s
+        )
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
         self._last_state: tuple[Any, ...] | None = None
@@ -122,17 +138,27 @@ class SafetyGateNode(Node):
                 f"starting with the e-stop latched; publish {c.release_token!r} on /emergency_stop/release"
             )
         self.create_timer(1.0 / c.rate_hz, self.tick)
+        if self.clock.sim:
+            self.create_timer(1.0 / c.rate_hz, self._stall_watchdog, wall=True)
         self.tick()
+
+    def _times(self) -> tuple[float, float | None]:
+        """(node time, wall time): the wall reading bounds a sim clock (see the contract); None on wall time."""
+        return self.clock.monotonic(), (time.monotonic() if self.clock.sim else None)
+
+    def _stall_watchdog(self) -> None:
+        if self.core.clock_stalled(time.monotonic()):  # wall time: the bound on a stalled sim clock
+            self.tick()
 
     # -- inputs ------------------------------------------------------------------------------
     def on_cmd(self, name: str, msg: Twist) -> None:
-        now = time.monotonic()
-        was_active = self.core.winner(now) == name
+        now, wall = self._times()
+        was_active = self.core.winner(now, wall) == name
         extra = (msg.linear.z, msg.angular.x, msg.angular.y)
         v = Velocity(msg.linear.x, msg.linear.y, msg.angular.z)
-        why = self.core.command(name, v, now)
+        why = self.core.command(name, v, now, wall)
         if why is None and not all(math.isfinite(e) for e in extra):
-            self.core.command(name, Velocity(math.nan), now)  # reject and make absent the same way
+            self.core.command(name, Velocity(math.nan), now, wall)  # reject and make absent the same way
             why = f"a non-finite unused component in {extra}"
         if why is not None:
             n = self.core.counters.get(f"rejected_{name}", 0)
@@ -142,8 +168,8 @@ class SafetyGateNode(Node):
 
     # -- output ------------------------------------------------------------------------------
     def tick(self) -> None:
-        now = time.monotonic()
-        out = self.core.step(now)
+        now, wall = self._times()
+        out = self.core.step(now, wall)
         self.cmd_pub.publish(Twist(linear=Vector3(x=out.vx, y=out.vy), angular=Vector3(z=out.wz)))
         state = (self.core.active, self.core.estopped, self.core.reason)
         if state != self._last_state or now - self._last_status >= self.config.status_period_s:
@@ -151,9 +177,9 @@ class SafetyGateNode(Node):
                 why = f" ({state[2]})" if state[0] is None else ""
                 self.log.info(f"active={state[0]} estop={state[1]}{why}")
             self._last_state, self._last_status = state, now
-            self.status_pub.publish(String(data=json.dumps(self.status(now))))
+            self.status_pub.publish(String(data=json.dumps(self.status(now, wall))))
 
-    def status(self, now: float) -> dict[str, Any]:
+    def status(self, now: float, wall: float | None = None) -> dict[str, Any]:
         return {
             "active": self.core.active,
             "estop": self.core.estopped,
@@ -164,6 +190,6 @@ class SafetyGateNode(Node):
                 "vy": self.core.limits.vy,
                 "wz": self.core.limits.wz,
             },
-            "inputs": self.core.inputs_status(now),
+            "inputs": self.core.inputs_status(now, wall),
             "counters": {**self.core.counters, **self.counters},
         }

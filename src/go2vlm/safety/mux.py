@@ -4,10 +4,17 @@ velocity limits, driven by explicit timestamps so it can be tested exhaustively.
     core = SafetyCore([InputSpec("teleop", "/teleop/cmd_vel", 100)], Limits())
     core.command("teleop", Velocity(0.3, 0, 0), now)
     out = core.step(now)          # what goes on /cmd_vel
+    core.command("teleop", v, now, wall)   # on sim time: `now` is sim time, `wall` a steady wall clock
+    out = core.step(now, wall)
 
 Rules
 - An input is live while its last valid command is younger than its timeout. The live input with the
   highest priority wins (ties: the one listed first), even when it commands zero.
+- Two clocks (the gate on sim time, `wall` given): an input is also absent once its last valid
+  command is `wall_timeout_s` of wall time old, and while the node clock has not advanced for
+  `wall_timeout_s` of wall time (a stalled /clock) the output is zero whatever the inputs say: sim
+  time that stands still can age nothing, so a frozen clock must not keep the last command alive.
+  With one clock (`wall` None, the gate on wall time) neither applies: `now` is the wall clock.
 - A command with NaN/inf or absurd values is rejected, counted, and makes that input absent at once.
 - E-stop: `estop(True)` latches; while latched the output is exactly zero. `estop(False)` does NOT
   release it; only `release(token)` with the configured token does.
@@ -26,6 +33,7 @@ from go2vlm.safety.limits import ZERO, Limits, Velocity, check, ramp
 __all__ = ["InputSpec", "SafetyCore", "DEFAULT_INPUTS"]
 
 MAX_DT = 0.1  # a stalled loop must not turn into one big acceleration step
+DEFAULT_WALL_TIMEOUT_S = 2.0  # the wall-clock bound on a sim-time gate (see the rules above)
 
 
 @dataclass(frozen=True)
@@ -48,10 +56,13 @@ class _Input:
     spec: InputSpec
     last: Velocity = ZERO
     t: float | None = None  # time of the last valid command; None = absent
+    wall: float | None = None  # its wall time, when the core runs on two clocks
     why_absent: str = ""
 
-    def live(self, now: float) -> bool:
-        return self.t is not None and 0.0 <= now - self.t < self.spec.timeout_s
+    def live(self, now: float, wall: float | None = None, wall_timeout: float = math.inf) -> bool:
+        if self.t is None or not 0.0 <= now - self.t < self.spec.timeout_s:
+            return False
+        return wall is None or self.wall is None or 0.0 <= wall - self.wall < wall_timeout
 
 
 @dataclass
@@ -60,8 +71,11 @@ class SafetyCore:
     limits: Limits = field(default_factory=Limits)
     release_token: str = RELEASE_TOKEN
     engaged: bool = False  # start with the e-stop latched
+    wall_timeout_s: float = DEFAULT_WALL_TIMEOUT_S  # used only when `wall` times are given
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.wall_timeout_s) and self.wall_timeout_s > 0):
+            raise ValueError(f"wall_timeout_s must be positive, got {self.wall_timeout_s}")
         names = [s.name for s in self.specs]
         if len(set(names)) != len(names):
             raise ValueError(f"input names must be unique: {names}")
@@ -76,13 +90,24 @@ class SafetyCore:
         self.reason = "estop" if self.engaged else "no live input"
         self.counters: dict[str, int] = {}
         self._t_out: float | None = None
+        self._clock_t: float | None = None  # the newest node-clock time seen ...
+        self._clock_wall = 0.0  # ... and the wall time it was first seen at (stall detection)
 
     def _count(self, key: str) -> None:
         self.counters[key] = self.counters.get(key, 0) + 1
 
     # -- events ------------------------------------------------------------------------------
-    def command(self, name: str, v: Velocity, now: float) -> str | None:
+    def _observe(self, now: float, wall: float | None) -> None:
+        if wall is not None and (self._clock_t is None or now > self._clock_t):
+            self._clock_t, self._clock_wall = now, wall
+
+    def clock_stalled(self, wall: float | None) -> bool:
+        """Two clocks: the node clock has not advanced for wall_timeout_s of wall time."""
+        return wall is not None and self._clock_t is not None and wall - self._clock_wall >= self.wall_timeout_s
+
+    def command(self, name: str, v: Velocity, now: float, wall: float | None = None) -> str | None:
         """Store a command from input `name`; returns why it was rejected, or None."""
+        self._observe(now, wall)
         inp = self._inputs[name]
         why = check(v)
         if why is not None:
@@ -90,7 +115,7 @@ class SafetyCore:
             inp.t = None  # bad input counts as absent: never keep driving on the previous command
             inp.why_absent = f"{name} sent an invalid command"
             return why
-        inp.last, inp.t, inp.why_absent = v, now, ""
+        inp.last, inp.t, inp.wall, inp.why_absent = v, now, wall, ""
         return None
 
     def estop(self, flag: bool) -> None:
@@ -111,14 +136,17 @@ class SafetyCore:
         return self.latch.engaged
 
     # -- output ------------------------------------------------------------------------------
-    def winner(self, now: float) -> str | None:
+    def winner(self, now: float, wall: float | None = None) -> str | None:
+        if self.clock_stalled(wall):
+            return None
         for name, inp in self._inputs.items():
-            if inp.live(now):
+            if inp.live(now, wall, self.wall_timeout_s):
                 return name
         return None
 
-    def step(self, now: float) -> Velocity:
-        """The output at time `now`."""
+    def step(self, now: float, wall: float | None = None) -> Velocity:
+        """The output at time `now` (and wall time `wall` on two clocks)."""
+        self._observe(now, wall)
         dt = 0.0 if self._t_out is None else min(max(now - self._t_out, 0.0), MAX_DT)
         self._t_out = now
         prev_active = self.active
@@ -127,9 +155,16 @@ class SafetyCore:
             self.output = ZERO
             self.reason = "estop"
             return ZERO
-        self.active = self.winner(now)
+        if self.clock_stalled(wall):
+            if self.reason != "clock stalled":
+                self._count("clock_stalls")
+            self.active = None
+            self.output = ZERO
+            self.reason = "clock stalled"
+            return ZERO
+        self.active = self.winner(now, wall)
         if self.active is None:
-            if not self.output.is_zero or self.reason == "estop":
+            if not self.output.is_zero or self.reason in ("estop", "clock stalled"):
                 gone = self._inputs[prev_active] if prev_active else None
                 self.reason = (gone.why_absent or f"{gone.spec.name} timed out") if gone else "no live input"
             self.output = ZERO
@@ -141,12 +176,12 @@ class SafetyCore:
         self.output = out
         return out
 
-    def inputs_status(self, now: float) -> dict[str, dict[str, object]]:
+    def inputs_status(self, now: float, wall: float | None = None) -> dict[str, dict[str, object]]:
         return {
             name: {
                 "topic": inp.spec.topic,
                 "priority": inp.spec.priority,
-                "live": inp.live(now),
+                "live": inp.live(now, wall, self.wall_timeout_s),
                 "age_s": None if inp.t is None else round(now - inp.t, 3),
             }
             for name, inp in self._inputs.items()

@@ -9,11 +9,12 @@ Topics
 QoS: reliable keep-last (ROS default), so best-effort and reliable readers both match. The first
 frame goes out at start-up, and a fresh frame whenever a new reader matches, so a late joiner does
 not wait a whole period_s (5 s by default, as in the article).
+Time: period_s, the new-reader check and the stamps are in the node's clock (sim time with
+use_sim_time: nothing but the first frame, stamped 0, goes out before /clock starts).
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import cv2
@@ -69,7 +70,7 @@ class TestPatternNode(Node):
         self.frame += 1
 
     def _on_new_reader(self) -> None:
-        now = time.monotonic()
+        now = self.clock.monotonic()
         matched = self.image_pub.matched
         if matched > self._matched:
             self.publish_frame()

@@ -13,6 +13,9 @@ Frames are read and published on the node's own worker thread, so a slow or hung
 blocks the node's executor. A file is paced at rate_hz frame by frame; a device or stream is read at
 its own rate and only the newest frame is published at most rate_hz times a second (no stale
 driver queue). Streams get 5 s open and read timeouts.
+Time: rate_hz pacing and the stamps are in the node's clock (sim time with use_sim_time: a file is
+then paced at rate_hz of sim time); the open/read timeouts and the reconnect backoff are wall time,
+since they wait on a device or a network.
 """
 
 from __future__ import annotations
@@ -20,7 +23,6 @@ from __future__ import annotations
 import os
 import re
 import threading
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -109,7 +111,7 @@ class VideoSourceNode(Node):
                 self.count("open_failures")
                 self.state = "retrying"
                 self.log.error(f"{exc}; retry #{attempt} in {delay:.1f} s")
-                if self._halt.wait(delay):
+                if self._halt.wait(delay):  # wall time: retrying a device or a network
                     return
                 delay = min(delay * 2.0, self.config.reconnect_max_s)
                 continue
@@ -131,7 +133,7 @@ class VideoSourceNode(Node):
             self.count("stream_lost")
             self.state = "retrying"
             self.log.error(f"{self.kind} {self.target!r} stopped delivering frames; reconnecting in {delay:.1f} s")
-            if self._halt.wait(delay):
+            if self._halt.wait(delay):  # wall time: retrying a device or a network
                 return
             delay = min(delay * 2.0, self.config.reconnect_max_s)
 
@@ -143,12 +145,12 @@ class VideoSourceNode(Node):
         """A device or stream: grab every frame at the source's own pace (so the driver's queue never
         goes stale) and decode and publish only the newest one when rate_hz says so."""
         period = 1.0 / self.config.rate_hz
-        next_t = time.monotonic()
+        next_t = self.clock.monotonic()
         got_any = False
         while not self._halt.is_set():
             if not cap.grab():
                 return got_any, False
-            now = time.monotonic()
+            now = self.clock.monotonic()
             if now < next_t:
                 continue
             ok, frame = cap.retrieve()
@@ -173,7 +175,7 @@ class VideoSourceNode(Node):
         import cv2
 
         period = 1.0 / self.config.rate_hz
-        next_t = time.monotonic()
+        next_t = self.clock.monotonic()
         got_any = rewound = False
         while not self._halt.is_set():
             ok, frame = cap.read()
@@ -188,12 +190,11 @@ class VideoSourceNode(Node):
             got_any, rewound = True, False
             self._publish(self._prepare(frame))
             next_t += period
-            wait = next_t - time.monotonic()
-            if wait > 0:
-                if self._halt.wait(wait):
+            if next_t > self.clock.monotonic():
+                if self.clock.wait_until(next_t, self._halt):
                     break
             else:
-                next_t = time.monotonic()  # a slow source: don't burst to catch up
+                next_t = self.clock.monotonic()  # a slow source: don't burst to catch up
         return got_any, False
 
     def _publish(self, frame: Any) -> None:

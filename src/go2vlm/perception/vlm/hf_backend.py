@@ -111,7 +111,7 @@ class _FirstTokenClock:
     def __call__(self, input_ids: Any, scores: Any) -> Any:
         if self.first is None:
             self.sync()
-            self.first = time.perf_counter()
+            self.first = time.perf_counter()  # wall time: time to the first token
         return scores
 
 
@@ -195,7 +195,7 @@ class TransformersBackend:
         from transformers import LogitsProcessorList
 
         s = self.settings
-        t0 = time.perf_counter()
+        t0 = time.perf_counter()  # wall time here and below: compute latencies, not node time
         image = Image.fromarray(np.ascontiguousarray(rgb))
         messages = [{"role": "user", "content": [{"type": "image"}, {"type": "text", "text": prompt}]}]
         text = self.processor.apply_chat_template(messages, tokenize=False, add_generation_prompt=True)

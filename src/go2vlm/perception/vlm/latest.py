@@ -3,15 +3,17 @@
 Inference takes hundreds of milliseconds to seconds; a camera sends 10-30 frames a second.
 Queueing frames (the VLM article ran inference inside the callback with a depth-10 queue)
 makes every answer describe the past, later and later. Here the callback never waits: it
-overwrites the slot, and each overwritten frame is counted as dropped.
+overwrites the slot, and each overwritten frame is counted as dropped. Receive times come from
+the node's clock (sim time with use_sim_time).
 """
 
 from __future__ import annotations
 
 import threading
-import time
 from dataclasses import dataclass
 from typing import Generic, TypeVar
+
+from go2vlm.bus.clock import Clock
 
 __all__ = ["LatestSlot", "Stamped"]
 
@@ -21,13 +23,14 @@ T = TypeVar("T")
 @dataclass(frozen=True)
 class Stamped(Generic[T]):
     item: T
-    received_mono: float  # time.monotonic() at put
-    received_wall: float  # time.time() at put
+    received_t: float  # clock.monotonic() at put: for ages
+    received_stamp: float  # clock.now() at put: ROS time, for an item without a stamp of its own
     seq: int  # 1, 2, 3, ... in arrival order
 
 
 class LatestSlot(Generic[T]):
-    def __init__(self) -> None:
+    def __init__(self, clock: Clock | None = None) -> None:
+        self.clock = clock if clock is not None else Clock()
         self._cond = threading.Condition()
         self._item: Stamped[T] | None = None
         self._closed = False
@@ -42,7 +45,7 @@ class LatestSlot(Generic[T]):
             dropped = self._item is not None
             if dropped:
                 self.dropped += 1
-            self._item = Stamped(item, time.monotonic(), time.time(), self.received)
+            self._item = Stamped(item, self.clock.monotonic(), self.clock.now(), self.received)
             self._cond.notify()
             return dropped
 
@@ -52,7 +55,8 @@ class LatestSlot(Generic[T]):
             return None if self._item is None else self._item.item
 
     def take(self, timeout_s: float | None = None) -> Stamped[T] | None:
-        """The newest untaken item, waiting up to ``timeout_s``; None on timeout or close."""
+        """The newest untaken item, waiting up to ``timeout_s`` (wall seconds: a poll interval for the
+        consumer's own stop check, not a decision); None on timeout or close."""
         with self._cond:
             if self._item is None and not self._closed:
                 self._cond.wait(timeout_s)

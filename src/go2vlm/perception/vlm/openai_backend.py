@@ -119,7 +119,7 @@ class OpenAIBackend:
         if self.client is None:
             raise BackendError("client not created (load() not called)")
         s = self.settings
-        t0 = time.perf_counter()
+        t0 = time.perf_counter()  # wall time here and below: request latencies and network retries
         oh, ow = int(rgb.shape[0]), int(rgb.shape[1])
         resized = smart_resize(oh, ow, min_pixels=s.min_pixels, max_pixels=s.max_pixels)
         data_url = encode_jpeg_data_url(rgb, resized, s.jpeg_quality)

@@ -14,6 +14,9 @@ Freshness: the image callback only stores the newest frame; a worker thread runs
 the newest frame at most every period_s. Frames replaced before the worker got to them are
 dropped and counted. Every result carries its source frame's stamp; result_age_ms is
 now - source stamp when the result is published.
+Time: period_s, max_age_s and result_age_ms are in the node's clock, so with use_sim_time (and a
+camera stamping sim time, as the sim does then) ages are sim seconds; latency_ms is wall time (how
+long the model took) in both modes.
 
 Backends: transformers (the model in this process; nf4/int8 via bitsandbytes) or openai (any
 OpenAI-compatible server: vLLM, SGLang, Ollama, llama.cpp, `transformers serve`). The API key
@@ -172,7 +175,7 @@ class VlmNode(Node):
         cfg = self.config
         self.prompt = build_prompt(cfg.mode, cfg.prompt, cfg.labels)
         self.backend: Backend = backend if backend is not None else make_backend(cfg.backend_settings())
-        self.slot: LatestSlot[Image] = LatestSlot()
+        self.slot: LatestSlot[Image] = LatestSlot(self.clock)
         self._stats = threading.Lock()
         self.state = "loading"
         self.last_error = ""
@@ -223,18 +226,17 @@ class VlmNode(Node):
         self.log.info(f"model ready: {self.backend.description}")
         next_start = 0.0
         while not self._halt.is_set():
-            wait = next_start - time.monotonic()
-            if wait > 0:
-                self._halt.wait(wait)
+            if self.clock.monotonic() < next_start:
+                self.clock.wait_until(next_start, self._halt)
                 continue
             frame = self.slot.take(timeout_s=0.2)
             if frame is None:
                 continue
             cfg = self.config
-            if cfg.max_age_s > 0 and time.monotonic() - frame.received_mono > cfg.max_age_s:
+            if cfg.max_age_s > 0 and self.clock.monotonic() - frame.received_t > cfg.max_age_s:
                 self._bump("stale_frames")
                 continue
-            next_start = time.monotonic() + cfg.period_s
+            next_start = self.clock.monotonic() + cfg.period_s
             self._infer(frame)
 
     def _infer(self, frame: Stamped[Image]) -> None:
@@ -267,7 +269,7 @@ class VlmNode(Node):
             self.last_error = text[:500]
 
     def _publish(self, frame: Stamped[Image], gen: Generation) -> None:
-        t0 = time.perf_counter()
+        t0 = time.perf_counter()  # wall time: a compute latency, reported as latency_ms
         cfg = self.config
         src = frame.item.header
         header = Header(stamp=Time(sec=src.stamp.sec, nanosec=src.stamp.nanosec), frame_id=src.frame_id)
@@ -288,7 +290,7 @@ class VlmNode(Node):
         if cfg.mode == "detect":
             self.pub_dets.publish(detections_msg(boxes, header))
         post_ms = (time.perf_counter() - t0) * 1e3
-        src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_wall
+        src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_stamp
         age_ms = (self.now() - src_t) * 1e3
         with self._stats:
             self.inferences += 1

@@ -80,7 +80,8 @@ class RpcClient:
         self._lock = threading.Lock()
         self._pub = node.create_publisher(Request, p.request_topic(service), QOS_UNITREE_WRITER)
         self._sub = node.create_subscription(Response, p.response_topic(service), self._on_response, QOS_UNITREE_READER)
-        node.create_timer(0.05, self._expire)
+        # RPC timeouts are network timeouts: wall time, even on a node that runs on sim time.
+        node.create_timer(0.05, self._expire, wall=True)
         self.sent = 0
         self.foreign_responses = 0
 
@@ -90,7 +91,7 @@ class RpcClient:
         return self._pub.matched > 0
 
     def wait_for_server(self, timeout_s: float) -> bool:
-        deadline = time.monotonic() + timeout_s
+        deadline = time.monotonic() + timeout_s  # wall time: waiting for DDS discovery
         while time.monotonic() < deadline:
             if self.matched and self._sub.publisher_count > 0:
                 return True
@@ -102,7 +103,7 @@ class RpcClient:
     ) -> RpcFuture:
         request = p.build_request(api_id, parameter, binary)
         rid = request.header.identity.id
-        future = RpcFuture(api_id, rid, time.monotonic() + (timeout_s or self.timeout_s))
+        future = RpcFuture(api_id, rid, time.monotonic() + (timeout_s or self.timeout_s))  # wall: network timeout
         if not self.matched:
             future.set_result(p.RpcResult(p.ERR_CLIENT_SEND))
             return future
@@ -155,7 +156,7 @@ class RpcClient:
         future.set_result(p.result_from_response(future.api_id, response))
 
     def _expire(self) -> None:
-        now = time.monotonic()
+        now = time.monotonic()  # wall time: network timeouts
         with self._lock:
             late = [f for f in self._pending.values() if f.deadline <= now]
             for f in late:

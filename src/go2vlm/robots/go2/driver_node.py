@@ -23,6 +23,10 @@ Publishes:
   /camera/camera_info      sensor_msgs/CameraInfo  pinhole from `camera_hfov_deg`
   /go2/status              std_msgs/String      latched JSON, 1 Hz: connected, estop, moving, mode, ...
 
+Time: cmd_timeout_s, move_rate_hz, state_rate_hz, camera_rate_hz, the status period and the stamps
+are in the node's clock (sim time with use_sim_time, e.g. against the simulator); the sport and
+videohub RPC timeouts (rpc_timeout_s) are network timeouts, always wall time.
+
 The Go2 speaks on DDS domain 0; `interface` picks the network interface wired to it (e.g. enp3s0,
 192.168.123.x); `lo` reaches a local simulator (`go2vlm run sim --param unitree=true`).
 """
@@ -31,7 +35,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -150,10 +153,10 @@ class Go2DriverNode(Node):
         if not all(isinstance(v, float) and math.isfinite(v) for v in vals):
             self.count("bad_cmd_vel")
             self.log.throttled("error", 2.0, f"rejected /cmd_vel with a non-finite value {vals}: stopping instead")
-            self._cmd, self._cmd_time = (0.0, 0.0, 0.0), time.monotonic()
+            self._cmd, self._cmd_time = (0.0, 0.0, 0.0), self.clock.monotonic()
             return
         self._cmd = spec.clamp_velocity(*vals)
-        self._cmd_time = time.monotonic()
+        self._cmd_time = self.clock.monotonic()
 
     def _on_estop(self) -> None:
         self._damp_acked = False
@@ -205,12 +208,12 @@ class Go2DriverNode(Node):
 
     def _on_state(self, msg: SportModeState) -> None:
         self.state = msg
-        self._state_time = time.monotonic()
+        now = self.clock.monotonic()
+        self._state_time = now
         if not self._stood_on_start and self.sport.matched and not self.estop.engaged:
             self._stood_on_start = True
             self.log.info("stand_on_start: StandUp + BalanceStand")
             self.run_command("stand")
-        now = time.monotonic()
         if now - self._last_state_pub < 1.0 / self.config.state_rate_hz - 1e-4:
             return
         self._last_state_pub = now
@@ -218,13 +221,14 @@ class Go2DriverNode(Node):
 
     # -- motion ------------------------------------------------------------------------------
     def current_command(self) -> tuple[float, float, float]:
-        if time.monotonic() - self._cmd_time > self.config.cmd_timeout_s:
+        if self.clock.monotonic() - self._cmd_time > self.config.cmd_timeout_s:
             return (0.0, 0.0, 0.0)
         return self._cmd
 
     def _move_tick(self) -> None:
         if self.estop.engaged:
-            if not self._damp_acked and not self._damp_in_flight and time.monotonic() - self._damp_last_try > 0.25:
+            retry_due = self.clock.monotonic() - self._damp_last_try > 0.25
+            if not self._damp_acked and not self._damp_in_flight and retry_due:
                 self._damp()  # keep trying while the e-stop holds: it must not be lost
             return
         cmd = self.current_command()
@@ -253,7 +257,7 @@ class Go2DriverNode(Node):
         self.moving = False
         self.damps_sent += 1
         self._damp_in_flight = True
-        self._damp_last_try = time.monotonic()
+        self._damp_last_try = self.clock.monotonic()
 
         def done(result: p.RpcResult) -> None:
             self._damp_in_flight = False
@@ -299,7 +303,7 @@ class Go2DriverNode(Node):
         s = self.state
         status = {
             "connected": self.sport.matched,
-            "state_age_s": None if s is None else round(time.monotonic() - self._state_time, 3),
+            "state_age_s": None if s is None else round(self.clock.monotonic() - self._state_time, 3),
             "estop": self.estop.engaged,
             "moving": self.moving,
             "command": [round(v, 3) for v in self.current_command()],

@@ -157,7 +157,7 @@ def new_request_id() -> int:
     """Unique, increasing int64 per process; unitree_sdk2 uses monotonic nanoseconds too."""
     global _last_id
     with _id_lock:
-        _last_id = max(_last_id + 1, time.monotonic_ns())
+        _last_id = max(_last_id + 1, time.monotonic_ns())  # an id, not a time: any increasing source
         return _last_id
 
 

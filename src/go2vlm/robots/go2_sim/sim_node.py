@@ -7,7 +7,8 @@ context and works from a snapshot of the physics state, so rendering never stall
 Subscribes:
   /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z);
                                                     zeroed after `cmd_timeout_s` without a valid command
-                                                    (the safety gate streams at >= 20 Hz)
+                                                    (the safety gate streams at >= 20 Hz); seconds of the
+                                                    node's clock: sim time with use_sim_time, else wall
   /go2/command                 std_msgs/String       posture, as the go2 driver takes it: stand, balance,
                                                     recover, sit/standdown (lie down), damp; only without
                                                     `unitree` (then the driver sends sport RPCs instead)
@@ -27,22 +28,32 @@ Publishes:
   /tf_static                  tf2_msgs/TFMessage    latched: world -> odom (identity), base_link -> camera_link,
                                                     base_link -> camera_optical_frame,
                                                     world -> world_camera_optical_frame
-  /clock                      rosgraph_msgs/Clock   simulation time (for rviz/bag tools; see below)
+  /clock                      rosgraph_msgs/Clock   simulation time, after every physics chunk (clock_rate_hz,
+                                                    100 Hz of sim time): the clock of nodes with use_sim_time
   /sim/ground_truth           tf2_msgs/TFMessage    world -> gt/go2 (the base) and world -> gt/<body> for
                                                     every named world body (gt/red_ball, ...)
   /sim/status                 std_msgs/String       latched JSON, 2 Hz (wall): sim_time, wall_time, rtf
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
                                                     command, cmd_timed_out, frames, frames_dropped,
-                                                    overruns, render_error
+                                                    overruns, render_error, use_sim_time
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
 wall clock (a lag under 2 s is caught up, a longer stall re-anchors and counts an overrun). Camera
 frames are rendered from a snapshot taken at their sim time; if rendering falls behind, the newest
-snapshot wins and the dropped ones are counted.
-Stamps: every header carries wall-clock time (Node.now()), like the real robot; our nodes do not use
-sim time. /clock carries sim time only for tools that want it.
+snapshot wins and the dropped ones are counted (with `rtf`); with `fast` the physics waits for the
+previous frame to be drawn instead, so that a fast run sees every frame a real-time run sees.
+Clock: the sim is the source of sim time. Physics runs in chunks of 1/max(clock_rate_hz,
+state_rate_hz) s (10 ms by default) and /clock goes out after each: 100 Hz is enough for every timer
+of our nodes (the fastest is the follower's 10 ms watchdog; the gate ticks at 50 Hz) and costs one
+small message per chunk; a finer /clock would only wake every sim-time node more often. With
+use_sim_time the sim does not subscribe to /clock: its node clock is its own physics time.
+Stamps: with use_sim_time every header (images, camera_info, odom, imu, joint_states, tf, tf_static,
+ground truth, rt/sportmodestate) carries the sim time of the state it describes, and cmd_timeout_s
+and the Unitree Move timeout are sim seconds; without it headers carry wall-clock time, like the real
+robot. The pacing (rtf, fast), /sim/status (2 Hz of wall time, with both sim_time and wall_time) and
+the render thread are wall time in both modes: they are about how fast the host runs the sim.
 
 With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport/request Move,
 StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
@@ -98,12 +109,16 @@ class SimNodeConfig(SimConfig):
     camera_rate_hz: float = param(10.0, help="head camera rate in sim time", min=0.1, max=60.0)
     world_camera: bool = param(True, help="render and publish the static world camera")
     world_camera_rate_hz: float = param(10.0, help="world camera rate in sim time", min=0.1, max=60.0)
-    state_rate_hz: float = param(
-        50.0, help="rate of /odom, /imu, /joint_states, /tf, /clock (sim time)", min=1.0, max=500.0
+    state_rate_hz: float = param(50.0, help="rate of /odom, /imu, /joint_states, /tf (sim time)", min=1.0, max=500.0)
+    clock_rate_hz: float = param(
+        100.0,
+        help="rate of /clock (sim time): one per physics chunk of 1/max(this, state_rate_hz) s",
+        min=1.0,
+        max=1000.0,
     )
     ground_truth_rate_hz: float = param(20.0, help="rate of /sim/ground_truth (sim time)", min=0.1, max=500.0)
     cmd_timeout_s: float = param(
-        0.5, help="zero the velocity after this many wall seconds without /cmd_vel", min=0.05, max=10.0
+        0.5, help="zero the velocity after this long without /cmd_vel (sim s with use_sim_time)", min=0.05, max=10.0
     )
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
@@ -140,6 +155,9 @@ class _Renderer:
         self.busy_s = 0.0
         self.error: str | None = None
         self.ready = threading.Event()  # GL contexts made and warmed up (or failed): the clock may start
+        self._idle = threading.Condition()
+        self._submitted = 0
+        self._finished = 0
         self._head_cam = model.camera("head_camera").id
         names = {model.camera(i).name for i in range(model.ncam)}
         self._world_cam = model.camera("world_camera").id if "world_camera" in names else -1
@@ -153,8 +171,22 @@ class _Renderer:
         self._thread.start()
 
     def submit(self, snap: _Snapshot) -> None:
+        with self._idle:
+            self._submitted += 1
         if self._snapshots.put(snap):
             self.dropped += 1  # the newest frame wins; a late frame is worth nothing
+            self._done(1)
+
+    def _done(self, n: int) -> None:
+        with self._idle:
+            self._finished += n
+            self._idle.notify_all()
+
+    def wait_idle(self, stop: threading.Event) -> None:
+        """Block until every submitted snapshot is rendered (or rendering failed, or `stop`)."""
+        with self._idle:
+            while self._finished < self._submitted and self.error is None and not stop.is_set():
+                self._idle.wait(0.1)  # wall time: re-check stop and error
 
     def stop(self) -> None:
         self._snapshots.close()
@@ -188,6 +220,7 @@ class _Renderer:
         except Exception as exc:  # no GL here: physics keeps running, cameras stay silent
             self.error = f"rendering unavailable: {type(exc).__name__}: {exc}"
             self.node.log.error(f"{self.error}; set MUJOCO_GL=egl or osmesa (see docs/demo.md)")
+            self._done(0)
             self.ready.set()
             for r in renderers:
                 r.close()
@@ -195,7 +228,7 @@ class _Renderer:
         self.ready.set()
         try:
             while (snap := self._snapshots.take()) is not None:
-                t0 = time.perf_counter()
+                t0 = time.perf_counter()  # wall time: the render thread's CPU load, for benchmarks
                 pose_mirror(self.model, data, snap.qpos, snap.mocap_pos, snap.mocap_quat)
                 if snap.head and head_r is not None:
                     head_r.update_scene(data, camera=self._head_cam, scene_option=head_opt)
@@ -205,9 +238,11 @@ class _Renderer:
                     self.node._publish_frame("world", world_r.render(), snap.stamp)
                 self.frames += 1
                 self.busy_s += time.perf_counter() - t0
+                self._done(1)
         except Exception as exc:
             self.error = f"render thread failed: {type(exc).__name__}: {exc}"
             self.node.log.error(self.error)
+            self._done(0)
         finally:
             for r in renderers:
                 r.close()
@@ -228,6 +263,7 @@ _POSTURES: dict[str, Callable[[Go2Sim], Any]] = {
 class SimNode(Node):
     name = "sim"
     Config = SimNodeConfig
+    provides_clock = True  # with use_sim_time its clock is its own physics time, not /clock
 
     def __init__(self, config: SimNodeConfig | None = None, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
@@ -238,7 +274,7 @@ class SimNode(Node):
             raise ParamError(f"node {self.node_name!r}: {exc}") from None
         self._cmd_lock = threading.Lock()
         self._cmd = (0.0, 0.0, 0.0)
-        self._cmd_wall = -math.inf
+        self._cmd_t = -math.inf  # node-clock time of the last valid /cmd_vel
         self._cmd_timed_out = True
         self._physics_calls: list[Callable[[Go2Sim], None]] = []
         self._physics_thread: threading.Thread | None = None
@@ -250,6 +286,8 @@ class SimNode(Node):
 
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
         self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
+        if self.clock.sim:
+            self.set_sim_time(self.sim.time)  # stamps from the start are sim time (0.0)
         if not cfg.unitree:
             self.create_subscription(String, "/go2/command", self._on_posture, QOS_DEFAULT)
         self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
@@ -308,7 +346,7 @@ class SimNode(Node):
             return
         with self._cmd_lock:
             self._cmd = (float(vals[0]), float(vals[1]), float(vals[2]))
-            self._cmd_wall = time.monotonic()
+            self._cmd_t = self.clock.monotonic()
 
     def _on_push(self, msg: Twist) -> None:
         dv = (msg.linear.x, msg.linear.y, msg.linear.z)
@@ -375,13 +413,19 @@ class SimNode(Node):
         cfg: SimNodeConfig = self.config
         sim = self.sim
         dt = sim.dt
-        chunk = max(1, int(round(1.0 / (cfg.state_rate_hz * dt))))
+        chunk = max(1, int(round(1.0 / (max(cfg.clock_rate_hz, cfg.state_rate_hz) * dt))))
+        state_period = 1.0 / cfg.state_rate_hz
         cam_period = 1.0 / cfg.camera_rate_hz
         wcam_period = 1.0 / cfg.world_camera_rate_hz
         gt_period = 1.0 / cfg.ground_truth_rate_hz
-        next_cam = next_wcam = next_gt = sim.time
+        # Due times on a grid of their periods from the start (0.02, 0.04 ... for 50 Hz), so that
+        # stamps are whole multiples of the period in sim time.
+        next_state, next_cam = sim.time + state_period, sim.time + cam_period
+        next_wcam, next_gt = sim.time + wcam_period, sim.time + gt_period
         viewer = self._open_viewer() if cfg.viewer else None
         next_viewer = 0.0
+        # Wall time from here on where it says so: start-up, pacing against the wall (rtf), the
+        # achieved rtf, /sim/status and the viewer are about how fast the host runs the sim.
         deadline = time.monotonic() + 30.0
         while self._cams and not self._renderer.ready.wait(0.1) and not self._physics_stop.is_set():
             if time.monotonic() > deadline:
@@ -392,14 +436,21 @@ class SimNode(Node):
         hist: list[tuple[float, float]] = [(wall0, sim0)]
         next_status = wall0
         next_log = wall0 + 5.0
+        state = sim.state()
         while not self._physics_stop.is_set():
             t_busy = time.perf_counter()
             self._apply_command()
             sim.step(chunk)
-            now_wall = self.now()
-            state = sim.state()
-            self._publish_state(state, now_wall)
             t = sim.time
+            if self.clock.sim:
+                self.set_sim_time(t)
+            stamp_t = self.now()  # sim time with use_sim_time, else the wall clock
+            state_due = t + 1e-9 >= next_state
+            if state_due:
+                next_state += state_period * max(1, math.floor((t - next_state) / state_period) + 1)
+                state = sim.state()
+                self._publish_state(state, stamp_t)
+            self.pub_clock.publish(Clock(clock=Time.from_sec(t)))
             head_due = cfg.camera and t + 1e-9 >= next_cam
             world_due = "world" in self._cams and t + 1e-9 >= next_wcam
             if head_due:
@@ -407,18 +458,20 @@ class SimNode(Node):
             if world_due:
                 next_wcam += wcam_period * max(1, math.floor((t - next_wcam) / wcam_period) + 1)
             if head_due or world_due:
+                if cfg.fast:  # as fast as the host renders too: every frame due in sim time is drawn
+                    self._renderer.wait_idle(self._physics_stop)
                 d = sim.data
                 self._renderer.submit(
-                    _Snapshot(t, now_wall, d.qpos.copy(), d.mocap_pos.copy(), d.mocap_quat.copy(), head_due, world_due)
+                    _Snapshot(t, stamp_t, d.qpos.copy(), d.mocap_pos.copy(), d.mocap_quat.copy(), head_due, world_due)
                 )
             if t + 1e-9 >= next_gt:
                 next_gt += gt_period * max(1, math.floor((t - next_gt) / gt_period) + 1)
-                self._publish_ground_truth(now_wall)
-            if state.fell and not self.fell_reported:
+                self._publish_ground_truth(stamp_t)
+            if state_due and state.fell and not self.fell_reported:
                 self.fell_reported = True
                 self.log.error(f"the robot fell at sim time {t:.2f} s")
             if self.bridge is not None and hasattr(self.bridge, "on_step"):
-                self.bridge.on_step(state)
+                self.bridge.on_step(state if state_due else None)
             if viewer is not None and time.monotonic() >= next_viewer:
                 next_viewer = time.monotonic() + 1 / 60
                 if viewer.is_running():
@@ -433,7 +486,7 @@ class SimNode(Node):
                 self.rtf = (t - hist[0][1]) / (mono - hist[0][0])
             if mono >= next_status:
                 next_status = mono + 0.5
-                self._publish_status(state)
+                self._publish_status(state if state_due else sim.state())
             if mono >= next_log:
                 next_log = mono + 10.0
                 target = "fast" if cfg.fast else f"target {cfg.rtf:g}"
@@ -453,14 +506,14 @@ class SimNode(Node):
     def _apply_command(self) -> None:
         with self._cmd_lock:
             calls, self._physics_calls = self._physics_calls, []
-            cmd, stamp = self._cmd, self._cmd_wall
+            cmd, stamp = self._cmd, self._cmd_t
         for fn in calls:
             try:
                 fn(self.sim)
             except Exception as exc:
                 self.count("physics_call_errors")
                 self.log.throttled("error", 2.0, f"physics call failed: {type(exc).__name__}: {exc}")
-        timed_out = time.monotonic() - stamp > self.config.cmd_timeout_s
+        timed_out = self.clock.monotonic() - stamp > self.config.cmd_timeout_s
         just_timed_out = timed_out and not self._cmd_timed_out
         if just_timed_out and any(cmd):
             self.log.warning(f"no /cmd_vel for {self.config.cmd_timeout_s:g} s: stopping")
@@ -486,8 +539,8 @@ class SimNode(Node):
             return None
 
     # -- outputs -----------------------------------------------------------------------------
-    def _publish_state(self, s: Any, now_wall: float) -> None:
-        stamp = self.stamp(now_wall)
+    def _publish_state(self, s: Any, t: float) -> None:
+        stamp = self.stamp(t)
         odom, imu, tf = base_state_messages(
             stamp,
             spec.ODOM_FRAME,
@@ -511,10 +564,9 @@ class SimNode(Node):
             )
         )
         self.pub_tf.publish(tf)
-        self.pub_clock.publish(Clock(clock=Time.from_sec(s.time)))
 
-    def _publish_ground_truth(self, now_wall: float) -> None:
-        header = Header(stamp=self.stamp(now_wall), frame_id="world")
+    def _publish_ground_truth(self, t: float) -> None:
+        header = Header(stamp=self.stamp(t), frame_id="world")
         tfs = [
             transform_stamped(header, f"gt/{name}", p.position, p.quaternion)
             for name, p in self.sim.object_poses().items()
@@ -525,7 +577,8 @@ class SimNode(Node):
         cfg: SimNodeConfig = self.config
         status = {
             "sim_time": round(s.time, 4),
-            "wall_time": round(self.now(), 3),
+            "wall_time": round(time.time(), 3),  # wall time whatever the clock: pairs sim time with the wall
+            "use_sim_time": self.clock.sim,
             "rtf": round(self.rtf, 3),
             "rtf_target": None if cfg.fast else cfg.rtf,
             "fast": cfg.fast,

@@ -21,13 +21,15 @@ Threading: requests arrive on the node's executor thread; everything that touche
 runs on the physics thread, which calls `on_step(state)` after each physics chunk (SimNode does;
 any other owner of a Go2Sim must do the same). Camera frames are rendered on the bridge's own
 render thread from a snapshot, so a camera request never stalls the physics.
+
+Time: the Move timeout, the rt/sportmodestate rate and its stamps are on the owning node's clock:
+the sim's own sim time when it runs with use_sim_time, wall time otherwise.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-import time
 from collections import deque
 from collections.abc import Callable
 from typing import Any
@@ -203,7 +205,7 @@ class UnitreeSimBridge:
             except Exception as exc:
                 self.node.count("unitree_action_errors")
                 self.node.log.throttled("error", 2.0, f"sport action failed: {type(exc).__name__}: {exc}")
-        now = time.monotonic()
+        now = self.node.clock.monotonic()
         if self._moving and now - self._last_move > self.move_timeout_s:
             self._moving = False
             self.sim.stop()
@@ -225,7 +227,7 @@ class UnitreeSimBridge:
             )
             return
         self.sim.set_command(vx, vy, vyaw)
-        self._last_move = time.monotonic()
+        self._last_move = self.node.clock.monotonic()
         self._moving = True
         self.moves += 1
 
@@ -254,7 +256,7 @@ class UnitreeSimBridge:
         self._sitting = False
 
     def sport_state(self, s: RobotState) -> SportModeState:
-        now = time.time()
+        now = self.node.now()
         mode = p.SPORT_MODE_CODES["sit" if self._sitting else _SPORT_MODE.get(s.mode, "idle")]
         if mode == 1 and not self._balance:
             mode = 6  # upright but joints locked (StandUp without BalanceStand)
