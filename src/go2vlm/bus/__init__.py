@@ -5,7 +5,7 @@ from go2vlm.bus import Node, param, QOS_SENSOR
 
 from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
 from go2vlm.bus.log import Logger
-from go2vlm.bus.node import Node, NoParams, Publisher, Subscription, Timer
+from go2vlm.bus.node import Node, NoParams, Publisher, RawSample, RawSubscription, Subscription, Timer
 from go2vlm.bus.params import ParamError, build_config, describe_params, load_params_file, param, parse_overrides
 from go2vlm.bus.qos import (
     PROFILES,
@@ -35,6 +35,8 @@ __all__ = [
     "ParamError",
     "Publisher",
     "QosProfile",
+    "RawSample",
+    "RawSubscription",
     "ShutdownRequested",
     "Subscription",
     "Timer",
