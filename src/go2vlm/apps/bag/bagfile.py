@@ -143,10 +143,6 @@ class BagWriter:
         self._sequence[channel_id] = 0
         self.topics[name] = BagTopic(name, ros_type, list(offered), type_hash)
 
-    def set_offered(self, name: str, offered: list[QosProfile]) -> None:
-        """Publishers that appear later still go into metadata.yaml."""
-        self.topics[name].offered_qos = list(offered)
-
     def write(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int) -> None:
         channel_id = self._channels[topic]
         seq = self._sequence[channel_id] = self._sequence[channel_id] + 1

@@ -139,9 +139,9 @@ class RecorderNode(Node):
             depth=self.config.queue_depth,
         )
         if t.name not in self.bag.topics:
+            # The offered QoS are those known now, in the MCAP channel and in metadata.yaml alike (readers
+            # match the two); rosbag2 does the same.
             self.bag.add_topic(t.name, ros_type(t.cls), msgdef(t.cls), rihs01(t.cls), pubs)
-        else:
-            self.bag.set_offered(t.name, pubs)
         if t.qos is not None and _covers(t.qos, want):
             return
         if t.sub is not None:
