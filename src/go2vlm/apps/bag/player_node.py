@@ -94,6 +94,7 @@ class PlayerNode(Node):
             if self.config.delay_s and self._stop.wait(self.config.delay_s):
                 return
             while not self._stop.is_set():
+                self.bag_time_ns = self.reader.start_ns  # a new loop: the clock starts over
                 self._play_once()
                 self.loops += 1
                 if not self.config.loop:
@@ -128,7 +129,8 @@ class PlayerNode(Node):
             while True:
                 now = time.monotonic()
                 if self.clock_pub is not None and now >= next_clock:
-                    self._publish_clock(t0 + int((now - wall0) * rate * 1e9))
+                    # never past the message still to come: /clock only moves forward
+                    self._publish_clock(min(t0 + int((now - wall0) * rate * 1e9), msg.log_time_ns))
                     next_clock = max(next_clock + tick, now)
                 if now >= due:
                     break
@@ -142,6 +144,8 @@ class PlayerNode(Node):
             self._publish_clock(self.reader.end_ns)
 
     def _publish_clock(self, t_ns: int) -> None:
+        if self.clock_pub is None or t_ns < self.bag_time_ns:
+            return
         self.bag_time_ns = t_ns
         self.clock_pub.publish(Clock(clock=Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)))
 
