@@ -53,7 +53,7 @@ def foxglove_params(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def make_view(params: dict[str, Any], **kwargs: Any) -> Any:
-    """The view node, or SystemExit with one line when foxglove-sdk is missing or the port is taken."""
+    """The view node; SystemExit with one line when foxglove-sdk is missing (a taken port is a ParamError)."""
     from go2vlm.launch.registry import make_node
 
     try:

@@ -1,5 +1,6 @@
 """player: publishes a rosbag2 bag (MCAP) back onto the bus with its original timing, and the bag's
-time on /clock. `go2vlm play` runs it; `BagPlayer`-style embedding works like any node.
+time on /clock. `go2vlm play` runs it; a program embeds it like any node (`start()`, then wait on
+`finished`).
 
 Topics
   publishes   every topic of the bag (or of `topics`) with its recorded type, the serialized samples

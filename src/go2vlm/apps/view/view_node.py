@@ -41,7 +41,7 @@ from typing import Any
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 
-from go2vlm.bus import QOS_DEFAULT, Node, Publisher, QosProfile, RawSample, Subscription, param
+from go2vlm.bus import QOS_DEFAULT, Node, ParamError, Publisher, QosProfile, RawSample, Subscription, param
 from go2vlm.bus.domain import ros_topic_name
 from go2vlm.bus.graph import profile_of
 from go2vlm.msgs import get_type
@@ -138,9 +138,9 @@ class ViewNode(Node):
                 server_listener=_Listener(self),
                 context=self.ctx,
             )
-        except Exception as exc:  # port taken, address not local: say so in one line
+        except Exception as exc:  # port taken, address not local: a setting to change, said in one line
             self._pubs_reader.__del__()
-            raise RuntimeError(f"cannot serve Foxglove on {c.host}:{c.port}: {exc}") from None
+            raise ParamError(f"cannot serve Foxglove on {c.host}:{c.port}: {exc}") from None
         self.port = self.server.port
         self.create_subscription(CameraInfo, c.camera_info_topic, self._on_camera_info, QosProfile(True, True, 1))
         self.create_timer(c.discovery_period_s, self._discover)
