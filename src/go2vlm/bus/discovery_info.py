@@ -112,6 +112,17 @@ def endpoint_added(node: Any, guid: Any, is_reader: bool) -> None:
         a.publish()
 
 
+def endpoint_removed(node: Any, guid: Any, is_reader: bool) -> None:
+    with _lock:
+        a = _announcers.get(id(node.participant))
+        entry = a.nodes.get(id(node)) if a else None
+        gids = (entry.readers if is_reader else entry.writers) if entry else []
+        if a is None or _gid_bytes(guid) not in gids:
+            return
+        gids.remove(_gid_bytes(guid))
+        a.publish()
+
+
 def node_removed(node: Any) -> None:
     with _lock:
         a = _announcers.get(id(node.participant))

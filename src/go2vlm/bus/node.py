@@ -31,7 +31,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any, ClassVar, Generic, TypeVar
 
-from cyclonedds.core import GuardCondition, InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds._clayer import ddspy_take, ddspy_write
+from cyclonedds.core import DDSException, GuardCondition, InstanceState, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.internal import InvalidSample
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -81,6 +82,17 @@ class Publisher(Generic[M]):
             self._writer.write(msg)
             self.count += 1
 
+    def publish_raw(self, data: bytes) -> None:
+        """Publish an already serialized sample (encapsulation header + CDR, e.g. from a bag) as is."""
+        with self._lock:
+            if self._writer is None:
+                return
+            # Cyclone wants whole 4-byte words; CDR readers ignore the trailing padding.
+            ret = ddspy_write(self._writer._ref, data + b"\0" * (-len(data) % 4))
+            if ret < 0:
+                raise DDSException(ret, f"writing a serialized sample on {self.topic}")
+            self.count += 1
+
     @property
     def matched(self) -> int:
         """How many readers are matched (a readiness check before publishing)."""
@@ -126,6 +138,29 @@ class Subscription(Generic[M]):
     def close(self) -> None:
         _delete(self.condition)
         _delete(self._reader)
+
+
+@dataclass(frozen=True)
+class RawSample:
+    """A sample as it came off the wire: the serialized bytes (encapsulation header + CDR), not decoded."""
+
+    data: bytes
+    source_timestamp: int  # ns since the epoch, the writer's clock
+    publication_handle: int  # which writer sent it
+
+
+class RawSubscription(Subscription[RawSample]):
+    """Hands the callback `RawSample`s: no decoding, for tools that store or forward bytes."""
+
+    _MASK = SampleState.Any | ViewState.Any | InstanceState.Any
+
+    def take(self) -> list[RawSample]:
+        ret = ddspy_take(self._reader._ref, self._MASK, 64)
+        if isinstance(ret, int):
+            raise DDSException(ret, f"taking serialized samples on {self.topic}")
+        out = [RawSample(data, info.source_timestamp, info.publication_handle) for data, info in ret if info.valid_data]
+        self.count += len(out)
+        return out
 
 
 @dataclass
@@ -223,6 +258,28 @@ class Node:
         discovery_info.endpoint_added(self, sub.guid, is_reader=True)
         self._wake()
         return sub
+
+    def create_raw_subscription(
+        self, msg_type: type, topic: str, callback: Callable[[RawSample], None], qos: QosProfile = QOS_DEFAULT
+    ) -> RawSubscription:
+        """Like `create_subscription`, but the callback gets the serialized bytes (`RawSample`)."""
+        sub = RawSubscription(self, msg_type, self.resolve(topic), callback, qos)
+        with self._lock:
+            self.subscriptions.append(sub)
+            self._waitset.attach(sub.condition)
+        discovery_info.endpoint_added(self, sub.guid, is_reader=True)
+        self._wake()
+        return sub
+
+    def destroy_subscription(self, sub: Subscription[Any]) -> None:
+        """Delete a subscription. Call it from the node's own thread (a callback or timer)."""
+        with self._lock:
+            if sub not in self.subscriptions:
+                return
+            self.subscriptions.remove(sub)
+            self._waitset.detach(sub.condition)
+        discovery_info.endpoint_removed(self, sub.guid, is_reader=True)
+        sub.close()
 
     def create_timer(self, period_s: float, callback: Callable[[], None], *, wall: bool = False) -> Timer:
         """Call `callback` every `period_s` seconds of the node's clock (sim time with use_sim_time).

@@ -6,6 +6,8 @@ import argparse
 import os
 import sys
 
+from go2vlm.cli.view import add_foxglove_args, foxglove_params
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -23,6 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
     p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
     p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")
+    add_foxglove_args(p)
     p.set_defaults(func=run)
 
 
@@ -46,6 +49,11 @@ def run(args: argparse.Namespace) -> int:
     except LaunchError as exc:
         print(f"go2vlm launch: {exc}", file=sys.stderr)
         return 2
+    view = foxglove_params(args)
+    if view is not None:
+        from go2vlm.launch.launcher import LaunchEntry
+
+        entries.append(LaunchEntry("view", "foxglove_view", view))
     print(f"[launch] {path}: {', '.join(f'{e.name} ({e.kind})' for e in entries)}", flush=True)
     try:
         if args.processes:

@@ -18,6 +18,9 @@ COMMANDS = {
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
     "go2": "go2vlm.cli.go2",
+    "record": "go2vlm.cli.record",
+    "play": "go2vlm.cli.play",
+    "view": "go2vlm.cli.view",
 }
 
 

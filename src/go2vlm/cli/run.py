@@ -7,6 +7,7 @@ import sys
 import textwrap
 
 from go2vlm.bus import describe_params, parse_overrides, spin
+from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.launch.registry import NODES, make_node, node_class
 
 
@@ -52,6 +53,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         formatter_class=_NodesHelp,
     )
     add_node_args(p)
+    add_foxglove_args(p)
     p.add_argument("node", help=f"one of: {', '.join(NODES)}")
     p.set_defaults(func=run)
     # The node list imports every node module; build it only when help is asked for.
@@ -85,5 +87,9 @@ def run(args: argparse.Namespace) -> int:
         interface=args.interface,
     )
     node.log.info(f"running (params: {node.params()})")
-    spin([node], duration_s=args.duration)
+    nodes = [node]
+    view = foxglove_params(args)
+    if view is not None and args.node != "view":
+        nodes.append(make_view(view, domain_id=args.domain, interface=args.interface))
+    spin(nodes, duration_s=args.duration)
     return 0

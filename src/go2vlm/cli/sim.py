@@ -11,6 +11,7 @@ import sys
 import time
 
 from go2vlm.bus import ShutdownRequested, parse_overrides
+from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -34,6 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="any sim parameter")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_foxglove_args(p)
     p.set_defaults(func=run)
 
 
@@ -57,9 +59,13 @@ def run(args: argparse.Namespace) -> int:
         params["unitree"] = True
     params.update(parse_overrides(args.param))
     node = make_node("sim", params=params, domain_id=args.domain, interface=args.interface)
+    view_params = foxglove_params(args)
+    view = make_view(view_params, domain_id=args.domain, interface=args.interface) if view_params else None
     stop = ShutdownRequested()
     stop.install()
     node.start()
+    if view is not None:
+        view.start()
     target = "as fast as possible" if node.config.fast else f"target real-time factor {node.config.rtf:g}"
     print(
         f"go2vlm sim: world {node.config.world!r}, {node.config.mode} physics, {target}. Ctrl-C stops.", file=sys.stderr
@@ -73,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
                 next_print += 5.0
                 print(f"go2vlm sim: sim time {node.sim_time:7.1f} s  real-time factor {node.rtf:.2f}", file=sys.stderr)
     finally:
+        if view is not None:
+            view.shutdown()
         node.shutdown()
     fell = getattr(node, "fell_reported", False)
     print(

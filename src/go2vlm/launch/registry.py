@@ -17,6 +17,9 @@ NODES: dict[str, str] = {
     "safety": "go2vlm.safety.gate_node:SafetyGateNode",
     "sim": "go2vlm.robots.go2_sim.sim_node:SimNode",
     "go2": "go2vlm.robots.go2.driver_node:Go2DriverNode",
+    "recorder": "go2vlm.apps.bag.recorder_node:RecorderNode",
+    "player": "go2vlm.apps.bag.player_node:PlayerNode",
+    "view": "go2vlm.apps.view.view_node:ViewNode",
 }
 
 

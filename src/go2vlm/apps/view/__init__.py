@@ -1,0 +1,1 @@
+"""`go2vlm view`: live data in Foxglove over a WebSocket (foxglove-sdk)."""
