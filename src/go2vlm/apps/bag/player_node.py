@@ -53,6 +53,7 @@ class PlayerConfig:
 class PlayerNode(Node):
     name = "player"
     Config = PlayerConfig
+    provides_clock = True  # with use_sim_time its clock is the bag's time, which it publishes on /clock
 
     def __init__(self, config: PlayerConfig | None = None, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
@@ -149,6 +150,8 @@ class PlayerNode(Node):
             return
         self.bag_time_ns = t_ns
         self.clock_pub.publish(Clock(clock=Time(sec=t_ns // 1_000_000_000, nanosec=t_ns % 1_000_000_000)))
+        if self.clock.sim:
+            self.clock.set(t_ns * 1e-9)
 
     def close(self) -> None:
         if self._play_thread is not None:

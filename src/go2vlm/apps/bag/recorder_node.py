@@ -179,7 +179,8 @@ class RecorderNode(Node):
             if len(t.seen) > 10000:
                 t.seen.pop(next(iter(t.seen)))
         with self._stats_lock:
-            self.bag.write(t.name, s.data, time.time_ns(), s.source_timestamp)
+            # Receive time on the node clock: wall time, or sim time with use_sim_time (as ros2 bag record).
+            self.bag.write(t.name, s.data, int(self.clock.now() * 1e9), s.source_timestamp)
 
     def _write_metadata(self) -> None:
         with self._stats_lock:
