@@ -61,8 +61,10 @@ def test_topic_is_bare_and_latched() -> None:
 
 
 def test_in_process_nodes_are_announced() -> None:
-    a = Peer(node_name="announce_a")
-    b = Peer(node_name="announce_b")
+    # Without the parameter services, so that the counts are the node's own topics (the services'
+    # endpoints are announced too: tests/bus/test_bus_param_services.py).
+    a = Peer(node_name="announce_a", parameter_services=False)
+    b = Peer(node_name="announce_b", parameter_services=False)
     a.create_publisher(String, "/announce/x")
     b.create_subscription(String, "/announce/x", lambda _m: None)
     b.create_subscription(String, "/announce/y", lambda _m: None)
@@ -80,9 +82,14 @@ def test_in_process_nodes_are_announced() -> None:
     assert not names & {"announce_a", "announce_b"}
 
 
+# Every node serves the six parameter services (a request reader and a reply writer each) and
+# publishes /parameter_events, as an rclcpp node does.
+PARAM_READERS, PARAM_WRITERS = 6, 7
+
+
 def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
-    """What `ros2 node list` / rqt_graph decode: our probe node with 1 reader and 2 writers, whose
-    gids are the participant's and the endpoints' DDS GUIDs."""
+    """What `ros2 node list` / rqt_graph decode: our probe node with its 1 reader and 2 writers (and the
+    parameter services' endpoints), whose gids are the participant's and the endpoints' DDS GUIDs."""
     reader = discovery_reader()
     p = bus_probe_node.start(procs, "--name", "probe_graph")
     found: dict[str, Any] = {}
@@ -91,7 +98,8 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
         for s in reader.take(N=32):
             if isinstance(s, ParticipantEntitiesInfo):
                 for n in s.node_entities_info_seq:
-                    if n.node_name == "probe_graph" and len(n.reader_gid_seq) == 1 and len(n.writer_gid_seq) == 2:
+                    readers, writers = len(n.reader_gid_seq), len(n.writer_gid_seq)
+                    if n.node_name == "probe_graph" and (readers, writers) == (1 + PARAM_READERS, 2 + PARAM_WRITERS):
                         found["participant"], found["node"] = s.gid.to_bytes(), n
         return bool(found)
 
@@ -113,8 +121,11 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
         for s in BuiltinDataReader(dp, BuiltinTopicDcpsSubscription).take(N=256)
         if isinstance(getattr(s, "topic_name", None), str)
     }
-    assert sorted(pubs[g.to_bytes()] for g in node.writer_gid_seq) == ["rt/probe/out", "rt/probe/tick"]
-    assert [subs[g.to_bytes()] for g in node.reader_gid_seq] == ["rt/probe/in"]
+    writers = sorted(pubs[g.to_bytes()] for g in node.writer_gid_seq)
+    readers = sorted(subs[g.to_bytes()] for g in node.reader_gid_seq)
+    assert [t for t in writers if t.startswith("rt/")] == ["rt/parameter_events", "rt/probe/out", "rt/probe/tick"]
+    assert [t for t in readers if t.startswith("rt/")] == ["rt/probe/in"]
+    assert "rq/probe_graph/set_parametersRequest" in readers and "rr/probe_graph/set_parametersReply" in writers
     assert procs.stop(p) == 0
 
 
@@ -288,13 +299,21 @@ def test_node_list(procs: Procs, node: Peer) -> None:
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert "/probe_nodes" in lines, out.stdout
-    block = lines[lines.index("/probe_nodes") :][:6]
+    block = lines[lines.index("/probe_nodes") :][:14]
     assert block == [
         "/probe_nodes",
         "  Subscribers:",
         "    /probe/in",
         "  Publishers:",
+        "    /parameter_events",
         "    /probe/out",
         "    /probe/tick",
+        "  Service Servers:",
+        "    /probe_nodes/describe_parameters",
+        "    /probe_nodes/get_parameter_types",
+        "    /probe_nodes/get_parameters",
+        "    /probe_nodes/list_parameters",
+        "    /probe_nodes/set_parameters",
+        "    /probe_nodes/set_parameters_atomically",
     ]
     procs.stop(p)
