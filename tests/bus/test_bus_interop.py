@@ -12,15 +12,13 @@ from typing import Any
 import bus_probe_node
 import numpy as np
 import pytest
-from busutil import GO2VLM, Procs, Recorder, env, wait_for
-from cyclonedds._clayer import ddspy_take
+from busutil import GO2VLM, Procs, Recorder, env, foreign_write, raw_take, wait_for
 from cyclonedds.builtin import (
     BuiltinDataReader,
     BuiltinTopicDcpsParticipant,
     BuiltinTopicDcpsPublication,
     BuiltinTopicDcpsSubscription,
 )
-from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.idl._xt_builder import XTBuilder
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -147,19 +145,6 @@ def test_topic_list_hides_ros_discovery_info(procs: Procs, node: Peer) -> None:
 
 
 # -- foreign bytes --------------------------------------------------------------------------------
-
-
-def foreign_write(writer: DataWriter, sample: Any, raw: bytes) -> None:
-    """Write `raw` CDR (produced by rosbags, as a C++ ROS 2 node would) verbatim: cyclonedds writes
-    whatever `serialize()` returns after checking the sample's class."""
-    sample.serialize = lambda **_kw: raw
-    writer.write(sample)
-
-
-def raw_take(reader: DataReader) -> list[bytes]:
-    """The CDR bytes as they arrived, before any decoding by our classes."""
-    cond = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
-    return [bytes(data) for data, info in ddspy_take(reader._ref, cond.mask, 16) if info.valid_data]
 
 
 def rosbags_twist(x: float, wz: float) -> tuple[Any, bytes]:
