@@ -1,5 +1,12 @@
-"""The node runtime: publishers, subscriptions, timers, parameters, a clock and logging, one executor
-thread per node.
+"""The node runtime: publishers, subscriptions, services, timers, parameters, a clock and logging,
+one executor thread per node.
+
+Parameters at runtime: every node serves ROS 2's parameter services (`ros2 param`, `go2vlm param`;
+bus/param_services.py) unless made with parameter_services=False (tools). A change of a
+`param(..., live=True)` parameter is validated as at start-up, offered to `check_params` (which may
+refuse it), then `self.config` becomes the new Config object and `on_params_changed` rebuilds what
+the node derived from it, all on the executor thread. Services (`create_service`, bus/service.py)
+answer on the executor thread too, like subscription callbacks.
 
 A subscription callback and the node's timers run on the node's own thread, one at a time, as in
 rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises

@@ -111,6 +111,10 @@ def yaml_text(value: Any) -> str:
     return yaml.safe_dump(value, default_flow_style=True, width=1 << 30, allow_unicode=True).strip()
 
 
+def _a(noun: str) -> str:
+    return ("an " if noun[:1] in "aeiou" else "a ") + noun
+
+
 def _yaml_type_name(tp: Any) -> str:
     return str(tp).replace("typing.", "") if typing.get_origin(tp) else _type_name(tp)
 
@@ -169,12 +173,12 @@ def from_value(pv: ParameterValue, tp: Any, name: str) -> Any:
     if pv.type == PARAMETER_NOT_SET:
         if _is_optional(tp)[0]:
             return None
-        raise ParamError(f"parameter {name!r} cannot be unset: it is a {TYPE_NAMES[kind]}")
+        raise ParamError(f"parameter {name!r} cannot be unset: it is {_a(TYPE_NAMES[kind])}")
     if pv.type != kind and (kind, pv.type) not in _WIDENS:
         what = TYPE_NAMES.get(pv.type, f"type {pv.type}")
         text = f" (YAML text of a {_yaml_type_name(tp)})" if is_yaml else ""
         raise ParamError(
-            f"wrong parameter type: {name!r} is a {TYPE_NAMES[kind]}{text}, setting it to a {what} is not allowed"
+            f"wrong parameter type: {name!r} is {_a(TYPE_NAMES[kind])}{text}, setting it to {_a(what)} is not allowed"
         )
     return value_of(pv)
 

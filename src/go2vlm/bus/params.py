@@ -265,7 +265,8 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
 
 
 def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str, str, str]]:
-    """(name, type, default, help) rows for `--help` and docs; `base` appends the `NodeParams` rows."""
+    """(name, type, default, help) rows for `--help` and docs; `base` appends the `NodeParams` rows.
+    The help of a parameter that may change at runtime ends with `(live: ...)`."""
     hints = typing.get_type_hints(config_cls)
     rows = []
     for f in dataclasses.fields(config_cls):
@@ -278,5 +279,7 @@ def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str
         help_text = f.metadata.get("help", "")
         if f.metadata.get("choices"):
             help_text += f" [{'|'.join(map(str, f.metadata['choices']))}]"
+        if f.metadata.get("live"):
+            help_text += " (live)"
         rows.append((f.name, _type_name(hints[f.name]), default, help_text))
     return rows + (describe_params(NodeParams) if base else [])

@@ -106,7 +106,8 @@ def cmd_set(args: argparse.Namespace) -> int:
     from go2vlm.bus.param_services import parse_value
 
     if len(args.pairs) % 2:
-        raise SystemExit("go2vlm: param set: expected NAME VALUE pairs")
+        print("go2vlm: param set: expected NAME VALUE pairs", file=sys.stderr)
+        return 2
     pairs = dict(zip(args.pairs[::2], args.pairs[1::2], strict=True))
 
     def action(client: Any) -> int:
