@@ -5,8 +5,10 @@ rosbags bytes talk to ours)."""
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 import threading
+import typing
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +23,7 @@ from go2vlm.bus import Node, domain, param, running
 from go2vlm.bus import discovery_info as di
 from go2vlm.bus.param_services import (
     ParameterClient,
+    describe,
     from_value,
     param_kind,
     parse_value,
@@ -28,9 +31,10 @@ from go2vlm.bus.param_services import (
     to_value,
     value_of,
 )
-from go2vlm.bus.params import ParamError
+from go2vlm.bus.params import ParamError, build_config
 from go2vlm.bus.qos import QOS_PARAMETERS
 from go2vlm.bus.service import ServiceClient, reply_topic, request_topic, wire_type
+from go2vlm.launch.registry import NODES, node_class
 from go2vlm.msgs import rcl_interfaces as rcl
 from go2vlm.msgs.rcl_interfaces import (
     PARAMETER_BOOL,
@@ -402,3 +406,20 @@ def test_commander_rebuilds_its_approach_parameters() -> None:
         assert (cmd.approach.max_linear, cmd.approach.kp_angular) == (0.2, 1.0)
         (r,) = client.set({"grounding": v("vlm")})
         assert not r.successful and "read-only" in r.reason
+
+
+@pytest.mark.parametrize("kind", sorted(NODES))
+def test_every_node_kinds_parameters_survive_the_wire(kind: str) -> None:
+    """Each parameter of each node kind as a ROS value and back (what dump, then --params-file or a
+    set, does) gives the same Config; every one has a descriptor."""
+    cls = node_class(kind).Config
+    required = {"vlm": {"model": "some/model"}}.get(kind, {})
+    default = build_config(cls, required, node=kind)
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        pv = to_value(getattr(default, f.name), hints[f.name])
+        back = from_value(rcl.ParameterValue.deserialize(pv.serialize()), hints[f.name], f.name)
+        again = build_config(cls, {**required, f.name: back}, node=kind)
+        assert getattr(again, f.name) == getattr(default, f.name), f.name
+        d = describe(f, hints[f.name], read_only=not f.metadata.get("live"))
+        assert d.name == f.name and pv.type in (d.type, PARAMETER_NOT_SET), f.name
