@@ -73,7 +73,8 @@ def rosbags_typestore(msgs: dict[str, str]) -> Any:
     ts = get_typestore(Stores.ROS2_JAZZY)
     found: dict[str, Any] = {}
     for name, text in msgs.items():
-        found.update(get_types_from_msg(text, name))
+        (definition,) = get_types_from_msg(text, name).values()
+        found[name] = definition  # under the name given: rosbags would file `pkg/srv/X` as `pkg/srv/msg/X`
     ts.register(found)
     return ts
 
@@ -160,3 +161,20 @@ def claim_free_domain(lo: int = 1, hi: int = 101) -> int:
         _DOMAIN_LOCK = fd
         return domain_id
     raise RuntimeError(f"no free DDS domain in {lo}..{hi} on this host")
+
+
+# -- foreign bytes: what a C++ ROS 2 node would put on the wire ---------------------------------
+def foreign_write(writer: Any, sample: Any, raw: bytes) -> None:
+    """Write `raw` CDR (produced by rosbags, as a C++ ROS 2 node would) verbatim: cyclonedds writes
+    whatever `serialize()` returns after checking the sample's class."""
+    sample.serialize = lambda **_kw: raw
+    writer.write(sample)
+
+
+def raw_take(reader: Any) -> list[bytes]:
+    """The CDR bytes as they arrived, before any decoding by our classes."""
+    from cyclonedds._clayer import ddspy_take
+    from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
+
+    cond = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
+    return [bytes(data) for data, info in ddspy_take(reader._ref, cond.mask, 16) if info.valid_data]

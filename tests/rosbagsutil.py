@@ -1,5 +1,6 @@
-"""rosbags as the reference CDR implementation: its Jazzy type store (plus vision_msgs 4.x, which
-the store lacks) and converters between plain value trees, rosbags messages and our messages.
+"""rosbags as the reference CDR implementation: its Jazzy type store (plus vision_msgs 4.x and the
+rcl_interfaces services, which the store lacks) and converters between plain value trees, rosbags
+messages and our messages.
 
 A value tree is generated from rosbags' field definitions (the spec), then built into both a rosbags
 message and one of ours, so that a wrong field name, order or width in go2vlm.msgs shows up as a
@@ -32,6 +33,23 @@ VISION_MSGS = {
         "vision_msgs/BoundingBox2D bbox\nstring id\n"
     ),
     "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
+}
+
+# rcl_interfaces/srv (Jazzy) as rosidl splits each service: <Name>_Request and <Name>_Response
+# messages. The store has rcl_interfaces' messages but not its services.
+RCL_SRVS = {
+    "rcl_interfaces/srv/ListParameters_Request": "uint64 DEPTH_RECURSIVE=0\nstring[] prefixes\nuint64 depth\n",
+    "rcl_interfaces/srv/ListParameters_Response": "rcl_interfaces/ListParametersResult result\n",
+    "rcl_interfaces/srv/GetParameters_Request": "string[] names\n",
+    "rcl_interfaces/srv/GetParameters_Response": "rcl_interfaces/ParameterValue[] values\n",
+    "rcl_interfaces/srv/SetParameters_Request": "rcl_interfaces/Parameter[] parameters\n",
+    "rcl_interfaces/srv/SetParameters_Response": "rcl_interfaces/SetParametersResult[] results\n",
+    "rcl_interfaces/srv/SetParametersAtomically_Request": "rcl_interfaces/Parameter[] parameters\n",
+    "rcl_interfaces/srv/SetParametersAtomically_Response": "rcl_interfaces/SetParametersResult result\n",
+    "rcl_interfaces/srv/DescribeParameters_Request": "string[] names\n",
+    "rcl_interfaces/srv/DescribeParameters_Response": "rcl_interfaces/ParameterDescriptor[] descriptors\n",
+    "rcl_interfaces/srv/GetParameterTypes_Request": "string[] names\n",
+    "rcl_interfaces/srv/GetParameterTypes_Response": "uint8[] types\n",
 }
 
 _INT_RANGES = {
@@ -70,7 +88,7 @@ TEXT = st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_ch
 
 @cache
 def typestore() -> Any:
-    return rosbags_typestore(VISION_MSGS)
+    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS})
 
 
 def fields_of(typename: str) -> list[tuple[str, Any]]:

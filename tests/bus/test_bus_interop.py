@@ -12,15 +12,13 @@ from typing import Any
 import bus_probe_node
 import numpy as np
 import pytest
-from busutil import GO2VLM, Procs, Recorder, env, wait_for
-from cyclonedds._clayer import ddspy_take
+from busutil import GO2VLM, Procs, Recorder, env, foreign_write, raw_take, wait_for
 from cyclonedds.builtin import (
     BuiltinDataReader,
     BuiltinTopicDcpsParticipant,
     BuiltinTopicDcpsPublication,
     BuiltinTopicDcpsSubscription,
 )
-from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.idl._xt_builder import XTBuilder
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
@@ -61,8 +59,10 @@ def test_topic_is_bare_and_latched() -> None:
 
 
 def test_in_process_nodes_are_announced() -> None:
-    a = Peer(node_name="announce_a")
-    b = Peer(node_name="announce_b")
+    # Without the parameter services, so that the counts are the node's own topics (the services'
+    # endpoints are announced too: tests/bus/test_bus_param_services.py).
+    a = Peer(node_name="announce_a", parameter_services=False)
+    b = Peer(node_name="announce_b", parameter_services=False)
     a.create_publisher(String, "/announce/x")
     b.create_subscription(String, "/announce/x", lambda _m: None)
     b.create_subscription(String, "/announce/y", lambda _m: None)
@@ -80,9 +80,14 @@ def test_in_process_nodes_are_announced() -> None:
     assert not names & {"announce_a", "announce_b"}
 
 
+# Every node serves the six parameter services (a request reader and a reply writer each) and
+# publishes /parameter_events, as an rclcpp node does.
+PARAM_READERS, PARAM_WRITERS = 6, 7
+
+
 def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
-    """What `ros2 node list` / rqt_graph decode: our probe node with 1 reader and 2 writers, whose
-    gids are the participant's and the endpoints' DDS GUIDs."""
+    """What `ros2 node list` / rqt_graph decode: our probe node with its 1 reader and 2 writers (and the
+    parameter services' endpoints), whose gids are the participant's and the endpoints' DDS GUIDs."""
     reader = discovery_reader()
     p = bus_probe_node.start(procs, "--name", "probe_graph")
     found: dict[str, Any] = {}
@@ -91,7 +96,8 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
         for s in reader.take(N=32):
             if isinstance(s, ParticipantEntitiesInfo):
                 for n in s.node_entities_info_seq:
-                    if n.node_name == "probe_graph" and len(n.reader_gid_seq) == 1 and len(n.writer_gid_seq) == 2:
+                    readers, writers = len(n.reader_gid_seq), len(n.writer_gid_seq)
+                    if n.node_name == "probe_graph" and (readers, writers) == (1 + PARAM_READERS, 2 + PARAM_WRITERS):
                         found["participant"], found["node"] = s.gid.to_bytes(), n
         return bool(found)
 
@@ -113,8 +119,11 @@ def test_subprocess_node_shows_up_in_ros_discovery_info(procs: Procs) -> None:
         for s in BuiltinDataReader(dp, BuiltinTopicDcpsSubscription).take(N=256)
         if isinstance(getattr(s, "topic_name", None), str)
     }
-    assert sorted(pubs[g.to_bytes()] for g in node.writer_gid_seq) == ["rt/probe/out", "rt/probe/tick"]
-    assert [subs[g.to_bytes()] for g in node.reader_gid_seq] == ["rt/probe/in"]
+    writers = sorted(pubs[g.to_bytes()] for g in node.writer_gid_seq)
+    readers = sorted(subs[g.to_bytes()] for g in node.reader_gid_seq)
+    assert [t for t in writers if t.startswith("rt/")] == ["rt/parameter_events", "rt/probe/out", "rt/probe/tick"]
+    assert [t for t in readers if t.startswith("rt/")] == ["rt/probe/in"]
+    assert "rq/probe_graph/set_parametersRequest" in readers and "rr/probe_graph/set_parametersReply" in writers
     assert procs.stop(p) == 0
 
 
@@ -136,19 +145,6 @@ def test_topic_list_hides_ros_discovery_info(procs: Procs, node: Peer) -> None:
 
 
 # -- foreign bytes --------------------------------------------------------------------------------
-
-
-def foreign_write(writer: DataWriter, sample: Any, raw: bytes) -> None:
-    """Write `raw` CDR (produced by rosbags, as a C++ ROS 2 node would) verbatim: cyclonedds writes
-    whatever `serialize()` returns after checking the sample's class."""
-    sample.serialize = lambda **_kw: raw
-    writer.write(sample)
-
-
-def raw_take(reader: DataReader) -> list[bytes]:
-    """The CDR bytes as they arrived, before any decoding by our classes."""
-    cond = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
-    return [bytes(data) for data, info in ddspy_take(reader._ref, cond.mask, 16) if info.valid_data]
 
 
 def rosbags_twist(x: float, wz: float) -> tuple[Any, bytes]:
@@ -288,13 +284,21 @@ def test_node_list(procs: Procs, node: Peer) -> None:
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert "/probe_nodes" in lines, out.stdout
-    block = lines[lines.index("/probe_nodes") :][:6]
+    block = lines[lines.index("/probe_nodes") :][:14]
     assert block == [
         "/probe_nodes",
         "  Subscribers:",
         "    /probe/in",
         "  Publishers:",
+        "    /parameter_events",
         "    /probe/out",
         "    /probe/tick",
+        "  Service Servers:",
+        "    /probe_nodes/describe_parameters",
+        "    /probe_nodes/get_parameter_types",
+        "    /probe_nodes/get_parameters",
+        "    /probe_nodes/list_parameters",
+        "    /probe_nodes/set_parameters",
+        "    /probe_nodes/set_parameters_atomically",
     ]
     procs.stop(p)

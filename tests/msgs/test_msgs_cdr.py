@@ -49,6 +49,15 @@ TYPES = [
     "rmw_dds_common/msg/Gid",
     "rmw_dds_common/msg/NodeEntitiesInfo",
     "rmw_dds_common/msg/ParticipantEntitiesInfo",
+    "rcl_interfaces/msg/ParameterType",
+    "rcl_interfaces/msg/ParameterValue",
+    "rcl_interfaces/msg/Parameter",
+    "rcl_interfaces/msg/FloatingPointRange",
+    "rcl_interfaces/msg/IntegerRange",
+    "rcl_interfaces/msg/ParameterDescriptor",
+    "rcl_interfaces/msg/SetParametersResult",
+    "rcl_interfaces/msg/ListParametersResult",
+    "rcl_interfaces/msg/ParameterEvent",
 ]
 
 

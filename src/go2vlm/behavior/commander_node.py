@@ -44,6 +44,10 @@ sit. Anything else is ignored, logged and counted (decisions_rejected). The text
 velocity: stop holds still for decision_hold_s, turn turns in place at decision_turn_rate for
 angle/rate seconds, and all motion still goes through the safety gate.
 
+Parameters at runtime: the gains, speeds, distances, timeouts and search settings, frame_id,
+default_hfov_deg, camera_forward_m and decision_hold_s/decision_turn_rate (the approach parameters are
+rebuilt at once); read-only: goal (use /goal), grounding, follow_control, the topics, the rates, the
+ranging set-up of a goal (camera_height_m, camera_pitch_deg, object_sizes) and the decision model.
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 reground_period_s, decision_period_s, decision_hold_s, turns, the zero burst) is in the node's clock:
 sim time with use_sim_time. vlm_max_age_s compares the answer's stamp with the newest frame's stamp,
@@ -94,35 +98,52 @@ class CommanderConfig:
     )
     image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
     camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo input")
-    stop_distance_m: float = param(0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0)
-    follow_distance_m: float = param(1.2, help="follow_control=self: keep this distance", min=0.3, max=5.0)
-    distance_tolerance_m: float = param(0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0)
-    max_linear: float = param(0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0)
-    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0)
-    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0)
-    kp_angular: float = param(1.5, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0)
-    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5)
-    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0)
-    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost")
-    lost_timeout_s: float = param(1.0, help="target unseen this long = lost (zero velocity)", min=0.1, max=10.0)
-    reground_period_s: float = param(0.5, help="color grounding: re-ground this often while tracking", min=0.0)
-    min_shape_score: float = param(0.35, help="color grounding: shape score needed to accept", min=0.0, max=1.0)
-    vlm_max_age_s: float = param(5.0, help="vlm grounding: ignore answers about frames older than this", min=0.1)
+    stop_distance_m: float = param(
+        0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
+    )
+    follow_distance_m: float = param(1.2, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True)
+    distance_tolerance_m: float = param(
+        0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
+    )
+    max_linear: float = param(
+        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+    )
+    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
+    kp_angular: float = param(1.5, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True)
+    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True)
+    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0, live=True)
+    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost", live=True)
+    lost_timeout_s: float = param(
+        1.0, help="target unseen this long = lost (zero velocity)", min=0.1, max=10.0, live=True
+    )
+    reground_period_s: float = param(
+        0.5, help="color grounding: re-ground this often while tracking", min=0.0, live=True
+    )
+    min_shape_score: float = param(
+        0.35, help="color grounding: shape score needed to accept", min=0.0, max=1.0, live=True
+    )
+    vlm_max_age_s: float = param(
+        5.0, help="vlm grounding: ignore answers about frames older than this", min=0.1, live=True
+    )
     camera_height_m: float = param(spec.HEAD_CAMERA_HEIGHT, help="camera height above the floor (ranging)", min=0.05)
-    camera_forward_m: float = param(spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0)
+    camera_forward_m: float = param(
+        spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
+    )
     camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
     default_hfov_deg: float = param(
         round(spec.head_camera_hfov_deg(640, 480), 1),
         help="horizontal FOV used until a CameraInfo arrives",
         min=10.0,
         max=170.0,
+        live=True,
     )
     object_sizes: dict = param(
         dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width (m)"
     )
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    frame_id: str = param("camera", help="frame_id of /detected_target")
+    frame_id: str = param("camera", help="frame_id of /detected_target", live=True)
     decision_period_s: float = param(0.0, help="VLM scene decision period (0 = off)", min=0.0, max=600.0)
     decision_model: str = param("", help="decisions: checkpoint dir / hub id / served model name")
     decision_backend: str = param("transformers", choices=("transformers", "openai"), help="decisions backend")
@@ -130,8 +151,8 @@ class CommanderConfig:
     decision_device: str = param("auto", help="decisions, transformers backend: auto, cpu, cuda, cuda:N")
     decision_max_new_tokens: int = param(48, help="decisions: generation budget", min=4, max=512)
     decision_max_pixels: int = param(256 * 28 * 28, help="decisions: image budget after smart resize", min=784)
-    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0)
-    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0)
+    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
+    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
     max_turn_deg: float = param(30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0)
 
     def validate(self) -> None:
@@ -142,6 +163,18 @@ class CommanderConfig:
                 raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
                 raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+
+
+def approach_params(cfg: CommanderConfig) -> ApproachParams:
+    return ApproachParams(
+        stop_distance=cfg.stop_distance_m,
+        tolerance=cfg.distance_tolerance_m,
+        kp_linear=cfg.kp_linear,
+        kp_angular=cfg.kp_angular,
+        max_linear=cfg.max_linear,
+        min_linear=min(0.08, cfg.max_linear),
+        max_angular=cfg.max_angular,
+    )
 
 
 def _words(text: str) -> set[str]:
@@ -185,15 +218,7 @@ class CommanderNode(Node):
     def __init__(self, config: CommanderConfig | None = None, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
         cfg: CommanderConfig = self.config
-        self.approach = ApproachParams(
-            stop_distance=cfg.stop_distance_m,
-            tolerance=cfg.distance_tolerance_m,
-            kp_linear=cfg.kp_linear,
-            kp_angular=cfg.kp_angular,
-            max_linear=cfg.max_linear,
-            min_linear=min(0.08, cfg.max_linear),
-            max_angular=cfg.max_angular,
-        )
+        self.approach = approach_params(cfg)
         self.pub_target = self.create_publisher(PointStamped, "/detected_target", QOS_DEFAULT)
         self.pub_cmd = self.create_publisher(Twist, "/behavior/cmd_vel", QOS_DEFAULT)
         self.pub_go2 = self.create_publisher(String, "/go2/command", QOS_DEFAULT)
@@ -250,6 +275,9 @@ class CommanderNode(Node):
             self.publish_status()
         decisions = f"every {cfg.decision_period_s:g} s" if cfg.decision_period_s > 0 else "off"
         self.log.info(f"grounding={cfg.grounding}, follow_control={cfg.follow_control}, decisions={decisions}")
+
+    def on_params_changed(self, old: CommanderConfig, changed: frozenset[str]) -> None:
+        self.approach = approach_params(self.config)
 
     # -- inputs ------------------------------------------------------------------------------
     def on_goal(self, msg: String) -> None:

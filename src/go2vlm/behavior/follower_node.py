@@ -20,6 +20,8 @@ Optional, off by default (the article's troubleshooting table, section 7, agains
 tick, 1.0 = no filtering).
 A target with NaN/inf or absurd values is dropped with a rate-limited error and counted in
 `bad_targets`; it does not refresh the target, so the robot stops on the timeout as if none came.
+Parameters at runtime (`go2vlm param set follower kp_angular 0.4`): all but rate_hz (read-only:
+its timer starts with the node); a new gain applies from the next target.
 Time: rate_hz, lost_timeout_s and idle_after_lost_s are in the node's clock: sim time with
 use_sim_time (the lost watchdog then runs every 10 ms of sim time).
 """
@@ -41,17 +43,21 @@ MAX_SIZE = 10.0
 
 @dataclass
 class FollowerConfig:
-    kp_angular: float = param(0.8, help="P gain from horizontal offset x to angular.z", min=0.0, max=20.0)
-    kp_linear: float = param(0.3, help="P gain from (1 - size) to linear.x", min=0.0, max=20.0)
-    max_linear: float = param(0.5, help="linear.x ceiling (m/s); the safety gate limits again", min=0.0, max=3.8)
-    max_angular: float = param(1.0, help="|angular.z| ceiling (rad/s)", min=0.0, max=4.0)
-    align_threshold: float = param(0.2, help="walk only while |x| is below this", min=0.0, max=1.0)
-    lost_timeout_s: float = param(1.0, help="stop when no target came for this long", min=0.01, max=60.0)
+    kp_angular: float = param(0.8, help="P gain from horizontal offset x to angular.z", min=0.0, max=20.0, live=True)
+    kp_linear: float = param(0.3, help="P gain from (1 - size) to linear.x", min=0.0, max=20.0, live=True)
+    max_linear: float = param(
+        0.5, help="linear.x ceiling (m/s); the safety gate limits again", min=0.0, max=3.8, live=True
+    )
+    max_angular: float = param(1.0, help="|angular.z| ceiling (rad/s)", min=0.0, max=4.0, live=True)
+    align_threshold: float = param(0.2, help="walk only while |x| is below this", min=0.0, max=1.0, live=True)
+    lost_timeout_s: float = param(1.0, help="stop when no target came for this long", min=0.01, max=60.0, live=True)
     rate_hz: float = param(20.0, help="command publishing rate", min=1.0, max=200.0)
-    kd_angular: float = param(0.0, help="D gain on dx/dt (s); 0 = off", min=0.0, max=10.0)
-    filter_alpha: float = param(1.0, help="low-pass weight of the new command per tick; 1 = off", min=0.01, max=1.0)
+    kd_angular: float = param(0.0, help="D gain on dx/dt (s); 0 = off", min=0.0, max=10.0, live=True)
+    filter_alpha: float = param(
+        1.0, help="low-pass weight of the new command per tick; 1 = off", min=0.01, max=1.0, live=True
+    )
     idle_after_lost_s: float = param(
-        0.5, help="after losing the target, send zeros this long, then stay silent", min=0.0, max=3600.0
+        0.5, help="after losing the target, send zeros this long, then stay silent", min=0.0, max=3600.0, live=True
     )
 
 

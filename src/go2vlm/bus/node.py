@@ -1,5 +1,12 @@
-"""The node runtime: publishers, subscriptions, timers, parameters, a clock and logging, one executor
-thread per node.
+"""The node runtime: publishers, subscriptions, services, timers, parameters, a clock and logging,
+one executor thread per node.
+
+Parameters at runtime: every node serves ROS 2's parameter services (`ros2 param`, `go2vlm param`;
+bus/param_services.py) unless made with parameter_services=False (tools). A change of a
+`param(..., live=True)` parameter is validated as at start-up, offered to `check_params` (which may
+refuse it), then `self.config` becomes the new Config object and `on_params_changed` rebuilds what
+the node derived from it, all on the executor thread. Services (`create_service`, bus/service.py)
+answer on the executor thread too, like subscription callbacks.
 
 A subscription callback and the node's timers run on the node's own thread, one at a time, as in
 rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises
@@ -41,7 +48,9 @@ from cyclonedds.util import duration
 from go2vlm.bus import discovery_info, domain
 from go2vlm.bus.clock import Clock
 from go2vlm.bus.log import Logger
-from go2vlm.bus.qos import QOS_CLOCK, QOS_DEFAULT, QosProfile
+from go2vlm.bus.param_services import ParameterServer
+from go2vlm.bus.qos import QOS_CLOCK, QOS_DEFAULT, QOS_SERVICES, QosProfile
+from go2vlm.bus.service import Service, SrvType
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
@@ -66,12 +75,24 @@ def _delete(entity: Any) -> None:
 
 
 class Publisher(Generic[M]):
-    def __init__(self, node: Node, msg_type: type[M], topic: str, qos: QosProfile) -> None:
+    """`dds_name` and `user_data` are for services (bus/service.py): a DDS topic name other than
+    `rt/<topic>`, and the USER_DATA QoS that pairs a service's endpoints."""
+
+    def __init__(
+        self,
+        node: Node,
+        msg_type: type[M],
+        topic: str,
+        qos: QosProfile,
+        *,
+        dds_name: str | None = None,
+        user_data: str | None = None,
+    ) -> None:
         self.topic = topic
         self.msg_type = msg_type
         self.qos = qos
-        dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
-        self._writer: DataWriter | None = DataWriter(node.participant, dds_topic, qos=qos.to_dds())
+        dds_topic = domain.topic(node.participant, dds_name or domain.dds_topic_name(topic), msg_type)
+        self._writer: DataWriter | None = DataWriter(node.participant, dds_topic, qos=qos.to_dds(user_data))
         self.count = 0
         self._lock = threading.Lock()  # nodes publish from worker threads, and shutdown closes
 
@@ -102,6 +123,11 @@ class Publisher(Generic[M]):
     def guid(self) -> Any:
         return self._writer.guid
 
+    @property
+    def dds_writer(self) -> DataWriter | None:
+        """The DDS writer (None after close)."""
+        return self._writer
+
     def close(self) -> None:
         with self._lock:
             _delete(self._writer)
@@ -109,15 +135,25 @@ class Publisher(Generic[M]):
 
 
 class Subscription(Generic[M]):
+    """`dds_name` and `user_data`: as for Publisher."""
+
     def __init__(
-        self, node: Node, msg_type: type[M], topic: str, callback: Callable[[M], None], qos: QosProfile
+        self,
+        node: Node,
+        msg_type: type[M],
+        topic: str,
+        callback: Callable[[M], None],
+        qos: QosProfile,
+        *,
+        dds_name: str | None = None,
+        user_data: str | None = None,
     ) -> None:
         self.topic = topic
         self.msg_type = msg_type
         self.qos = qos
         self.callback = callback
-        dds_topic = domain.topic(node.participant, domain.dds_topic_name(topic), msg_type)
-        self._reader = DataReader(node.participant, dds_topic, qos=qos.to_dds())
+        dds_topic = domain.topic(node.participant, dds_name or domain.dds_topic_name(topic), msg_type)
+        self._reader = DataReader(node.participant, dds_topic, qos=qos.to_dds(user_data))
         self.condition = ReadCondition(self._reader, SampleState.Any | ViewState.Any | InstanceState.Any)
         self.count = 0
 
@@ -130,6 +166,10 @@ class Subscription(Generic[M]):
     @property
     def guid(self) -> Any:
         return self._reader.guid
+
+    @property
+    def dds_reader(self) -> DataReader:
+        return self._reader
 
     @property
     def publisher_count(self) -> int:
@@ -209,6 +249,7 @@ class Node:
         domain_id: int | None = None,
         interface: str | None = None,
         use_sim_time: bool = False,
+        parameter_services: bool = True,
     ) -> None:
         self.node_name = node_name or self.name
         self.config = config if config is not None else self.Config()
@@ -221,6 +262,7 @@ class Node:
         self.counters: dict[str, int] = {}
         self.publishers: list[Publisher[Any]] = []
         self.subscriptions: list[Subscription[Any]] = []
+        self.services: list[Service[Any, Any]] = []
         self._timers: list[Timer] = []
         self._lock = threading.RLock()
         self._waitset = WaitSet(self.participant)
@@ -232,15 +274,26 @@ class Node:
         if use_sim_time and not self.provides_clock:
             # First subscription, so each executor pass takes /clock before anything else.
             self.create_subscription(ClockMsg, "/clock", self._node_clock_msg, QOS_CLOCK)
+        # ROS 2's parameter services (~/list_parameters, ~/set_parameters, ...), as every rclcpp node
+        # has them; tools (CLI helpers) turn them off as ros2cli does (start_parameter_services=False).
+        self.parameter_server = ParameterServer(self) if parameter_services else None
 
     # -- graph -------------------------------------------------------------------------------
+    @property
+    def fully_qualified_name(self) -> str:
+        """`/follower`: the name ROS 2 tools show (namespace `/`), as announced on ros_discovery_info."""
+        return "/" + discovery_info.ros_node_name(self.node_name)
+
     def resolve(self, topic: str) -> str:
         name = topic if topic.startswith("/") else "/" + topic
         return self.remap.get(name, self.remap.get(topic, name))
 
     def create_publisher(self, msg_type: type[M], topic: str, qos: QosProfile = QOS_DEFAULT) -> Publisher[M]:
-        pub = Publisher(self, msg_type, self.resolve(topic), qos)
-        self.publishers.append(pub)
+        return self._add_publisher(Publisher(self, msg_type, self.resolve(topic), qos))
+
+    def _add_publisher(self, pub: Publisher[M]) -> Publisher[M]:
+        with self._lock:
+            self.publishers.append(pub)
         discovery_info.endpoint_added(self, pub.guid, is_reader=False)
         return pub
 
@@ -251,7 +304,9 @@ class Node:
         callback: Callable[[M], None],
         qos: QosProfile = QOS_DEFAULT,
     ) -> Subscription[M]:
-        sub = Subscription(self, msg_type, self.resolve(topic), callback, qos)
+        return self._add_subscription(Subscription(self, msg_type, self.resolve(topic), callback, qos))
+
+    def _add_subscription(self, sub: Subscription[M]) -> Subscription[M]:
         with self._lock:
             self.subscriptions.append(sub)
             self._waitset.attach(sub.condition)
@@ -263,13 +318,7 @@ class Node:
         self, msg_type: type, topic: str, callback: Callable[[RawSample], None], qos: QosProfile = QOS_DEFAULT
     ) -> RawSubscription:
         """Like `create_subscription`, but the callback gets the serialized bytes (`RawSample`)."""
-        sub = RawSubscription(self, msg_type, self.resolve(topic), callback, qos)
-        with self._lock:
-            self.subscriptions.append(sub)
-            self._waitset.attach(sub.condition)
-        discovery_info.endpoint_added(self, sub.guid, is_reader=True)
-        self._wake()
-        return sub
+        return self._add_subscription(RawSubscription(self, msg_type, self.resolve(topic), callback, qos))
 
     def destroy_subscription(self, sub: Subscription[Any]) -> None:
         """Delete a subscription. Call it from the node's own thread (a callback or timer)."""
@@ -280,6 +329,20 @@ class Node:
             self._waitset.detach(sub.condition)
         discovery_info.endpoint_removed(self, sub.guid, is_reader=True)
         sub.close()
+
+    def create_service(
+        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
+    ) -> Service[Any, Any]:
+        """Serve `name` (`~/x` is `/<node>/x`) over DDS as rmw_cyclonedds_cpp does (bus/service.py);
+        `handler(request) -> response` runs on this node's executor thread."""
+        full = f"{self.fully_qualified_name}/{name[2:]}" if name.startswith("~/") else name
+        svc = Service(self, srv_type, full if full.startswith("/") else "/" + full, handler, qos)
+        # Writer first, then reader, as rmw_cyclonedds creates them.
+        self._add_publisher(svc.reply_pub)
+        self._add_subscription(svc.request_sub)
+        with self._lock:
+            self.services.append(svc)
+        return svc
 
     def create_timer(self, period_s: float, callback: Callable[[], None], *, wall: bool = False) -> Timer:
         """Call `callback` every `period_s` seconds of the node's clock (sim time with use_sim_time).
@@ -329,6 +392,16 @@ class Node:
         own = {f.name: getattr(cfg, f.name) for f in fields(cfg)} if is_dataclass(cfg) else {}
         return {**own, "use_sim_time": self.clock.sim}
 
+    # -- parameters at runtime (bus/param_services.py) -------------------------------------------
+    def check_params(self, new: Any, changed: frozenset[str]) -> None:
+        """Called before a runtime change of the `live` parameters in `changed` is applied, with the
+        already validated new Config: raise ValueError to refuse it (the message is the reason the
+        caller gets). Override where a rule depends on the current value (the safety gate)."""
+
+    def on_params_changed(self, old: Any, changed: frozenset[str]) -> None:
+        """Called on the executor thread right after `self.config` became the new Config: rebuild
+        state derived from the parameters in `changed` (override where a node keeps such state)."""
+
     # -- execution ---------------------------------------------------------------------------
     def _wake(self) -> None:
         self._guard.set(True)
@@ -342,6 +415,8 @@ class Node:
         with self._lock:
             timers = [t for t in self._timers if not t.cancelled]
         wait = timeout_s
+        if any(svc.pending for svc in self.services):
+            wait = min(wait, 0.01)  # replies waiting for their client's reader to be discovered
         for t in timers:
             if t.wall or not self.clock.sim:
                 wait = min(wait, t.next_due - time.monotonic())
@@ -363,6 +438,9 @@ class Node:
                 continue
             for msg in msgs:
                 self._call(sub.callback, msg, sub.topic)
+        for svc in self.services:
+            if svc.pending:
+                svc.flush()
         if self.clock.sim:
             self._check_time_jump(timers)
         for t in timers:
@@ -444,4 +522,5 @@ class Node:
                 pub.close()
             self.subscriptions.clear()
             self.publishers.clear()
+            self.services.clear()
             self._timers.clear()

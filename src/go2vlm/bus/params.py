@@ -1,5 +1,6 @@
 """Typed node parameters: a dataclass per node, filled from defaults, a ROS 2 params file and
-`--param name=value` overrides, validated once at start-up.
+`--param name=value` overrides, validated at start-up, and again by the same rules (build_config)
+for every change at runtime (bus/param_services.py; only parameters declared `live=True` change).
 
     @dataclass
     class FollowerConfig:
@@ -44,10 +45,22 @@ def param(
     choices: Iterable[Any] | None = None,
     min: float | None = None,
     max: float | None = None,
+    live: bool = False,
 ) -> Any:
     """Declare a parameter. A factory default (`list`, `dict`, `tuple` or a dataclass) makes a fresh
-    value for every config; a dataclass-typed parameter is set from a mapping of its fields."""
-    meta = {"help": help, "choices": tuple(choices) if choices is not None else None, "min": min, "max": max}
+    value for every config; a dataclass-typed parameter is set from a mapping of its fields.
+
+    `live=True`: the parameter may change while the node runs (`go2vlm param set`, `ros2 param set`),
+    because the node reads it from `self.config` each time or rebuilds what it derives from it in
+    `on_params_changed`. Every other parameter is read-only at runtime (DescribeParameters says so and
+    a change is refused): a value read once at start-up can never silently accept a new one."""
+    meta = {
+        "help": help,
+        "choices": tuple(choices) if choices is not None else None,
+        "min": min,
+        "max": max,
+        "live": live,
+    }
     if default in (list, dict, tuple) or (isinstance(default, type) and dataclasses.is_dataclass(default)):
         return dataclasses.field(default_factory=default, metadata=meta)
     if isinstance(default, (list, dict)):
@@ -137,7 +150,7 @@ def coerce(value: Any, tp: Any, where: str) -> Any:
     if tp is str:
         if isinstance(value, (dict, list)):
             raise ParamError(f"{where}: {value!r} is not a string")
-        return str(value)
+        return value if isinstance(value, str) else str(value)  # keeps str subclasses (a masked Secret)
     raise ParamError(f"{where}: unsupported parameter type {_type_name(tp)}")
 
 
@@ -252,7 +265,8 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
 
 
 def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str, str, str]]:
-    """(name, type, default, help) rows for `--help` and docs; `base` appends the `NodeParams` rows."""
+    """(name, type, default, help) rows for `--help` and docs; `base` appends the `NodeParams` rows.
+    The help of a parameter that may change at runtime ends with `(live: ...)`."""
     hints = typing.get_type_hints(config_cls)
     rows = []
     for f in dataclasses.fields(config_cls):
@@ -265,5 +279,7 @@ def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str
         help_text = f.metadata.get("help", "")
         if f.metadata.get("choices"):
             help_text += f" [{'|'.join(map(str, f.metadata['choices']))}]"
+        if f.metadata.get("live"):
+            help_text += " (live)"
         rows.append((f.name, _type_name(hints[f.name]), default, help_text))
     return rows + (describe_params(NodeParams) if base else [])

@@ -19,17 +19,19 @@ class QosProfile:
     transient_local: bool = False
     depth: int = 10
 
-    def to_dds(self) -> Qos:
+    def to_dds(self, user_data: str | None = None) -> Qos:
+        """`user_data`: the USER_DATA QoS text (a service's endpoints carry `serviceid=...;`, bus/service.py)."""
         reliability = (
             Policy.Reliability.Reliable(duration(milliseconds=100)) if self.reliable else Policy.Reliability.BestEffort
         )
         durability = Policy.Durability.TransientLocal if self.transient_local else Policy.Durability.Volatile
-        return Qos(
+        qos = Qos(
             reliability,
             durability,
             Policy.History.KeepLast(self.depth),
             Policy.DataRepresentation(use_cdrv0_representation=True),
         )
+        return qos + Qos(Policy.Userdata(data=user_data.encode())) if user_data else qos
 
     def describe(self) -> str:
         rel = "reliable" if self.reliable else "best-effort"
@@ -58,3 +60,8 @@ QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
 # match any peer, so we use exactly that split; depth is local and does not affect matching.
 QOS_UNITREE_WRITER = QosProfile(reliable=True, transient_local=False, depth=10)
 QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)
+# Services (bus/service.py), as rmw's profiles: rmw_qos_profile_services_default (reliable, volatile,
+# keep-last 10) and rmw_qos_profile_parameters (the same with keep-last 1000), which rclcpp also
+# uses for /parameter_events. Reliable + volatile is what decides matching; depth is local.
+QOS_SERVICES = QosProfile(reliable=True, transient_local=False, depth=10)
+QOS_PARAMETERS = QosProfile(reliable=True, transient_local=False, depth=1000)

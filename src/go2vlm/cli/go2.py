@@ -62,7 +62,7 @@ class _Session:
         from go2vlm.safety import estop
 
         self.p = p
-        self.node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
+        self.node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface, parameter_services=False)
         self._estop: dict[str, bool] = {}
         # The e-stop as the gate and the driver see it (they latch it; /emergency_stop false does
         # not release), plus the raw topic for setups without them.
@@ -160,7 +160,7 @@ def cmd_move(args: argparse.Namespace) -> int:
     vx, vy, vz = (_clamp(v, lim) for v, lim in zip(values, CLI_LIMITS, strict=True))
     if (vx, vy, vz) != values:
         print(f"go2vlm go2 move: clamped to the CLI limits {CLI_LIMITS}: ({vx}, {vy}, {vz})", file=sys.stderr)
-    node = Node(node_name="go2_cli_teleop", domain_id=args.domain, interface=args.interface)
+    node = Node(node_name="go2_cli_teleop", domain_id=args.domain, interface=args.interface, parameter_services=False)
     pub = node.create_publisher(Twist, "/teleop/cmd_vel")
     try:
         deadline = time.monotonic() + args.timeout
@@ -201,7 +201,7 @@ def cmd_state(args: argparse.Namespace) -> int:
     from go2vlm.msgs.unitree import SportModeState
     from go2vlm.robots.go2 import protocol as p
 
-    node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
+    node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface, parameter_services=False)
     got: list[Any] = []
     done = threading.Event()
 

@@ -15,6 +15,7 @@ COMMANDS = {
     "launch": "go2vlm.cli.launch",
     "topic": "go2vlm.cli.topic",
     "node": "go2vlm.cli.node",
+    "param": "go2vlm.cli.param",
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
     "go2": "go2vlm.cli.go2",

@@ -1,4 +1,5 @@
-"""`go2vlm node list [-v]`: the nodes on the bus, ours and ROS 2's, as `ros2 node list` shows them.
+"""`go2vlm node list [-v]`: the nodes on the bus, ours and ROS 2's, as `ros2 node list` shows them;
+`-v` adds each node's topics and services (our nodes serve the parameter services).
 
 Read from `ros_discovery_info`, which every ROS 2 process (and every go2vlm process) publishes.
 
@@ -65,8 +66,19 @@ def cmd_list(args: argparse.Namespace) -> int:
     for full, readers, writers in sorted(rows):
         print(full)
         if args.verbose:
-            for title, names in (("Subscribers", readers), ("Publishers", writers)):
-                print(f"  {title}:")
+            # As `ros2 node info` sorts them: a service is its request reader (rq/<name>Request, with
+            # a reply writer beside it), a client its reply reader (rr/<name>Reply).
+            servers = [n[2 : -len("Request")] for n in readers if n.startswith("rq/") and n.endswith("Request")]
+            clients = [n[2 : -len("Reply")] for n in readers if n.startswith("rr/") and n.endswith("Reply")]
+            sections = [
+                ("Subscribers", [n for n in readers if not n.startswith(("rq/", "rr/"))]),
+                ("Publishers", [n for n in writers if not n.startswith(("rq/", "rr/"))]),
+                ("Service Servers", servers),
+                ("Service Clients", clients),
+            ]
+            for title, names in sections:
+                if names or title in ("Subscribers", "Publishers"):
+                    print(f"  {title}:")
                 for name in sorted(names):
                     print(f"    {name[2:] if name.startswith('rt/') else name}")
     return 0

@@ -140,7 +140,7 @@ def cmd_echo(args: argparse.Namespace) -> int:
         if args.count and seen >= args.count:
             done.set()
 
-    node = _Collector(node_name="go2vlm_topic_echo")
+    node = _Collector(node_name="go2vlm_topic_echo", parameter_services=False)
     node.create_subscription(cls, args.topic, on_msg, profile)
     node.start()
     try:
@@ -166,7 +166,7 @@ def cmd_hz(args: argparse.Namespace) -> int:
             stamps.append(time.monotonic())
             del stamps[: -args.window - 1]
 
-    node = _Collector(node_name="go2vlm_topic_hz")
+    node = _Collector(node_name="go2vlm_topic_hz", parameter_services=False)
     node.create_subscription(cls, args.topic, on_msg, profile)
     node.start()
     start = time.monotonic()
@@ -209,7 +209,7 @@ def cmd_pub(args: argparse.Namespace) -> int:
     msg = parse_message(cls, args.values)
     if not args.rate > 0 or not math.isfinite(args.rate):
         raise SystemExit("go2vlm: --rate must be a positive number")
-    node = _Collector(node_name="go2vlm_topic_pub")
+    node = _Collector(node_name="go2vlm_topic_pub", parameter_services=False)
     pub = node.create_publisher(cls, args.topic, PROFILES[args.qos])
     deadline = time.monotonic() + args.wait
     waited = False

@@ -14,6 +14,7 @@ Topics
 Detection (perception/color.py): HSV ranges (red wraps hue 0: two ranges), erode + dilate with 2
 iterations, largest external contour, minimum enclosing circle, radius > min_radius (10 px).
 Nothing is published for an image without a target: the follower stops on its own timeout.
+Every parameter can change at runtime (`go2vlm param set color_detector color blue`).
 A malformed image (bad step, truncated data, unknown encoding, 0x0, an absurd size) is dropped
 with a rate-limited error and counted in `bad_images`; the node keeps running.
 """
@@ -35,14 +36,16 @@ __all__ = ["ColorDetectorConfig", "ColorDetectorNode"]
 
 @dataclass
 class ColorDetectorConfig:
-    color: str = param("red", help="colour preset, or `custom` to use hsv_ranges", choices=(*PRESETS, "custom"))
-    hsv_ranges: list[list[int]] = param(
-        list, help="custom: [[h,s,v,h,s,v], ...] lower/upper pairs (OpenCV H 0..180, S, V 0..255)"
+    color: str = param(
+        "red", help="colour preset, or `custom` to use hsv_ranges", choices=(*PRESETS, "custom"), live=True
     )
-    min_radius: float = param(10.0, help="ignore blobs whose enclosing circle is this small (px)", min=0.0)
-    iterations: int = param(2, help="erode and dilate iterations (3x3 kernel)", min=0, max=20)
-    frame_id: str = param("camera", help="frame_id of /detected_target")
-    debug_image: bool = param(False, help="always publish the debug image (default: only while subscribed)")
+    hsv_ranges: list[list[int]] = param(
+        list, help="custom: [[h,s,v,h,s,v], ...] lower/upper pairs (OpenCV H 0..180, S, V 0..255)", live=True
+    )
+    min_radius: float = param(10.0, help="ignore blobs whose enclosing circle is this small (px)", min=0.0, live=True)
+    iterations: int = param(2, help="erode and dilate iterations (3x3 kernel)", min=0, max=20, live=True)
+    frame_id: str = param("camera", help="frame_id of /detected_target", live=True)
+    debug_image: bool = param(False, help="always publish the debug image (default: only while subscribed)", live=True)
 
     def validate(self) -> None:
         self.ranges()
@@ -69,6 +72,10 @@ class ColorDetectorNode(Node):
         self._debug_checked = 0.0
         self.frames = 0
         self.detections = 0
+
+    def on_params_changed(self, old: ColorDetectorConfig, changed: frozenset[str]) -> None:
+        if changed & {"color", "hsv_ranges"}:
+            self._ranges = self.config.ranges()  # validate() already checked them
 
     def _want_debug(self) -> bool:
         if self.config.debug_image:

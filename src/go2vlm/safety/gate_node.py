@@ -23,6 +23,10 @@ while its last valid command is younger than its timeout_s. A command with NaN/i
 The winner is clamped to the limits (configurable, never above the Go2 sport-mode ceilings vx
 -2.5..3.8 m/s, vy +-1.0 m/s, vyaw +-4.0 rad/s) and ramped within the acceleration limits; slowing
 down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
+Parameters at runtime: the speed and acceleration limits may be LOWERED while the gate runs (it
+clamps from the next tick; slowing down is never ramped); raising one is refused, even below the Go2
+ceiling: raising takes a restart, a deliberate act. status_period_s is live too; inputs, rate_hz,
+release_token, start_engaged and wall_timeout_s are read-only.
 QoS: inputs are read best-effort (matches any publisher); /emergency_stop is read three ways (latched,
 reliable, best-effort) so every publisher QoS matches and a latched e-stop reaches a late gate.
 Time (use_sim_time, bus/clock.py): timeouts, ramps and the output rate are in the node's time, sim
@@ -90,15 +94,19 @@ class SafetyGateConfig:
         help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
     )
     rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
-    max_vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=HARD_VX_FORWARD)
-    max_vx_backward: float = param(0.5, help="backward speed limit (m/s, positive)", min=0.0, max=HARD_VX_BACKWARD)
-    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=HARD_VY)
-    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=HARD_WZ)
-    accel_linear: float = param(1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01)
-    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01)
+    max_vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=HARD_VX_FORWARD, live=True)
+    max_vx_backward: float = param(
+        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=HARD_VX_BACKWARD, live=True
+    )
+    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=HARD_VY, live=True)
+    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=HARD_WZ, live=True)
+    accel_linear: float = param(
+        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
+    )
+    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
     release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
     start_engaged: bool = param(False, help="start with the e-stop latched (a release is needed to move)")
-    status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0)
+    status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0, live=True)
     wall_timeout_s: float = param(
         DEFAULT_WALL_TIMEOUT_S,
         help="on sim time: an input silent this many wall seconds is absent, and a /clock that stands "
@@ -113,6 +121,13 @@ class SafetyGateConfig:
             raise ValueError("release_token must not be empty")
 
 
+LIMIT_PARAMS = ("max_vx_forward", "max_vx_backward", "max_vy", "max_vyaw", "accel_linear", "accel_angular")
+
+
+def limits_of(c: SafetyGateConfig) -> Limits:
+    return Limits(c.max_vx_forward, c.max_vx_backward, c.max_vy, c.max_vyaw, c.accel_linear, c.accel_angular)
+
+
 class SafetyGateNode(Node):
     name = "safety"
     Config = SafetyGateConfig
@@ -120,9 +135,8 @@ class SafetyGateNode(Node):
     def __init__(self, config: SafetyGateConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         c = self.config
-        limits = Limits(c.max_vx_forward, c.max_vx_backward, c.max_vy, c.max_vyaw, c.accel_linear, c.accel_angular)
         self.core = SafetyCore(
-            parse_inputs(c.inputs), limits, c.release_token.strip(), c.start_engaged, c.wall_timeout_s
+            parse_inputs(c.inputs), limits_of(c), c.release_token.strip(), c.start_engaged, c.wall_timeout_s
         )
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
@@ -141,6 +155,21 @@ class SafetyGateNode(Node):
         if self.clock.sim:
             self.create_timer(1.0 / c.rate_hz, self._stall_watchdog, wall=True)
         self.tick()
+
+    # -- parameters at runtime: limits go down, never up ----------------------------------------
+    def check_params(self, new: SafetyGateConfig, changed: frozenset[str]) -> None:
+        cur = self.config
+        up = [
+            f"{n} {getattr(cur, n):g} -> {getattr(new, n):g}" for n in LIMIT_PARAMS if getattr(new, n) > getattr(cur, n)
+        ]
+        if up:
+            raise ValueError(
+                f"raising a safety limit at runtime is refused ({', '.join(up)}): lowering is live, "
+                "raising takes a restart of the safety gate"
+            )
+
+    def on_params_changed(self, old: SafetyGateConfig, changed: frozenset[str]) -> None:
+        self.core.limits = limits_of(self.config)
 
     def _times(self) -> tuple[float, float | None]:
         """(node time, wall time): the wall reading bounds a sim clock (see the contract); None on wall time."""

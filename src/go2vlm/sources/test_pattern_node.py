@@ -6,6 +6,7 @@ Topics
                                   (450,150) radius 80, white text `Frame N` at (50,50); N counts from 0
              /camera/camera_info  sensor_msgs/CameraInfo (latched), same stamp as each image
 
+Parameters at runtime: frame_id and hfov_rad (from the next frame); period_s is read-only.
 QoS: reliable keep-last (ROS default), so best-effort and reliable readers both match. The first
 frame goes out at start-up, and a fresh frame whenever a new reader matches, so a late joiner does
 not wait a whole period_s (5 s by default, as in the article).
@@ -42,8 +43,8 @@ def draw_pattern(n: int) -> np.ndarray:
 @dataclass
 class TestPatternConfig:
     period_s: float = param(5.0, help="seconds between frames (the article: 5.0)", min=0.001, max=3600.0)
-    frame_id: str = param("camera", help="header.frame_id of image and camera_info")
-    hfov_rad: float = param(1.2, help="horizontal field of view for camera_info", min=0.01, max=3.1)
+    frame_id: str = param("camera", help="header.frame_id of image and camera_info", live=True)
+    hfov_rad: float = param(1.2, help="horizontal field of view for camera_info", min=0.01, max=3.1, live=True)
 
 
 class TestPatternNode(Node):

@@ -13,6 +13,8 @@ Frames are read and published on the node's own worker thread, so a slow or hung
 blocks the node's executor. A file is paced at rate_hz frame by frame; a device or stream is read at
 its own rate and only the newest frame is published at most rate_hz times a second (no stale
 driver queue). Streams get 5 s open and read timeouts.
+Parameters at runtime: loop, frame_id, width/height (set both at once: `go2vlm param set` with
+--atomic), hfov_rad, reconnect_min_s/max_s; source and rate_hz are read-only.
 Time: rate_hz pacing and the stamps are in the node's clock (sim time with use_sim_time: a file is
 then paced at rate_hz of sim time); the open/read timeouts and the reconnect backoff are wall time,
 since they wait on a device or a network.
@@ -55,13 +57,13 @@ def parse_source(source: str) -> tuple[str, int | str]:
 class VideoSourceConfig:
     source: str = param("0", help="file path, device index (0, /dev/video0) or rtsp:// / http:// URL")
     rate_hz: float = param(30.0, help="publishing rate ceiling (a file is paced at this rate)", min=0.1, max=240.0)
-    loop: bool = param(False, help="restart a file at its end")
-    frame_id: str = param("camera", help="header.frame_id")
-    width: int = param(0, help="resize to this width (0 = as captured)", min=0, max=8192)
-    height: int = param(0, help="resize to this height (0 = as captured)", min=0, max=8192)
-    hfov_rad: float = param(1.2, help="horizontal field of view for camera_info", min=0.01, max=3.1)
-    reconnect_min_s: float = param(0.5, help="first retry delay", min=0.01, max=60.0)
-    reconnect_max_s: float = param(10.0, help="retry delay ceiling", min=0.01, max=600.0)
+    loop: bool = param(False, help="restart a file at its end", live=True)
+    frame_id: str = param("camera", help="header.frame_id", live=True)
+    width: int = param(0, help="resize to this width (0 = as captured)", min=0, max=8192, live=True)
+    height: int = param(0, help="resize to this height (0 = as captured)", min=0, max=8192, live=True)
+    hfov_rad: float = param(1.2, help="horizontal field of view for camera_info", min=0.01, max=3.1, live=True)
+    reconnect_min_s: float = param(0.5, help="first retry delay", min=0.01, max=60.0, live=True)
+    reconnect_max_s: float = param(10.0, help="retry delay ceiling", min=0.01, max=600.0, live=True)
 
     def validate(self) -> None:
         parse_source(self.source)
@@ -164,8 +166,9 @@ class VideoSourceNode(Node):
     def _prepare(self, frame: Any) -> Any:
         import cv2
 
-        if self.config.width:
-            frame = cv2.resize(frame, (self.config.width, self.config.height), interpolation=cv2.INTER_AREA)
+        cfg = self.config  # one snapshot: width and height may change together at runtime
+        if cfg.width:
+            frame = cv2.resize(frame, (cfg.width, cfg.height), interpolation=cv2.INTER_AREA)
         if frame.ndim == 2:
             frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
         return frame

@@ -14,6 +14,9 @@ Freshness: the image callback only stores the newest frame; a worker thread runs
 the newest frame at most every period_s. Frames replaced before the worker got to them are
 dropped and counted. Every result carries its source frame's stamp; result_age_ms is
 now - source stamp when the result is published.
+Parameters at runtime: prompt, mode, labels (the prompt is rebuilt; the next inference uses it),
+period_s and max_age_s; the model, backend and image settings, image_topic and status_period_s are
+read-only (they are set up at start-up).
 Time: period_s, max_age_s and result_age_ms are in the node's clock, so with use_sim_time (and a
 camera stamping sim time, as the sim does then) ages are sim seconds; latency_ms is wall time (how
 long the model took) in both modes.
@@ -74,18 +77,22 @@ MAX_ANSWER_CHARS = 8192
 class VlmConfig:
     model: str = param("", help="local checkpoint dir or hub id (openai: the served model name)")
     backend: str = param("transformers", choices=("transformers", "openai"))
-    prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)")
-    mode: str = param("describe", choices=("describe", "detect"), help="detect: Qwen grounding JSON -> boxes")
-    labels: list[str] = param(list, help="detect: object categories to ground (empty: all objects)")
+    prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)", live=True)
+    mode: str = param(
+        "describe", choices=("describe", "detect"), help="detect: Qwen grounding JSON -> boxes", live=True
+    )
+    labels: list[str] = param(list, help="detect: object categories to ground (empty: all objects)", live=True)
     max_pixels: int = param(DEFAULT_MAX_PIXELS, help="max H'*W' after smart resize; visual tokens = /784", min=784)
     min_pixels: int = param(DEFAULT_MIN_PIXELS, help="min H'*W' after smart resize", min=784)
     max_new_tokens: int = param(256, help="generation budget per frame", min=1, max=8192)
     dtype: str = param("auto", choices=("auto", "fp16", "bf16", "fp32"))
     device: str = param("auto", help="auto, cpu, cuda or cuda:N")
     quantization: str = param("none", choices=("none", "nf4", "int8"), help="bitsandbytes, CUDA only")
-    period_s: float = param(1.0, help="min time between inference starts", min=0.0)
+    period_s: float = param(1.0, help="min time between inference starts", min=0.0, live=True)
     image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
-    max_age_s: float = param(0.0, help="skip frames older than this (receive time) at pickup; 0: off", min=0.0)
+    max_age_s: float = param(
+        0.0, help="skip frames older than this (receive time) at pickup; 0: off", min=0.0, live=True
+    )
     coords: str = param("auto", choices=("auto", "resized_pixels", "norm_1000"), help="box convention override")
     base_url: str = param("http://127.0.0.1:8000/v1", help="openai: server URL")
     api_key: str = param("", help="openai: key (prefer $GO2VLM_API_KEY / $OPENAI_API_KEY); never logged")
@@ -203,6 +210,11 @@ class VlmNode(Node):
         self._worker.start()
 
     # -- subscription: never blocks ------------------------------------------------------------
+    def on_params_changed(self, old: Any, changed: frozenset[str]) -> None:
+        if changed & {"prompt", "mode", "labels"}:
+            cfg = self.config
+            self.prompt = build_prompt(cfg.mode, cfg.prompt, cfg.labels)
+
     def on_image(self, msg: Image) -> None:
         self.slot.put(msg)
 
