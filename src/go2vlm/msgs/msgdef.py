@@ -30,7 +30,11 @@ __all__ = ["FIELD_OVERRIDES", "FieldType", "fields", "msgdef", "ros_type", "rihs
 FIELD_OVERRIDES: dict[tuple[str, str], str] = {
     ("rmw_dds_common/msg/Gid", "data"): "char",  # char[16] data
     ("unitree_go/msg/IMUState", "temperature"): "int8",  # unitree_ros2's IMUState.msg
+    ("rcl_interfaces/msg/ParameterValue", "byte_array_value"): "byte",  # byte[] byte_array_value
 }
+
+# rosidl gives a constants-only message this member; the .msg text has only the constants.
+_PLACEHOLDER = "structure_needs_at_least_one_member"
 
 _BASE_NAMES = {
     "float": "float64",
@@ -156,7 +160,9 @@ def _nested_class(tp: Any) -> type[IdlStruct]:
 
 
 def _own_text(cls: type[IdlStruct]) -> str:
-    return "".join(f"{ft.msg_text()} {name}\n" for name, ft, _ in fields(cls))
+    """Constants first (a class's `__ros_constants__`: (type, name, value) rows), then the fields."""
+    consts = "".join(f"{typ} {name}={value}\n" for typ, name, value in getattr(cls, "__ros_constants__", ()))
+    return consts + "".join(f"{ft.msg_text()} {name}\n" for name, ft, _ in fields(cls) if name != _PLACEHOLDER)
 
 
 def _dependencies(cls: type[IdlStruct], seen: dict[str, type[IdlStruct]]) -> None:

@@ -37,6 +37,19 @@ PARAMETER_BOOL_ARRAY = 6
 PARAMETER_INTEGER_ARRAY = 7
 PARAMETER_DOUBLE_ARRAY = 8
 PARAMETER_STRING_ARRAY = 9
+# Its .msg text lists these constants (msgs/msgdef.py reads `__ros_constants__`).
+ParameterType.__ros_constants__ = tuple(  # type: ignore[attr-defined]
+    ("uint8", "PARAMETER_NOT_SET", PARAMETER_NOT_SET),
+    ("uint8", "PARAMETER_BOOL", PARAMETER_BOOL),
+    ("uint8", "PARAMETER_INTEGER", PARAMETER_INTEGER),
+    ("uint8", "PARAMETER_DOUBLE", PARAMETER_DOUBLE),
+    ("uint8", "PARAMETER_STRING", PARAMETER_STRING),
+    ("uint8", "PARAMETER_BYTE_ARRAY", PARAMETER_BYTE_ARRAY),
+    ("uint8", "PARAMETER_BOOL_ARRAY", PARAMETER_BOOL_ARRAY),
+    ("uint8", "PARAMETER_INTEGER_ARRAY", PARAMETER_INTEGER_ARRAY),
+    ("uint8", "PARAMETER_DOUBLE_ARRAY", PARAMETER_DOUBLE_ARRAY),
+    ("uint8", "PARAMETER_STRING_ARRAY", PARAMETER_STRING_ARRAY),
+)
 
 # As `ros2 param describe` spells them.
 TYPE_NAMES = {
