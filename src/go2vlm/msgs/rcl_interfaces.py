@@ -38,7 +38,7 @@ PARAMETER_INTEGER_ARRAY = 7
 PARAMETER_DOUBLE_ARRAY = 8
 PARAMETER_STRING_ARRAY = 9
 # Its .msg text lists these constants (msgs/msgdef.py reads `__ros_constants__`).
-ParameterType.__ros_constants__ = tuple(  # type: ignore[attr-defined]
+ParameterType.__ros_constants__ = (  # type: ignore[attr-defined]
     ("uint8", "PARAMETER_NOT_SET", PARAMETER_NOT_SET),
     ("uint8", "PARAMETER_BOOL", PARAMETER_BOOL),
     ("uint8", "PARAMETER_INTEGER", PARAMETER_INTEGER),
