@@ -413,7 +413,11 @@ def test_every_node_kinds_parameters_survive_the_wire(kind: str) -> None:
     """Each parameter of each node kind as a ROS value and back (what dump, then --params-file or a
     set, does) gives the same Config; every one has a descriptor."""
     cls = node_class(kind).Config
-    required = {"vlm": {"model": "some/model"}}.get(kind, {})
+    required = {
+        "vlm": {"model": "some/model"},
+        "player": {"bag": "some.mcap"},
+        "recorder": {"all": True},
+    }.get(kind, {})
     default = build_config(cls, required, node=kind)
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
