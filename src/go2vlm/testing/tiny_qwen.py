@@ -221,8 +221,10 @@ def make_arch_config(
     return config
 
 
-def _train_tokenizer(vocab_size: int = 512) -> Any:
-    """Byte-level BPE with Qwen2's pre-tokenizer, wrapped as ``Qwen2Tokenizer``."""
+def _train_tokenizer(vocab_size: int = 512, corpus: Sequence[str] | None = None) -> Any:
+    """Byte-level BPE with Qwen2's pre-tokenizer, wrapped as ``Qwen2Tokenizer``.
+
+    ``corpus``: the texts whose common strings become single tokens (default: the test corpus)."""
     from tokenizers import Regex, Tokenizer, decoders, models, normalizers, pre_tokenizers, trainers
     from transformers import Qwen2Tokenizer
     from transformers.models.qwen2.tokenization_qwen2 import PRETOKENIZE_REGEX
@@ -243,7 +245,7 @@ def _train_tokenizer(vocab_size: int = 512) -> Any:
         initial_alphabet=pre_tokenizers.ByteLevel.alphabet(),
         special_tokens=[],
     )
-    tok.train_from_iterator(_TOKENIZER_CORPUS * 4, trainer=trainer)
+    tok.train_from_iterator(list(corpus) if corpus is not None else _TOKENIZER_CORPUS * 4, trainer=trainer)
     model_json = json.loads(tok.to_str())["model"]
     merges = [tuple(m.split(" ")) if isinstance(m, str) else tuple(m) for m in model_json["merges"]]
     vocab: dict[str, int] = dict(model_json["vocab"])

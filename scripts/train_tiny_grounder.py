@@ -1,0 +1,23 @@
+#!/usr/bin/env python
+"""Build the tiny grounding checkpoint shipped in tests/data/tiny_grounder (see docs/vlm.md).
+
+    nice -n 10 .venv/bin/python scripts/train_tiny_grounder.py --seed 0 --frames 6000 --steps 3000 \\
+        --out tests/data/tiny_grounder
+
+Runs this checkout's code (its src/ first on the path) whatever go2vlm the environment has installed.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+sys.path.insert(0, str(SRC))
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+from go2vlm.testing.train_grounder import main  # noqa: E402
+
+if __name__ == "__main__":
+    sys.exit(main())
