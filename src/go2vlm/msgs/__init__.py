@@ -9,6 +9,7 @@ from __future__ import annotations
 from go2vlm.msgs import (
     builtin_interfaces,
     geometry_msgs,
+    go2vlm_msgs,
     nav_msgs,
     rosgraph_msgs,
     sensor_msgs,
@@ -23,6 +24,7 @@ __all__ = [
     "builtin_interfaces",
     "geometry_msgs",
     "get_type",
+    "go2vlm_msgs",
     "nav_msgs",
     "ros_name",
     "rosgraph_msgs",
