@@ -5,15 +5,15 @@
 A thin node over the pure Mission core (behavior/mission.py has the rules); it does not look at
 images: the target_tracker grounds, tracks and ranges, the vlm node answers decisions.
 
-Topics
-  subscribes  /goal               std_msgs/String (reliable)  a goal as text (also the `goal` parameter)
-              /target/tracked     go2vlm_msgs/TrackedTarget (reliable)  the target_tracker's target, one
-                                  per camera frame; only `tracking` reports for the goal's object count
-              /vlm/decision       std_msgs/String (reliable)  raw VLM scene decisions (the vlm node in
+Topics (QoS: reliable, volatile, keep-last 10 unless noted)
+  subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
+              /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
+                                  frame; only `tracking` reports for the goal's object count
+              /vlm/decision       std_msgs/String       raw VLM scene decisions (the vlm node in
                                   mode=decide), mapped onto the whitelist of behavior/decisions.py
-  publishes   /target/query       std_msgs/String, latched: the goal's object while a motion goal runs
-                                  ("blue cylinder"), else ''; the target_tracker tracks it and the vlm
-                                  node (mode=detect) grounds it
+  publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
+                                  object while a motion goal runs ("blue cylinder"), else ''; the
+                                  target_tracker tracks it and the vlm node (mode=detect) grounds it
               /behavior/cmd_vel   geometry_msgs/Twist   go to / look for / search (and follow with
                                   follow_control=self) at control_rate_hz; zeros for 0.5 s after a goal
                                   ends, then quiet; lowest priority in the safety gate
