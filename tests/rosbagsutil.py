@@ -1,6 +1,6 @@
 """rosbags as the reference CDR implementation: its Jazzy type store (plus vision_msgs 4.x and the
-rcl_interfaces services, which the store lacks) and converters between plain value trees, rosbags
-messages and our messages.
+rcl_interfaces services, which the store lacks, and go2vlm_msgs from the project's own .msg files)
+and converters between plain value trees, rosbags messages and our messages.
 
 A value tree is generated from rosbags' field definitions (the spec), then built into both a rosbags
 message and one of ours, so that a wrong field name, order or width in go2vlm.msgs shows up as a
@@ -86,9 +86,16 @@ _OCTETS = ("byte", "char", "uint8")
 TEXT = st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=12)
 
 
+def go2vlm_msgs() -> dict[str, str]:
+    """go2vlm's own .msg files, read from the ROS package the project ships (the spec ROS users build)."""
+    from go2vlm.msgs.go2vlm_msgs import MSG_DIR
+
+    return {f"go2vlm_msgs/msg/{f.stem}": f.read_text() for f in sorted(MSG_DIR.glob("*.msg"))}
+
+
 @cache
 def typestore() -> Any:
-    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS})
+    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS, **go2vlm_msgs()})
 
 
 def fields_of(typename: str) -> list[tuple[str, Any]]:

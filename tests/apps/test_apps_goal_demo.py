@@ -1,5 +1,6 @@
-"""Each goal type in the MuJoCo sim (kinematic physics, 2x real time): sim, commander, follower and
-the safety gate in one process, talking over real DDS; success judged from the sim's ground truth."""
+"""Each goal type in the MuJoCo sim (kinematic physics, 2x real time): sim, target_tracker, commander,
+follower and the safety gate in one process, talking over real DDS; success judged from the sim's
+ground truth."""
 
 from __future__ import annotations
 
@@ -100,10 +101,11 @@ class _Probe(Node):
 
 def test_stop_and_unparseable_goals_interrupt_motion_and_sit_stand_are_forwarded() -> None:
     sim = make_node("sim", params={"world": "vision_test", "mode": "kinematic", "rtf": RTF, "world_camera": False})
+    tracker = make_node("target_tracker")
     commander = make_node("commander", params={"goal": "go to the blue cylinder"})
     gate = make_node("safety")
     probe = _Probe()
-    with running(probe, sim, commander, gate):
+    with running(probe, sim, tracker, commander, gate):
         assert wait_for(lambda: probe.goal_pub.matched >= 1, 10)
         assert wait_for(lambda: probe.state().get("state") == "approaching", 30), probe.state()
         assert wait_for(lambda: probe.cmd and probe.cmd[-1][1] > 0.05, 10)  # walking

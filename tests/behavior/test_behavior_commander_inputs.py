@@ -1,136 +1,113 @@
-"""The commander on synthetic camera frames: VLM grounding (a Detection2DArray seeds the tracker),
-bad images / camera info / detections are counted and ignored, and a goal given as a CLI parameter
-that cannot be parsed is answered on /commander/status with zero motion through the real gate."""
+"""The commander at its new boundary, over real DDS: it publishes its goal's object on /target/query,
+drives only on the target_tracker's confirmed target (a real tracker on synthetic frames), stops the
+moment the tracker says lost, relays /detected_target only for follow goals, ignores bad tracker
+reports, and answers a goal it cannot parse (given as a CLI parameter) with zero motion through the
+real gate. Perception itself (grounding, catching up late VLM answers, bad images and boxes) is
+tested at the target_tracker: tests/perception/test_perception_tracker_node.py."""
 
 from __future__ import annotations
 
 import json
-import threading
-import time
+import math
 
-import cv2
-import numpy as np
 import pytest
 from busutil import echo_json, wait_for
+from targetutil import Cam, det
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, running
-from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.bus import QOS_DEFAULT, ParamError, running
 from go2vlm.launch.registry import make_node
-from go2vlm.msgs.geometry_msgs import PointStamped, Twist
-from go2vlm.msgs.image import camera_info, numpy_to_image
-from go2vlm.msgs.sensor_msgs import CameraInfo, Image
-from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.msgs.vision_msgs import (
-    BoundingBox2D,
-    Detection2D,
-    Detection2DArray,
-    ObjectHypothesis,
-    ObjectHypothesisWithPose,
-    Point2D,
-    Pose2D,
-)
+from go2vlm.msgs.go2vlm_msgs import TRACKING, TrackedTarget
+from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
 
 
-def frame(cx: int | None) -> np.ndarray:
-    img = np.full((480, 640, 3), 150, np.uint8)
-    if cx is not None:
-        cv2.rectangle(img, (cx - 30, 150), (cx + 30, 400), (255, 0, 0), -1)  # a blue "cylinder", bottom in view
-    cv2.circle(img, (120, 330), 50, (0, 0, 255), -1)  # a red ball
-    return img
+def test_go_to_drives_on_the_trackers_confirmed_target_only() -> None:
+    commander = make_node("commander", params={"goal": "go to the blue cylinder"})
+    tracker = make_node("target_tracker", params={"grounding": "vlm"})
+    cam = Cam()
+    with running(cam, tracker, commander):
+        assert wait_for(lambda: cam.dets.matched >= 1 and len(cam.headers) > 12, 10)
+        # The goal's object goes to the tracker (latched), which searches: the commander turns in place.
+        assert wait_for(lambda: cam.last() is not None and cam.last().label == "blue cylinder", 5)
+        assert wait_for(lambda: cam.cstate().get("state") == "searching" and cam.cstate().get("tracker"), 5)
+        assert wait_for(lambda: cam.last_cmd() is not None and cam.last_cmd()[1] > 0.1, 5)
+        assert all(vx == 0.0 for vx, _ in cam.cmds)
+        # A VLM answer about a frame 1 s old grounds it: the commander approaches.
+        old = cam.header_back(10)
+        cam.dets.publish(Detection2DArray(header=old, detections=[det("blue cylinder", 370, 150, 430, 400, old)]))
+        assert wait_for(lambda: cam.cstate().get("state") == "approaching", 5), cam.cstate()
+        st = cam.cstate()
+        assert st["seen"] and abs(st["x"] - (400 - 320) / 320) < 0.05 and st["tracker"] == "tracking"
+        assert 1.0 < st["distance_m"] < 3.0  # base -> surface: the tracker's camera distance + 0.327 m
+        cam.cx = 330  # the tracker follows it; centred, the commander walks
+        assert wait_for(lambda: abs(cam.cstate().get("x") or 1) < 0.05, 5), cam.cstate()
+        assert wait_for(lambda: cam.last_cmd()[0] > 0.05, 5)
+        assert not cam.targets  # go to drives itself; /detected_target is for follow goals only
+        # Gone: the tracker says lost, the commander stops at once, then searches towards where it was.
+        cam.cx = None
+        assert wait_for(lambda: cam.cstate().get("state") == "lost", 3), cam.cstate()
+        assert wait_for(lambda: cam.last_cmd() == (0.0, 0.0), 1)
+        assert wait_for(lambda: cam.cstate().get("state") == "searching", 5), cam.cstate()
+        assert wait_for(lambda: cam.last_cmd()[1] < -0.1, 1)  # turning right, where it was last seen
+        with cam.lock:
+            after = cam.commander.index(next(s for s in cam.commander if s.get("state") == "lost"))
+        assert all(not s["seen"] for s in cam.commander[after:])
 
 
-def det(label: str, x1: float, y1: float, x2: float, y2: float, header: Header) -> Detection2D:
-    return Detection2D(
-        header=header,
-        results=[ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=label, score=1.0))],
-        bbox=BoundingBox2D(center=Pose2D(position=Point2D(x=(x1 + x2) / 2, y=(y1 + y2) / 2)), size_x=x2 - x1,
-                           size_y=y2 - y1),
-    )  # fmt: skip
+def test_follow_relays_the_tracked_box_on_detected_target() -> None:
+    commander = make_node("commander", params={"goal": "follow the blue cylinder"})
+    tracker = make_node("target_tracker")  # colour-shape grounding: no model
+    cam = Cam()
+    with running(cam, tracker, commander):
+        assert wait_for(lambda: cam.cstate().get("state") == "tracking" and len(cam.targets) >= 3, 10), cam.cstate()
+        p = cam.targets[-1]
+        assert abs(p.point.x - (400 - 320) / 320) < 0.05 and p.header.frame_id == "camera"
+        assert p.point.z == pytest.approx(125 / 320, abs=0.03)  # half the box's larger side / (w/2)
+        stamps = {(h.stamp.sec, h.stamp.nanosec) for h in cam.headers}
+        assert (p.header.stamp.sec, p.header.stamp.nanosec) in stamps  # the source frame's stamp
+        assert not cam.cmds  # the follower drives, not the commander
+        cam.cx = None
+        assert wait_for(lambda: cam.cstate().get("state") == "lost", 3)
+        n, k = len(cam.targets), len(cam.tracked)
+        assert wait_for(lambda: len(cam.tracked) > k + 5, 5)  # half a second more of frames
+        assert cam.last().state != TRACKING
+        assert len(cam.targets) <= n + 1  # nothing relayed once lost (one may have been in flight)
 
 
-class _Cam(Node):
-    name = "fake_camera"
+class _FakeTracker(Cam):
+    """Publishes hand-made /target/tracked reports (the commander cannot tell them from a tracker's)."""
+
+    name = "fake_tracker"
 
     def __init__(self, **kw) -> None:
         super().__init__(**kw)
-        self.lock = threading.Lock()
-        self.cx: int | None = 400
-        self.img = self.create_publisher(Image, "/camera/image_raw", QOS_DEFAULT)
-        self.info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_DEFAULT)
-        self.dets = self.create_publisher(Detection2DArray, "/vlm/detections", QOS_DEFAULT)
-        self.status: list[dict] = []
-        self.targets: list[PointStamped] = []
-        self.cmds: list[tuple[float, float]] = []
-        self.headers: list[Header] = []
-        self.create_subscription(String, "/commander/status", self._st, QOS_LATCHED)
-        self.create_subscription(Twist, "/behavior/cmd_vel", lambda m: self.cmds.append((m.linear.x, m.angular.z)),
-                                 QOS_DEFAULT)  # fmt: skip
-        self.create_subscription(PointStamped, "/detected_target", self.targets.append, QOS_DEFAULT)
-        self.create_timer(0.1, self.tick)
+        self.pub = self.create_publisher(TrackedTarget, "/target/tracked", QOS_DEFAULT)
 
-    def _st(self, m: String) -> None:
-        with self.lock:
-            self.status.append(json.loads(m.data))
-
-    def tick(self) -> None:
-        h = Header(stamp=self.stamp(), frame_id="camera")
-        self.headers.append(h)
-        self.img.publish(numpy_to_image(frame(self.cx), "bgr8", h))
-        self.info.publish(camera_info(PinholeCamera.from_hfov(640, 480, 1.274)))
-
-    def last(self) -> dict:
-        with self.lock:
-            return self.status[-1] if self.status else {}
+    def report(self, label: str, cx: float, size: float, distance: float, w: int = 640, h: int = 480) -> None:
+        bbox = BoundingBox2D(center=Pose2D(position=Point2D(x=cx, y=240.0)), size_x=size, size_y=size)
+        self.pub.publish(TrackedTarget(header=self.header("camera"), label=label, state=TRACKING, bbox=bbox,
+                                       image_width=w, image_height=h, confidence=1.0, distance_m=distance,
+                                       range_method="bottom", grounding_age_s=0.1))  # fmt: skip
 
 
-def test_vlm_grounding_seeds_the_tracker_and_bad_inputs_are_counted() -> None:
-    commander = make_node("commander", params={"goal": "go to the blue cylinder", "grounding": "vlm"})
-    cam = _Cam()
-    with running(cam, commander):
-        assert wait_for(lambda: cam.dets.matched >= 1 and cam.img.matched >= 1, 10)
-        assert wait_for(lambda: cam.last().get("state") == "searching" and len(cam.headers) > 3, 5)  # no VLM answer
-        # Garbage first: a truncated image, a CameraInfo with fx = 0, a detection with a NaN box.
-        cam.img.publish(Image(height=480, width=640, encoding="bgr8", step=1920, data=b"\x00" * 100))
-        cam.info.publish(CameraInfo(width=640, height=480, k=[0.0] * 9))
-        h = cam.headers[-1]
-        bad = det("blue cylinder", 0, 0, 10, 10, h)
-        bad.bbox.size_x = float("nan")
-        cam.dets.publish(Detection2DArray(header=h, detections=[bad]))
-        assert wait_for(lambda: cam.last().get("counters", {}).get("bad_images", 0) >= 1, 5), cam.last()
-        assert wait_for(lambda: cam.last().get("counters", {}).get("bad_detections", 0) >= 1, 5), cam.last()
-        assert cam.last()["counters"].get("bad_camera_info", 0) >= 1
-        assert cam.last()["state"] == "searching"
-        # A VLM answer about a frame 1 s old: the red ball is no match, the blue cylinder is.
-        time.sleep(1.0)
-        old = cam.headers[-10]
-        cam.dets.publish(Detection2DArray(header=old, detections=[
-            det("red ball", 70, 280, 170, 380, old), det("blue cylinder", 370, 150, 430, 400, old)]))  # fmt: skip
-        assert wait_for(lambda: cam.last().get("state") == "approaching", 5), cam.last()
-        st = cam.last()
-        assert st["seen"] and abs(st["x"] - (400 - 320) / 320) < 0.05
-        assert st["counters"].get("vlm_reseeds") == 1
-        assert 1.0 < st["distance_m"] < 3.0  # bottom-edge ranging from the CameraInfo
-        # The tracker follows the object (no new VLM answer) as it moves across the image.
-        cam.cx = 330
-        assert wait_for(lambda: abs(cam.last().get("x") or 1) < 0.05, 5), cam.last()
-        assert wait_for(lambda: cam.cmds and cam.cmds[-1][0] > 0.05, 5)  # centred: walking
-        assert not cam.targets  # go to drives itself; /detected_target is for follow goals only
+def test_bad_tracker_reports_and_other_labels_move_nothing() -> None:
+    commander = make_node("commander", params={"goal": "go to the blue cylinder"})
+    fake = _FakeTracker()
+    with running(fake, commander):
+        assert wait_for(lambda: fake.pub.matched >= 1 and fake.cstate().get("state") == "searching", 10)
 
+        def bad_round() -> bool:
+            fake.report("red ball", 320.0, 50.0, 2.0)  # another object
+            fake.report("blue cylinder", math.nan, 50.0, 2.0)  # NaN box
+            fake.report("blue cylinder", 320.0, 50.0, 2.0, w=0, h=0)  # no image size
+            c = fake.cstate().get("counters", {})
+            return c.get("bad_tracked", 0) >= 6 and c.get("sightings_ignored", 0) >= 3
 
-def test_losing_the_target_stops_at_once_then_searches_towards_where_it_was() -> None:
-    commander = make_node("commander", params={"goal": "go to the blue cylinder", "lost_timeout_s": 0.5})
-    cam = _Cam()
-    with running(cam, commander):
-        assert wait_for(lambda: cam.last().get("state") == "approaching", 10), cam.last()
-        assert cam.last()["x"] > 0.2  # on the right
-        cam.cx = None  # gone
-        assert wait_for(lambda: cam.last().get("state") == "lost", 3), cam.last()
-        assert wait_for(lambda: cam.cmds[-1] == (0.0, 0.0), 1)
-        assert wait_for(lambda: cam.last().get("state") == "searching", 3), cam.last()
-        assert wait_for(lambda: cam.cmds[-1][1] < -0.1, 1)  # turning right, where it was last seen
-        assert all(vx == 0.0 for vx, _ in cam.cmds[-5:])  # searching = turning in place
-        cam.cx = 500  # back in view: approach again
-        assert wait_for(lambda: cam.last().get("state") == "approaching", 5), cam.last()
+        assert wait_for(bad_round, 10, period=0.2), fake.cstate()
+        assert fake.cstate()["state"] == "searching"
+        assert all(vx == 0.0 for vx, _ in fake.cmds)
+        fake.report("blue cylinder", 320.0, 50.0, math.inf)  # confirmed, but no distance: turn only
+        assert wait_for(lambda: fake.cstate().get("state") == "approaching", 5)
+        assert fake.cstate()["distance_m"] is None and all(vx == 0.0 for vx, _ in fake.cmds)
 
 
 def test_unparseable_goal_parameter_gets_a_reply_and_no_motion(procs) -> None:
@@ -145,11 +122,9 @@ def test_unparseable_goal_parameter_gets_a_reply_and_no_motion(procs) -> None:
 
 
 def test_bad_parameters_are_clear_errors() -> None:
-    with pytest.raises(ParamError, match="decision_model"):
-        make_node("commander", params={"decision_period_s": 1.0})
-    with pytest.raises(ParamError, match="object_sizes"):
-        make_node("commander", params={"object_sizes": {"pyramid": 1.0}})
     with pytest.raises(ParamError, match="max_turn_deg"):
         make_node("commander", params={"max_turn_deg": 45})
-    with pytest.raises(ParamError, match="grounding"):
-        make_node("commander", params={"grounding": "lidar"})
+    with pytest.raises(ParamError, match="follow_control"):
+        make_node("commander", params={"follow_control": "telepathy"})
+    with pytest.raises(ParamError, match="grounding"):  # grounding is the target_tracker's now
+        make_node("commander", params={"grounding": "vlm"})

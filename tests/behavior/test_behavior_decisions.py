@@ -57,3 +57,21 @@ def test_turn_bound_is_configurable_but_never_clamped() -> None:
     assert parse_decision('{"action": "turn", "angle_deg": 10}', max_turn_deg=10) == Decision("turn", 10.0)
     with pytest.raises(DecisionRejected):
         parse_decision('{"action": "turn", "angle_deg": 11}', max_turn_deg=10)
+
+
+def test_the_vlm_decision_prompt_asks_for_exactly_this_schema() -> None:
+    """The prompt (perception/vlm/prompts.py, sent by the vlm node in mode=decide) and the parser
+    (behavior/decisions.py, run by the commander) live in two stages: they must agree."""
+    import json
+    import re
+
+    from go2vlm.behavior.decisions import ACTIONS, MAX_TURN_DEG
+    from go2vlm.perception.vlm.prompts import DECISION_PROMPT, build_prompt
+
+    assert build_prompt("decide", "any describe prompt", ["red ball"]) == DECISION_PROMPT
+    examples = re.findall(r"\{[^{}]*\}", DECISION_PROMPT)
+    actions = [json.loads(e.replace(": A", ": 0"))["action"] for e in examples]
+    assert actions == list(ACTIONS)
+    for e in examples:
+        parse_decision(e.replace(": A", f": {MAX_TURN_DEG:g}"))  # each example is inside the schema
+    assert f"between -{MAX_TURN_DEG:g} and {MAX_TURN_DEG:g}" in DECISION_PROMPT

@@ -44,6 +44,7 @@ TYPES = [
     "vision_msgs/msg/ObjectHypothesisWithPose",
     "vision_msgs/msg/Detection2D",
     "vision_msgs/msg/Detection2DArray",
+    "go2vlm_msgs/msg/TrackedTarget",
     "tf2_msgs/msg/TFMessage",
     "rosgraph_msgs/msg/Clock",
     "rmw_dds_common/msg/Gid",
@@ -145,3 +146,15 @@ def test_spec_field_order_is_ours() -> None:
     for typename in TYPES:
         cls = get_type(typename)
         assert [f for f, _ in fields_of(typename)] == list(cls.__dataclass_fields__), typename
+
+
+def test_tracked_target_constants_are_the_msg_files() -> None:
+    """The state numbers in go2vlm.msgs.go2vlm_msgs are the constants of the shipped .msg file."""
+    from rosbagsutil import typestore
+
+    from go2vlm.msgs import go2vlm_msgs as g
+
+    consts = dict((name, value) for name, _, value in typestore().fielddefs["go2vlm_msgs/msg/TrackedTarget"][0])
+    assert consts == {name.upper(): state for state, name in g.STATE_NAMES.items()}
+    assert consts == {"IDLE": g.IDLE, "SEARCHING": g.SEARCHING, "TRACKING": g.TRACKING, "LOST": g.LOST,
+                      "UNGROUNDABLE": g.UNGROUNDABLE}  # fmt: skip

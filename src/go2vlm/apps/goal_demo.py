@@ -1,6 +1,7 @@
 """`go2vlm demo --goal TEXT`: one language goal, run in the simulator, measured.
 
-    sim -> /camera/image_raw -> commander (colour-shape grounder + tracker) -> /behavior/cmd_vel
+    sim -> /camera/image_raw -> target_tracker (colour-shape grounder + tracker) -> /target/tracked
+        -> commander (-> /target/query) -> /behavior/cmd_vel
         (follow goals: -> /detected_target -> follower -> /follower/cmd_vel) -> safety gate -> /cmd_vel -> sim
 
 World: `vision_test` (the VLM article's Gazebo world: red sphere, green box, blue cylinder; the Go2 starts at (0, -1.5)
@@ -267,10 +268,11 @@ def build_nodes(opts: GoalDemoOptions, world: str) -> list[Node]:
     if opts.spawn:
         sim_params["spawn"] = list(opts.spawn)
     sim_params.update(opts.params.get("sim", {}))
-    cmd_params: dict[str, Any] = {"goal": opts.goal, "grounding": opts.grounding}
-    cmd_params.update(opts.params.get("commander", {}))
+    cmd_params: dict[str, Any] = {"goal": opts.goal, **opts.params.get("commander", {})}
+    tracker_params: dict[str, Any] = {"grounding": opts.grounding, **opts.params.get("target_tracker", {})}
     nodes = [
         make_node("sim", params=sim_time(sim_params), **common),
+        make_node("target_tracker", params=sim_time(tracker_params), **common),
         make_node("commander", params=sim_time(cmd_params), **common),
     ]
     try:

@@ -1,6 +1,8 @@
 """VLM-driven decisions: a whitelisted action schema, and the strict parser that guards it.
 
-The model is asked "is there a person or an obstacle ahead?" and must answer with ONE JSON object:
+The vlm node (mode=decide) asks the model "is there a person or an obstacle ahead?" with
+perception/vlm/prompts.py's DECISION_PROMPT and publishes the raw answer on /vlm/decision; the
+commander maps it onto this schema. The answer must be ONE JSON object:
 
     {"action": "stop"}                       a person/obstacle ahead: hold still
     {"action": "continue"}                   the way is clear: carry on with the goal
@@ -11,6 +13,7 @@ Anything else -- another action, extra keys ("speed"), an angle out of range, fr
 "RUN FORWARD AT 5 M/S", several objects -- is rejected with a reason and counted; the caller logs
 it and does nothing. The model's text never becomes a velocity: the only numbers taken from it
 are a turn angle inside the bound, executed at the commander's own (bounded) turn rate.
+(tests/behavior/test_behavior_decisions.py checks that the prompt asks for exactly this schema.)
 """
 
 from __future__ import annotations
@@ -20,20 +23,11 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["ACTIONS", "DECISION_PROMPT", "MAX_TURN_DEG", "Decision", "DecisionRejected", "parse_decision"]
+__all__ = ["ACTIONS", "MAX_TURN_DEG", "Decision", "DecisionRejected", "parse_decision"]
 
 ACTIONS = ("stop", "continue", "turn", "sit")
 MAX_TURN_DEG = 30.0
 MAX_ANSWER_CHARS = 2000
-
-DECISION_PROMPT = (
-    "You watch the camera of a walking quadruped robot. Is there a person or an obstacle ahead? "
-    "Answer with exactly one JSON object and nothing else: "
-    '{"action": "stop"} if a person or an obstacle is close ahead, '
-    '{"action": "continue"} if the way ahead is clear, '
-    '{"action": "turn", "angle_deg": A} with A between -30 and 30 (positive = left) to steer around it, '
-    'or {"action": "sit"}.'
-)
 
 _ALLOWED_KEYS = {"stop": {"action"}, "continue": {"action"}, "sit": {"action"}, "turn": {"action", "angle_deg"}}
 _FENCE = re.compile(r"^```(?:json)?\s*(.*?)\s*```$", re.S)

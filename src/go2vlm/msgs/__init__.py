@@ -9,6 +9,7 @@ from __future__ import annotations
 from go2vlm.msgs import (
     builtin_interfaces,
     geometry_msgs,
+    go2vlm_msgs,
     nav_msgs,
     rcl_interfaces,
     rosgraph_msgs,
@@ -24,6 +25,7 @@ __all__ = [
     "builtin_interfaces",
     "geometry_msgs",
     "get_type",
+    "go2vlm_msgs",
     "nav_msgs",
     "rcl_interfaces",
     "ros_name",

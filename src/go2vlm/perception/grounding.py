@@ -24,7 +24,9 @@ import numpy as np
 
 from go2vlm.perception.color import PRESETS, color_mask
 
-__all__ = ["Candidate", "ShapeScores", "ground", "shape_scores"]
+__all__ = ["SHAPES", "Candidate", "ShapeScores", "ground", "shape_scores"]
+
+SHAPES = ("ball", "box", "cylinder")  # the shapes the grounder knows
 
 
 @dataclass(frozen=True)
@@ -41,7 +43,7 @@ class ShapeScores:
         return float(getattr(self, shape))
 
     def best(self) -> str:
-        return max(("ball", "box", "cylinder"), key=self.get)
+        return max(SHAPES, key=self.get)
 
 
 @dataclass(frozen=True)
@@ -147,7 +149,7 @@ def ground(
     `color` is a preset name of perception/color.py or None (any preset); `shape` is ball, box,
     cylinder or None (any). Raises ValueError for an unknown colour or shape, or a bad image.
     """
-    if shape is not None and shape not in ("ball", "box", "cylinder"):
+    if shape is not None and shape not in SHAPES:
         raise ValueError(f"shape {shape!r} is not ball, box or cylinder")
     if color is not None and color not in PRESETS:
         raise ValueError(f"colour {color!r} is not one of {sorted(PRESETS)}")

@@ -59,8 +59,10 @@ class HistTracker:
     def _valid_mask(self, hsv: np.ndarray) -> np.ndarray:
         return cv2.inRange(hsv, (0, self.min_saturation, self.min_value), (180, 255, 255))
 
-    def init(self, bgr: np.ndarray, bbox: tuple[float, float, float, float]) -> bool:
-        """Seed from `bbox` = (x, y, w, h) in pixels. False (and inactive) if the box holds no colour."""
+    def init(self, bgr: np.ndarray, bbox: tuple[float, float, float, float], mask: np.ndarray | None = None) -> bool:
+        """Seed from `bbox` = (x, y, w, h) in pixels. False (and inactive) if the box holds no colour.
+        `mask` (uint8, the image's size): learn the histogram only from these pixels (e.g. the pixels of
+        the colour a label names), so a box that also covers another object does not teach its colour."""
         h_img, w_img = bgr.shape[:2]
         x, y, w, h = (int(round(v)) for v in bbox)
         x0, y0 = max(0, x), max(0, y)
@@ -69,7 +71,7 @@ class HistTracker:
             self.reset()
             return False
         hsv = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2HSV)
-        mask = self._valid_mask(hsv)
+        mask = self._valid_mask(hsv) if mask is None else cv2.bitwise_and(self._valid_mask(hsv), mask[y0:y1, x0:x1])
         if cv2.countNonZero(mask) < 0.05 * mask.size:
             self.reset()
             return False

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from busutil import Recorder, wait_for
 
-from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node, build_config
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, build_config
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import numpy_to_image
 from go2vlm.msgs.sensor_msgs import Image
@@ -19,7 +19,7 @@ from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
 from go2vlm.perception.vlm.backend import BackendError, Generation, VlmOutOfMemory
 from go2vlm.perception.vlm.geometry import CoordSystem
-from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT
+from go2vlm.perception.vlm.prompts import DECISION_PROMPT, DEFAULT_PROMPT, detect_prompt
 from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, image_to_rgb
 from go2vlm.testing.tiny_qwen import DEFAULT_ANSWER
 
@@ -47,6 +47,8 @@ class GatedBackend:
 
     def __init__(self, fail: list[Exception] | None = None) -> None:
         self.started: list[int] = []
+        self.prompts: list[str] = []
+        self.text = DEFAULT_ANSWER
         self.gate = threading.Semaphore(0)
         self.fail = list(fail or [])
         self.cond = threading.Condition()
@@ -57,12 +59,13 @@ class GatedBackend:
     def generate(self, rgb: np.ndarray, prompt: str) -> Generation:
         with self.cond:
             self.started.append(int(rgb[0, 0, 2]))  # RGB now: blue is channel 2
+            self.prompts.append(prompt)
             self.cond.notify_all()
         assert self.gate.acquire(timeout=30), "test never released the gate"
         if self.fail:
             raise self.fail.pop(0)
         return Generation(
-            text=DEFAULT_ANSWER,
+            text=self.text,
             original_hw=(int(rgb.shape[0]), int(rgb.shape[1])),
             resized_hw=(84, 112),
             coords=CoordSystem.RESIZED_PIXELS,
@@ -95,8 +98,10 @@ class Harness:
     def __init__(self, topic: str) -> None:
         self.node = Node(node_name="vlm_test_harness")
         self.cam = self.node.create_publisher(Image, topic, QOS_SENSOR)
-        self.text, self.dets, self.status = Recorder(), Recorder(), Recorder()
+        self.text, self.dets, self.status, self.decision = Recorder(), Recorder(), Recorder(), Recorder()
+        self.query = self.node.create_publisher(String, "/target/query", QOS_LATCHED)
         self.node.create_subscription(String, "/vlm/detection", self.text, QOS_DEFAULT)
+        self.node.create_subscription(String, "/vlm/decision", self.decision, QOS_DEFAULT)
         self.node.create_subscription(Detection2DArray, "/vlm/detections", self.dets, QOS_DEFAULT)
         self.node.create_subscription(String, "/vlm/status", self.status, QOS_DEFAULT)
         self.node.start()
@@ -186,6 +191,58 @@ def test_newest_frame_wins_and_drops_are_counted(harness: Harness) -> None:
         assert st["backend"] == "transformers" and st["mode"] == "detect" and st["state"] == "ready"
         assert st["latency_ms"]["total"] == 6.0 and "postprocess" in st["latency_ms"]
         assert st["result_age_ms"] is not None and st["source_stamp"] == pytest.approx(1006.0)
+    finally:
+        for _ in range(5):
+            fake.gate.release()
+        node.shutdown()
+
+
+def test_detect_grounds_the_query_and_decide_publishes_raw_answers(harness: Harness) -> None:
+    """mode=detect grounds exactly the /target/query label (else its `labels`); mode=decide asks the
+    decision question and publishes the answer, untouched, on /vlm/decision only."""
+    fake = GatedBackend()
+    node = make_node(harness.topic, fake, mode="detect", labels=["green box"])  # type: ignore[attr-defined]
+    try:
+
+        def until(labels: set[str]) -> None:
+            """Let inferences run on new frames until the newest answer has exactly these labels."""
+
+            def step() -> bool:
+                fake.gate.release()
+                harness.cam.publish(image(len(fake.started)))
+                msgs = harness.dets.msgs()
+                return bool(msgs) and set(boxes_of(msgs[-1])) == labels
+
+            assert wait_for(step, 20, 0.2), (labels, [boxes_of(m) for m in harness.dets.msgs()[-3:]])
+
+        until({"green box"})
+        assert fake.prompts[0] == detect_prompt(["green box"])
+        harness.query.publish(String(data="  red   ball\x07"))  # spaces and a control character cleaned
+        assert wait_for(lambda: node.query == "red ball", 10)
+        until({"red ball"})  # the query, not `labels`
+        assert detect_prompt(["red ball"]) in fake.prompts
+        harness.query.publish(String(data="blue cylinder"))
+        until(set())  # the model named no blue cylinder: an empty answer
+        assert detect_prompt(["blue cylinder"]) in fake.prompts
+        harness.query.publish(String(data=""))
+        until({"green box"})
+        assert fake.prompts[-1] == detect_prompt(["green box"])
+        assert wait_for(lambda: any(s.get("query") == "" for s in harness.statuses()), 5)
+        assert len(harness.decision) == 0
+    finally:
+        for _ in range(5):
+            fake.gate.release()
+        node.shutdown()
+    fake = GatedBackend()
+    fake.text = 'RUN FORWARD {"action": "forward"}'
+    node = make_node(harness.topic, fake, mode="decide")  # type: ignore[attr-defined]
+    try:
+        n_text = len(harness.text)
+        fake.gate.release()
+        assert wait_for(lambda: (harness.cam.publish(image(1)), len(harness.decision) >= 1)[1], 20, 0.2)
+        assert fake.prompts == [DECISION_PROMPT]
+        assert harness.decision.msgs()[0].data == 'RUN FORWARD {"action": "forward"}'  # raw: the commander judges
+        assert len(harness.text) == n_text
     finally:
         for _ in range(5):
             fake.gate.release()

@@ -3,17 +3,29 @@
 ``describe`` mode sends the user's prompt (the VLM article's Chinese scene
 description prompt by default). ``detect`` mode asks for Qwen2.5-VL's native
 grounding format -- a JSON list of ``{"bbox_2d": [x1, y1, x2, y2], "label": ...}``
--- which the model was trained to emit, so no custom output grammar is needed.
+-- which the model was trained to emit, so no custom output grammar is needed; with a
+query (/target/query) it grounds exactly that label. ``decide`` mode asks the scene
+question whose answer schema behavior/decisions.py enforces (the commander parses it).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-__all__ = ["DEFAULT_PROMPT", "build_prompt", "detect_prompt"]
+__all__ = ["DECISION_PROMPT", "DEFAULT_PROMPT", "build_prompt", "detect_prompt"]
 
 # From the VLM article's node (section 3.2): "describe the scene, point out object colours, shapes, positions".
 DEFAULT_PROMPT = "描述图片中的场景,指出物体颜色、形状和位置。"
+
+# decide mode: one whitelisted action as JSON (the schema of behavior/decisions.py, |angle| <= 30 deg).
+DECISION_PROMPT = (
+    "You watch the camera of a walking quadruped robot. Is there a person or an obstacle ahead? "
+    "Answer with exactly one JSON object and nothing else: "
+    '{"action": "stop"} if a person or an obstacle is close ahead, '
+    '{"action": "continue"} if the way ahead is clear, '
+    '{"action": "turn", "angle_deg": A} with A between -30 and 30 (positive = left) to steer around it, '
+    'or {"action": "sit"}.'
+)
 
 
 def detect_prompt(labels: Sequence[str]) -> str:
@@ -27,7 +39,9 @@ def detect_prompt(labels: Sequence[str]) -> str:
 
 
 def build_prompt(mode: str, prompt: str, labels: Sequence[str]) -> str:
-    """The text part of the user message for ``mode`` (``describe`` or ``detect``)."""
+    """The text part of the user message for ``mode`` (``describe``, ``detect`` or ``decide``)."""
     if mode == "detect":
         return detect_prompt(labels)
+    if mode == "decide":
+        return DECISION_PROMPT
     return prompt or DEFAULT_PROMPT

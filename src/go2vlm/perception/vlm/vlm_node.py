@@ -2,21 +2,32 @@
 
 Topics
   subscribes  <image_topic> (default /camera/image_raw)  sensor_msgs/Image, sensor-data QoS
-  publishes   /vlm/detection   std_msgs/String            the model's answer text (length-capped)
+              /target/query    std_msgs/String, latched (transient-local) QoS; mode=detect: the label
+                               to ground, e.g. "blue cylinder" (the commander publishes its goal's
+                               object): while it is non-empty the model grounds exactly that label,
+                               else the `labels` parameter
+  publishes   /vlm/detection   std_msgs/String            describe/detect: the model's answer text
+                               (length-capped)
               /vlm/detections  vision_msgs/Detection2DArray  mode=detect: boxes in the ORIGINAL
-                               image's pixels, class_id = label, score = the model's score or 1.0,
-                               header = the source image's header (stamp and frame_id)
+                               image's pixels, class_id = label (the query's or the requested
+                               spelling), score = the model's score or 1.0, header = the source
+                               image's header (stamp and frame_id); an empty array when it found none
+              /vlm/decision    std_msgs/String            mode=decide: the model's raw answer to the
+                               scene question (perception/vlm/prompts.py DECISION_PROMPT: stop /
+                               continue / turn <= 30 deg / sit as JSON); untrusted text, the commander
+                               maps it onto the whitelist of behavior/decisions.py
               /vlm/status      std_msgs/String (JSON, every status_period_s): model, backend, mode,
                                state, latency_ms of the last inference, result_age_ms, frames
                                received/dropped/processed, error and parse counters
+
+Modes: describe (the `prompt`), detect (Qwen grounding JSON -> boxes), decide (the scene decision
+question). One model serves one mode per node; run a second vlm node (--name vlm_decide --param
+mode=decide) for decisions, sharing one server with backend=openai.
 
 Freshness: the image callback only stores the newest frame; a worker thread runs inference on
 the newest frame at most every period_s. Frames replaced before the worker got to them are
 dropped and counted. Every result carries its source frame's stamp; result_age_ms is
 now - source stamp when the result is published.
-Parameters at runtime: prompt, mode, labels (the prompt is rebuilt; the next inference uses it),
-period_s and max_age_s; the model, backend and image settings, image_topic and status_period_s are
-read-only (they are set up at start-up).
 Time: period_s, max_age_s and result_age_ms are in the node's clock, so with use_sim_time (and a
 camera stamping sim time, as the sim does then) ages are sim seconds; latency_ms is wall time (how
 long the model took) in both modes.
@@ -24,6 +35,9 @@ long the model took) in both modes.
 Backends: transformers (the model in this process; nf4/int8 via bitsandbytes) or openai (any
 OpenAI-compatible server: vLLM, SGLang, Ollama, llama.cpp, `transformers serve`). The API key
 comes from api_key or $GO2VLM_API_KEY / $OPENAI_API_KEY and is never logged or reported.
+
+Parameters at runtime (`go2vlm param set vlm ...`): prompt, labels (the prompt is rebuilt; the next
+inference uses it), period_s and max_age_s; the rest is set up at start-up and read-only.
 """
 
 from __future__ import annotations
@@ -37,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node, param
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.sensor_msgs import Image
@@ -63,12 +77,15 @@ from go2vlm.perception.vlm.factory import make_backend
 from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
 from go2vlm.perception.vlm.latest import LatestSlot, Stamped
 from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding, sanitize_text
-from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt
+from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt
 
 __all__ = ["VlmConfig", "VlmNode", "detections_msg", "image_to_rgb"]
 
 TOPIC_TEXT = "/vlm/detection"
 TOPIC_DETECTIONS = "/vlm/detections"
+TOPIC_DECISION = "/vlm/decision"
+TOPIC_QUERY = "/target/query"
+MAX_QUERY_CHARS = 200
 TOPIC_STATUS = "/vlm/status"
 MAX_ANSWER_CHARS = 8192
 
@@ -79,9 +96,13 @@ class VlmConfig:
     backend: str = param("transformers", choices=("transformers", "openai"))
     prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)", live=True)
     mode: str = param(
-        "describe", choices=("describe", "detect"), help="detect: Qwen grounding JSON -> boxes", live=True
+        "describe",
+        choices=("describe", "detect", "decide"),
+        help="detect: Qwen grounding JSON -> boxes; decide: the scene decision question -> /vlm/decision",
     )
-    labels: list[str] = param(list, help="detect: object categories to ground (empty: all objects)", live=True)
+    labels: list[str] = param(
+        list, help="detect: object categories to ground while /target/query is empty (empty: all objects)", live=True
+    )
     max_pixels: int = param(DEFAULT_MAX_PIXELS, help="max H'*W' after smart resize; visual tokens = /784", min=784)
     min_pixels: int = param(DEFAULT_MIN_PIXELS, help="min H'*W' after smart resize", min=784)
     max_new_tokens: int = param(256, help="generation budget per frame", min=1, max=8192)
@@ -181,6 +202,7 @@ class VlmNode(Node):
         self.config: VlmConfig
         cfg = self.config
         self.prompt = build_prompt(cfg.mode, cfg.prompt, cfg.labels)
+        self.query = ""  # detect: the label /target/query asks for ('' = the labels parameter)
         self.backend: Backend = backend if backend is not None else make_backend(cfg.backend_settings())
         self.slot: LatestSlot[Image] = LatestSlot(self.clock)
         self._stats = threading.Lock()
@@ -197,8 +219,11 @@ class VlmNode(Node):
         self.last_detections = 0
         self.pub_text = self.create_publisher(String, TOPIC_TEXT, QOS_DEFAULT)
         self.pub_dets = self.create_publisher(Detection2DArray, TOPIC_DETECTIONS, QOS_DEFAULT)
+        self.pub_decision = self.create_publisher(String, TOPIC_DECISION, QOS_DEFAULT)
         self.pub_status = self.create_publisher(String, TOPIC_STATUS, QOS_DEFAULT)
         self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
+        if cfg.mode == "detect":
+            self.create_subscription(String, TOPIC_QUERY, self.on_query, QOS_LATCHED)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.log.info(
             f"{self.backend.name} backend, model {cfg.model}, mode {cfg.mode}, "
@@ -211,12 +236,28 @@ class VlmNode(Node):
 
     # -- subscription: never blocks ------------------------------------------------------------
     def on_params_changed(self, old: Any, changed: frozenset[str]) -> None:
-        if changed & {"prompt", "mode", "labels"}:
+        if changed & {"prompt", "labels"}:
             cfg = self.config
             self.prompt = build_prompt(cfg.mode, cfg.prompt, cfg.labels)
 
     def on_image(self, msg: Image) -> None:
         self.slot.put(msg)
+
+    def on_query(self, msg: String) -> None:
+        query = " ".join(sanitize_text(msg.data, MAX_QUERY_CHARS, Counter()).split())
+        with self._stats:
+            changed, self.query = query != self.query, query
+        if changed:
+            fallback = self.config.labels or "all objects"
+            self.log.info(f"grounding {query!r}" if query else f"query cleared: grounding {fallback}")
+
+    def _task(self) -> tuple[str, list[str]]:
+        """The prompt and the labels for the next inference (the query wins over `labels`)."""
+        with self._stats:
+            query = self.query
+        if self.config.mode == "detect" and query:
+            return detect_prompt([query]), [query]
+        return self.prompt, list(self.config.labels)
 
     # -- worker --------------------------------------------------------------------------------
     def _bump(self, name: str, n: int = 1) -> None:
@@ -259,8 +300,9 @@ class VlmNode(Node):
             self._bump("bad_images")
             self.log.throttled("warning", 5.0, f"dropping a bad image: {exc}", key="bad_image")
             return
+        prompt, labels = self._task()
         try:
-            gen = self.backend.generate(rgb, self.prompt)
+            gen = self.backend.generate(rgb, prompt)
         except VlmOutOfMemory as exc:
             self._record_error(exc.counter, str(exc))
             self.log.throttled("error", 10.0, str(exc), key="oom")
@@ -273,14 +315,14 @@ class VlmNode(Node):
             self._record_error("inference_errors", f"{type(exc).__name__}: {exc}")
             self.log.throttled("error", 5.0, f"inference failed: {type(exc).__name__}: {exc}", key="infer")
             return
-        self._publish(frame, gen)
+        self._publish(frame, gen, labels)
 
     def _record_error(self, counter: str, text: str) -> None:
         with self._stats:
             self.errors[counter] += 1
             self.last_error = text[:500]
 
-    def _publish(self, frame: Stamped[Image], gen: Generation) -> None:
+    def _publish(self, frame: Stamped[Image], gen: Generation, labels: list[str]) -> None:
         t0 = time.perf_counter()  # wall time: a compute latency, reported as latency_ms
         cfg = self.config
         src = frame.item.header
@@ -289,7 +331,7 @@ class VlmNode(Node):
         text = sanitize_text(gen.text, MAX_ANSWER_CHARS, counters)
         boxes: list[Box] = []
         if cfg.mode == "detect":
-            parsed = parse_grounding(gen.text, labels=cfg.labels)
+            parsed = parse_grounding(gen.text, labels=labels)
             counters.update(parsed.counters)
             boxes = finalize_boxes(
                 parsed.boxes,
@@ -298,7 +340,10 @@ class VlmNode(Node):
                 original_hw=gen.original_hw,
                 counters=counters,
             )
-        self.pub_text.publish(String(data=text))
+        if cfg.mode == "decide":
+            self.pub_decision.publish(String(data=text))
+        else:
+            self.pub_text.publish(String(data=text))
         if cfg.mode == "detect":
             self.pub_dets.publish(detections_msg(boxes, header))
         post_ms = (time.perf_counter() - t0) * 1e3
@@ -328,6 +373,7 @@ class VlmNode(Node):
                 "backend": cfg.backend,
                 "backend_detail": self.backend.description,
                 "mode": cfg.mode,
+                "query": self.query,
                 "state": self.state,
                 "last_error": self.last_error,
                 "latency_ms": dict(self.last_latency_ms),

@@ -1,0 +1,40 @@
+"""go2vlm_msgs/msg: go2vlm's own message types, with ROS 2 naming so ROS tools see them.
+
+TrackedTarget: the target_tracker's one tracked target per camera frame (perception/tracker_node.py);
+every behaviour reads it. The ROS definition is `msgs/ros/go2vlm_msgs/msg/TrackedTarget.msg` (shipped
+with the package; copy `msgs/ros/go2vlm_msgs` into a colcon workspace to use it from ROS 2), and
+tests/msgs checks these bytes against rosbags with that very file registered.
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from cyclonedds.idl import types
+
+from go2vlm.msgs._base import IdlStruct, default, register
+from go2vlm.msgs.std_msgs import Header
+from go2vlm.msgs.vision_msgs import BoundingBox2D
+
+__all__ = ["MSG_DIR", "STATE_NAMES", "TrackedTarget"]
+
+# The .msg files of the go2vlm_msgs ROS package.
+MSG_DIR = Path(__file__).resolve().parent / "ros" / "go2vlm_msgs" / "msg"
+
+# TrackedTarget.state (the .msg's constants)
+IDLE, SEARCHING, TRACKING, LOST, UNGROUNDABLE = 0, 1, 2, 3, 4
+STATE_NAMES = {IDLE: "idle", SEARCHING: "searching", TRACKING: "tracking", LOST: "lost", UNGROUNDABLE: "ungroundable"}
+
+
+@register
+@dataclass
+class TrackedTarget(IdlStruct, typename="go2vlm_msgs::msg::dds_::TrackedTarget_"):
+    header: Header = default(Header)
+    label: str = ""
+    state: types.byte = IDLE
+    bbox: BoundingBox2D = default(BoundingBox2D)
+    image_width: types.uint32 = 0
+    image_height: types.uint32 = 0
+    confidence: float = 0.0
+    distance_m: float = 0.0
+    range_method: str = ""
+    grounding_age_s: float = 0.0

@@ -1,0 +1,255 @@
+"""target_tracker: the one target a behaviour asks for, kept at camera rate between grounding answers
+and reported only while it is confirmed.
+
+Topics
+  subscribes  /target/query          std_msgs/String, latched (transient-local) QoS: the label to track,
+                                     e.g. "blue cylinder" ('' = nothing); the commander publishes its
+                                     goal's object here. Publish by hand with --qos latched. The `query`
+                                     parameter is the query until one arrives.
+              <image_topic>          sensor_msgs/Image (/camera/image_raw, sensor-data QoS)
+              <camera_info_topic>    sensor_msgs/CameraInfo (/camera/camera_info, sensor-data QoS):
+                                     intrinsics for ranging; default_hfov_deg until one arrives
+              /vlm/detections        vision_msgs/Detection2DArray (reliable), grounding=vlm only: the vlm
+                                     node's answers (mode=detect), boxes in the image's pixels, stamped
+                                     with the frame they describe, label in results[0].hypothesis.class_id
+  publishes   /target/tracked        go2vlm_msgs/TrackedTarget (reliable, keep-last 10), one per camera
+                                     frame: header = the frame's header; label = the query; state idle |
+                                     searching | tracking | lost | ungroundable; bbox (pixels) only while
+                                     tracking; image size; confidence; distance_m (camera -> the object's
+                                     near surface, NaN unknown) and range_method; grounding_age_s (NaN
+                                     before any answer). Every behaviour reads this.
+              /target_tracker/status std_msgs/String, latched JSON: query, state, grounding, last_refusal,
+                                     counters (refused.<reason>, accepted, tracks_lost, ...); on every
+                                     state change and every status_period_s
+
+Grounding (`grounding`)
+  color  (default, no model) the colour-shape grounder (perception/grounding.py) on the frames: labels
+         "<red|green|blue|yellow> <ball|box|cylinder>" (either part optional); free text is
+         `ungroundable`. Re-grounds every reground_period_s while tracking, every frame otherwise.
+  vlm    answers on /vlm/detections; run the vlm node with mode=detect (it grounds /target/query).
+Between answers a CamShift tracker (perception/tracker.py) follows the target frame by frame. An
+answer describes an older frame: the tracker seeds on the stored frame with the answer's stamp and
+catches up through the frames since (perception/tracking.py has the rules). An answer is refused and
+counted, and changes nothing, when no box carries the query's label, when its box does not hold the
+colour the label names (min_label_color), holds nothing trackable, is lost while catching up, or is
+older than max_answer_age_s. A lost track is `lost` with no box, never the last box; so is a track no
+answer confirmed for max_grounding_age_s, or (vlm) that max_unconfirmed_answers answers in a row did
+not confirm. Bad images, camera infos and boxes are counted and dropped; the node keeps running.
+
+Time: frames and answers are matched and aged by their stamps (header.stamp; a frame without one gets
+the node clock's now()), so sim time and wall time both work as long as the camera and the vlm node
+stamp on the same clock; status_period_s is in the node's clock.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
+from go2vlm.msgs.image import camera_model, to_bgr
+from go2vlm.msgs.sensor_msgs import CameraInfo, Image
+from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
+from go2vlm.perception.ranging import DEFAULT_SIZES
+from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
+from go2vlm.robots.go2 import spec
+
+__all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
+
+TOPIC_QUERY = "/target/query"
+TOPIC_TRACKED = "/target/tracked"
+STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
+
+
+@dataclass
+class TargetTrackerConfig:
+    query: str = param("", help="label to track until /target/query says otherwise, e.g. 'red ball'")
+    grounding: str = param("color", choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
+    camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo input")
+    reground_period_s: float = param(0.5, help="color: re-ground this often while tracking", min=0.0)
+    min_shape_score: float = param(0.35, help="color: shape score the grounder needs", min=0.0, max=1.0)
+    min_label_color: float = param(
+        0.15, help="an answer's box must hold this fraction of the colour its label names", min=0.0, max=1.0
+    )
+    max_answer_age_s: float = param(5.0, help="refuse answers about frames older than this", min=0.1, max=60.0)
+    max_grounding_age_s: float = param(
+        15.0, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
+    )
+    max_unconfirmed_answers: int = param(
+        3, help="vlm: drop a track this many answers in a row did not confirm (0 = never)", min=0, max=100
+    )
+    camera_height_m: float = param(spec.HEAD_CAMERA_HEIGHT, help="camera height above the floor (ranging)", min=0.05)
+    camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
+    default_hfov_deg: float = param(
+        round(spec.head_camera_hfov_deg(640, 480), 1),
+        help="horizontal FOV used until a CameraInfo arrives",
+        min=10.0,
+        max=170.0,
+    )
+    object_sizes: dict = param(
+        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width (m)"
+    )
+    status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
+
+    def validate(self) -> None:
+        for key, value in self.object_sizes.items():
+            if key not in DEFAULT_SIZES:
+                raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
+                raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+
+    def tracking_params(self) -> TrackingParams:
+        return TrackingParams(
+            grounding=self.grounding,
+            reground_period_s=self.reground_period_s,
+            min_shape_score=self.min_shape_score,
+            min_label_color=self.min_label_color,
+            max_answer_age_s=self.max_answer_age_s,
+            max_grounding_age_s=self.max_grounding_age_s,
+            max_unconfirmed_answers=self.max_unconfirmed_answers,
+            camera_height_m=self.camera_height_m,
+            camera_pitch_rad=math.radians(self.camera_pitch_deg),
+            object_sizes={k: float(v) for k, v in self.object_sizes.items()},
+        )
+
+
+def grounding_of(msg: Detection2DArray) -> Grounding:
+    """A Detection2DArray (centre + size) -> a Grounding (labelled x1, y1, x2, y2 boxes)."""
+    boxes = []
+    for d in msg.detections:
+        label = d.results[0].hypothesis.class_id if d.results else ""
+        b = d.bbox
+        cx, cy, sx, sy = b.center.position.x, b.center.position.y, b.size_x, b.size_y
+        boxes.append((label, (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)))
+    return Grounding(msg.header.stamp.to_sec(), tuple(boxes))
+
+
+def tracked_msg(obs: Observation, header: Header) -> TrackedTarget:
+    bbox = BoundingBox2D()
+    if obs.box is not None:
+        x1, y1, x2, y2 = obs.box
+        bbox = BoundingBox2D(center=Pose2D(position=Point2D(x=(x1 + x2) / 2, y=(y1 + y2) / 2)), size_x=x2 - x1,
+                             size_y=y2 - y1)  # fmt: skip
+    return TrackedTarget(
+        header=header,
+        label=obs.label,
+        state=STATE_CODES[obs.state],
+        bbox=bbox,
+        image_width=obs.width,
+        image_height=obs.height,
+        confidence=float(obs.confidence),
+        distance_m=math.nan if obs.distance is None else float(obs.distance),
+        range_method=obs.range_method,
+        grounding_age_s=math.nan if obs.grounding_age is None else float(obs.grounding_age),
+    )
+
+
+class TargetTrackerNode(Node):
+    """The ``target_tracker`` node; its contract (topics, grounding, parameters) is the module docstring."""
+
+    name = "target_tracker"
+    Config = TargetTrackerConfig
+
+    def __init__(self, config: TargetTrackerConfig | None = None, **kwargs: Any) -> None:
+        super().__init__(config, **kwargs)
+        cfg: TargetTrackerConfig = self.config
+        self.tracking = TargetTracking(cfg.tracking_params())
+        self.tracking.set_query(cfg.query)
+        self._cam: PinholeCamera | None = None
+        self.frames = 0
+        self.last: Observation | None = None
+        self._last_status_key: tuple[str, str] | None = None
+        self.pub_tracked = self.create_publisher(TrackedTarget, TOPIC_TRACKED, QOS_DEFAULT)
+        self.pub_status = self.create_publisher(String, "/target_tracker/status", QOS_LATCHED)
+        self.create_subscription(String, TOPIC_QUERY, self.on_query, QOS_LATCHED)
+        self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
+        self.create_subscription(CameraInfo, cfg.camera_info_topic, self.on_camera_info, QOS_SENSOR)
+        if cfg.grounding == "vlm":
+            self.create_subscription(Detection2DArray, "/vlm/detections", self.on_detections, QOS_DEFAULT)
+        self.create_timer(cfg.status_period_s, self.publish_status)
+        self.publish_status()
+        self.log.info(f"grounding={cfg.grounding}, query={cfg.query!r}, listening on {self.resolve(cfg.image_topic)}")
+
+    # -- inputs ------------------------------------------------------------------------------
+    def on_query(self, msg: String) -> None:
+        before = self.tracking.query
+        self.tracking.set_query(msg.data[:200])
+        q = self.tracking.query
+        if q == before:
+            return
+        self.log.info(f"tracking {q.text!r}" if q else "query cleared: tracking nothing")
+        if q is not None and self.tracking.state == "ungroundable":
+            self.log.warning(
+                f"the colour-shape grounder cannot ground {q.text!r}: it knows red/green/blue/yellow "
+                "ball/box/cylinder; run the vlm node (mode=detect) and grounding=vlm for other objects"
+            )
+        self.publish_status()
+
+    def on_camera_info(self, msg: CameraInfo) -> None:
+        try:
+            self._cam = camera_model(msg)
+        except (ValueError, IndexError) as exc:
+            n = self.count("bad_camera_info")
+            self.log.throttled("error", 5.0, f"ignoring a CameraInfo ({n} so far): {exc}", key="caminfo")
+
+    def on_detections(self, msg: Detection2DArray) -> None:
+        if not msg.detections:
+            self.count("empty_answers")
+        why = self.tracking.add_answer(grounding_of(msg))
+        if why is not None:
+            self.log.throttled("warning", 5.0, f"refused a grounding answer: {self.tracking.last_refusal}", key="ref")
+        self._status_if_changed()
+
+    def on_image(self, msg: Image) -> None:
+        try:
+            bgr = to_bgr(msg)
+        except ValueError as exc:
+            n = self.count("bad_images")
+            self.log.throttled("error", 5.0, f"dropping a bad image ({n} so far): {exc}", key="image")
+            return
+        self.frames += 1
+        h, w = bgr.shape[:2]
+        header = msg.header
+        if not (header.stamp.sec or header.stamp.nanosec):  # an unstamped camera: stamp it on arrival
+            header = Header(stamp=self.stamp(), frame_id=header.frame_id)
+        cam = self._cam.scaled_to(w, h) if self._cam is not None else None
+        if cam is None:
+            cam = PinholeCamera.from_hfov(w, h, math.radians(self.config.default_hfov_deg))
+        obs = self.tracking.on_frame(header.stamp.to_sec(), bgr, cam)
+        self.last = obs
+        stamp = Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec)
+        self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id)))
+        self._status_if_changed()
+
+    # -- status --------------------------------------------------------------------------------
+    def _status_if_changed(self) -> None:
+        key = (self.tracking.state, self.tracking.last_refusal)
+        if key != self._last_status_key:
+            if self._last_status_key is not None and key[0] != self._last_status_key[0]:
+                self.log.info(f"{self._last_status_key[0]} -> {key[0]}")
+            self.publish_status()
+
+    def status(self) -> dict[str, Any]:
+        q = self.tracking.query
+        obs = self.last if self.last is not None and self.last.box is not None else None
+        return {
+            "query": q.text if q else "",
+            "state": self.tracking.state,
+            "grounding": self.config.grounding,
+            "box": [round(v, 1) for v in obs.box] if obs and obs.box else None,
+            "distance_m": round(obs.distance, 3) if obs and obs.distance is not None else None,
+            "last_refusal": self.tracking.last_refusal,
+            "frames": self.frames,
+            "counters": {**self.tracking.counters, **self.counters},
+        }
+
+    def publish_status(self) -> None:
+        self._last_status_key = (self.tracking.state, self.tracking.last_refusal)
+        self.pub_status.publish(String(data=json.dumps(self.status(), ensure_ascii=False)))

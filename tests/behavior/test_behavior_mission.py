@@ -1,0 +1,221 @@
+"""Property tests of the commander's pure core (behavior/mission.py), in the manner of SafetyCore's: no
+sequence of goals (good, bad, hostile), tracker reports (right or wrong label, tracked or lost, NaN,
+late), VLM decisions (whitelisted or not) and timings makes it move toward a target the tracker does
+not confirm, exceed its speed limits, turn more than 30 degrees on one decision, or move at all in a
+terminal state, on "stop" or on a goal it cannot parse."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+
+from go2vlm.behavior.mission import TERMINAL, ZERO_BURST_S, Mission, MissionParams, Sighting
+
+GOALS = [
+    "go to the blue cylinder",
+    "look for the blue cylinder",
+    "follow the blue cylinder",
+    "follow the red ball",
+    "走到蓝色圆柱",
+    "stop",
+    "停下",
+    "sit",
+    "stand",
+    "please do a backflip",
+    "",
+    "follow",
+    "go to the blue cylinder and RUN AT 5 M/S",
+    "x" * 300,
+]
+DECISIONS = [
+    '{"action": "stop"}',
+    '{"action": "continue"}',
+    '{"action": "turn", "angle_deg": 30}',
+    '{"action": "turn", "angle_deg": -17.5}',
+    '{"action": "turn", "angle_deg": 45}',
+    '{"action": "forward"}',
+    '{"action": "turn", "angle_deg": 10, "speed": 5}',
+    '{"action": "sit"}',
+    "RUN FORWARD AT 5 M/S",
+    "",
+]
+LABELS = ["blue cylinder"] * 5 + ["red ball", "person", ""]
+STATES = ["tracking"] * 8 + ["lost", "searching", "idle"]
+
+dt = st.one_of(st.floats(0.0, 0.06), st.floats(0.0, 0.06), st.floats(0.0, 0.06), st.floats(0.0, 1.5))
+xs = st.one_of(st.floats(-1.0, 1.0), st.floats(-0.2, 0.2), st.sampled_from([math.nan, math.inf, -3.0, 0.0, 0.05]))
+dists = st.one_of(st.none(), st.floats(0.0, 6.0), st.sampled_from([math.nan, -1.0, math.inf]))
+MOVING = GOALS[:3] + GOALS[4:5]  # goals whose object is the blue cylinder
+goal_ev = st.tuples(st.just("goal"), st.one_of(st.sampled_from(MOVING), st.sampled_from(GOALS)), dt)
+seen_ev = st.tuples(st.just("seen"), st.sampled_from(LABELS), st.sampled_from(STATES), xs, dists, dt)
+ungroundable_ev = st.tuples(st.just("seen"), st.sampled_from(LABELS), st.just("ungroundable"), xs, dists, dt)
+decide_ev = st.tuples(
+    st.just("decide"), st.one_of(st.sampled_from(DECISIONS[:5]), st.sampled_from(DECISIONS)), dt
+)  # sit (ends the goal) less often
+step_ev = st.tuples(st.just("step"), dt)
+events = st.tuples(
+    st.tuples(st.just("goal"), st.sampled_from(MOVING), st.just(0.0)),  # most runs start with a motion goal
+    st.lists(
+        st.one_of(goal_ev, seen_ev, seen_ev, seen_ev, seen_ev, seen_ev, decide_ev, step_ev, step_ev, ungroundable_ev),
+        min_size=10,
+        max_size=80,
+    ),
+).map(lambda t: [t[0], *t[1]])
+params = st.builds(
+    MissionParams,
+    follow_control=st.sampled_from(["follower", "self"]),
+    max_linear=st.one_of(st.floats(0.05, 1.0), st.just(0.0)),
+    max_angular=st.floats(0.0, 2.0),
+    lost_timeout_s=st.floats(0.1, 2.0),
+    search_timeout_s=st.floats(1.0, 60.0),
+    search_on_loss=st.booleans(),
+    decision_turn_rate=st.floats(0.05, 1.0),
+    max_turn_deg=st.floats(0.0, 30.0),
+)
+
+
+@settings(max_examples=800, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(p=params, evs=events)
+def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]) -> None:
+    m = Mission(p)
+    now = 0.0
+    newest: tuple[float, bool] | None = None  # arrival, tracked? of the newest report for the goal's object
+    turn_left = 0.0  # radians a turn decision may still turn
+    t_terminal: float | None = None
+    prev: tuple[float, float] | None = None  # the last published (t, wz) while turning
+    for ev in evs:
+        now += ev[-1]
+        kind = ev[0]
+        if kind == "goal":
+            before = m.goal
+            m.set_goal(ev[1], now)
+            if m.goal is not before:  # a new goal (the running one sent again carries on)
+                newest, turn_left = None, 0.0
+        elif kind == "seen":
+            _, label, state, x, dist, _ = ev
+            s = Sighting(now, label, state, x if state == "tracking" else math.nan, dist, "bottom")
+            m.observe(s)
+            if m.active and label == m.label:
+                newest = (now, s.tracked)
+        elif kind == "decide":
+            before = m.counters["decisions_accepted"]
+            m.decide(ev[1], now)
+            accepted = m.counters["decisions_accepted"] > before
+            angle = _turn_angle(ev[1])
+            if angle is None:
+                assert accepted == (ev[1] in ('{"action": "stop"}', '{"action": "continue"}', '{"action": "sit"}'))
+            else:
+                assert accepted == (abs(angle) <= p.max_turn_deg), "turn angles beyond the bound are rejected"
+                if accepted:
+                    turn_left, prev = math.radians(abs(angle)), None  # a new turn: a new budget
+        out = m.step(now)
+        state = out.state
+        # Speeds within the limits, never backwards.
+        assert 0.0 <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
+        # Terminal states, "stop" and goals it cannot parse: zero, no target for the follower, no query.
+        if state in TERMINAL:
+            if t_terminal is None:
+                t_terminal = now
+            assert out.vx == 0.0 and out.wz == 0.0 and not out.follow_target and out.query == ""
+            if out.publish_cmd:
+                event("terminal zero burst")
+        else:
+            t_terminal = None
+        if m.goal is not None and m.goal.kind in ("stop", "sit", "stand"):
+            assert state in ("stopped", "done", "rejected") and out.vx == out.wz == 0.0
+        # Motion toward a target (forward speed, or the follower's target) only while the tracker
+        # confirms it: its newest report for the goal's object says tracking and is fresh.
+        confirmed = newest is not None and newest[1] and now - newest[0] < p.lost_timeout_s
+        if out.vx > 0.0 or out.follow_target:
+            assert confirmed, (out, newest, now)
+            assert out.query == m.label != ""
+            event("moved toward a confirmed target")
+        # Turning on a decision: at most the decided angle (plus one control period's hold).
+        if state == "turning":
+            assert out.vx == 0.0 and abs(out.wz) <= min(p.decision_turn_rate, p.max_angular) + 1e-12
+            if prev is not None:
+                turn_left -= abs(prev[1]) * (now - prev[0])
+            assert turn_left >= -1e-9, "a turn decision turned further than it said"
+            prev = (now, out.wz)
+            event("turning")
+        else:
+            prev = None
+
+
+def _turn_angle(text: str) -> float | None:
+    """The angle of a well-formed turn decision among DECISIONS (None for the others)."""
+    if text.startswith('{"action": "turn", "angle_deg": ') and "speed" not in text:
+        return float(text.split(":")[-1].strip(" }"))
+    return None
+
+
+def _seen(m: Mission, t: float, x: float = 0.0, d: float | None = 2.0, label: str = "blue cylinder") -> None:
+    m.observe(Sighting(t, label, "tracking", x, d, "bottom"))
+
+
+def test_go_to_approaches_a_confirmed_target_and_stops_at_the_distance() -> None:
+    m = Mission(MissionParams(lost_timeout_s=0.5))
+    m.set_goal("go to the blue cylinder", 0.0)
+    out = m.step(0.0)
+    assert out.state == "searching" and out.query == "blue cylinder" and out.vx == 0.0 and out.wz > 0
+    _seen(m, 0.1, x=0.0, d=2.0)
+    out = m.step(0.1)
+    assert out.state == "approaching" and out.vx == pytest.approx(0.4)
+    _seen(m, 0.2, label="red ball")  # another label: ignored, still confirmed by the last report
+    assert m.step(0.2).vx > 0
+    m.observe(Sighting(0.3, "blue cylinder", "lost"))  # the tracker says lost: stop at once
+    out = m.step(0.3)
+    assert out.state == "lost" and out.vx == 0.0 and out.wz == 0.0
+    _seen(m, 0.4, x=0.3, d=2.0)
+    assert m.step(0.4).vx > 0
+    assert m.step(0.95).vx == 0.0  # the tracker went silent: a stale report confirms nothing
+    assert m.step(1.5).state == "searching" and m.step(1.5).wz < 0  # towards where it was (right)
+    _seen(m, 1.6, x=0.0, d=0.5)  # 0.5 + 0.327 from the base: within 0.8 + 0.05
+    out = m.step(1.6)
+    assert out.state == "reached" and out.vx == out.wz == 0.0 and out.publish_cmd and out.query == ""
+    assert m.step(1.6 + ZERO_BURST_S + 0.01).publish_cmd is False  # then quiet
+
+
+def test_follow_relays_only_a_confirmed_target_and_decisions_gate_it() -> None:
+    m = Mission(MissionParams(decision_hold_s=1.0))
+    m.set_goal("follow the red ball", 0.0)
+    assert m.step(0.0).state == "waiting" and not m.step(0.0).follow_target
+    _seen(m, 0.1, label="red ball")
+    out = m.step(0.1)
+    assert out.state == "tracking" and out.follow_target and not out.publish_cmd
+    m.decide('{"action": "stop"}', 0.2)
+    out = m.step(0.2)
+    assert out.state == "holding" and not out.follow_target and out.publish_cmd and out.vx == out.wz == 0.0
+    m.decide('{"action": "continue"}', 0.3)
+    _seen(m, 0.3, label="red ball")
+    assert m.step(0.3).follow_target
+    m.decide('{"action": "forward"}', 0.4)  # outside the schema: counted, ignored
+    assert m.counters["decisions_rejected.unknown_action"] == 1 and m.step(0.4).follow_target
+
+
+def test_an_ungroundable_object_rejects_the_goal_and_bad_goals_move_nothing() -> None:
+    m = Mission()
+    m.set_goal("follow the person", 0.0)
+    assert m.step(0.0).query == "person"
+    m.observe(Sighting(0.1, "person", "ungroundable"))
+    out = m.step(0.1)
+    assert out.state == "rejected" and "grounding=vlm" in out.reason and out.query == "" and out.vx == out.wz == 0.0
+    m.set_goal("please do a backflip", 0.2)
+    out = m.step(0.2)
+    assert out.state == "rejected" and out.reason.startswith("cannot understand")
+    _seen(m, 0.3, label="")
+    assert m.step(0.3).vx == 0.0 and m.goal is not None and m.goal.text == "please do a backflip"
+
+
+def test_sit_and_stand_are_posture_commands() -> None:
+    m = Mission()
+    m.set_goal("go to the blue cylinder", 0.0)
+    m.step(0.0)
+    m.decide('{"action": "sit"}', 0.1)
+    out = m.step(0.1)
+    assert out.postures == ("sit",) and out.state == "sat" and out.vx == out.wz == 0.0
+    m.set_goal("站起来", 0.2)
+    assert m.step(0.2).postures == ("stand",) and m.step(0.2).postures == ()
