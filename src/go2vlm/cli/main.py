@@ -17,6 +17,7 @@ COMMANDS = {
     "node": "go2vlm.cli.node",
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
+    "eval": "go2vlm.cli.eval",
     "go2": "go2vlm.cli.go2",
 }
 
