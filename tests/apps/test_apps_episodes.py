@@ -211,7 +211,9 @@ def test_segmentation_boxes_are_the_visible_extent_of_each_body() -> None:
     ids[5, 0] = 2  # a speck of body 2
     geom_body = np.array([1, 1, 2])
     assert segmentation_boxes(ids, geom_body, {1: "box", 2: "ball"}, min_pixels=2) == {"box": (2, 1, 7, 5)}
-    assert segmentation_boxes(ids, geom_body, {1: "box", 2: "ball"}, min_pixels=1)["ball"] == (0, 5, 1, 6)
+    assert segmentation_boxes(ids, geom_body, {1: "box", 2: "ball"}, min_pixels=1, min_side=1)["ball"] == (0, 5, 1, 6)
+    ids[:, 0] = 2  # a sliver one pixel wide at the border: enough pixels, still not a detection
+    assert "ball" not in segmentation_boxes(ids, geom_body, {1: "box", 2: "ball"}, min_pixels=2)
 
 
 def test_confidence_intervals() -> None:

@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         interface=args.interface,
         domain_id=args.domain,
         progress=args.progress,
-        log_level=args.log_level or "warn",
+        log_level=args.log_level or "error",
     )
     stop = ShutdownRequested()
     stop.install()

@@ -106,11 +106,12 @@ def render_segmentation(
 
 
 def segmentation_boxes(
-    geom_ids: np.ndarray, geom_bodyid: np.ndarray, bodies: dict[int, str], min_pixels: int = 16
+    geom_ids: np.ndarray, geom_bodyid: np.ndarray, bodies: dict[int, str], min_pixels: int = 16, min_side: int = 2
 ) -> dict[str, tuple[int, int, int, int]]:
     """Body name -> the pixel box (x1, y1, x2, y2; x2, y2 exclusive) of what the camera sees of it:
     an occluded or border-cut object gets the box of its visible part. Bodies with fewer than
-    `min_pixels` visible pixels are left out (a speck is not a detection)."""
+    `min_pixels` visible pixels, or a box thinner than `min_side`, are left out (a speck or a sliver
+    at the image border is not a detection)."""
     valid = geom_ids >= 0
     body = np.full(geom_ids.shape, -1, dtype=np.int32)
     body[valid] = geom_bodyid[geom_ids[valid]]
@@ -122,5 +123,7 @@ def segmentation_boxes(
         mask = body == b
         rows = np.flatnonzero(mask.any(axis=1))
         cols = np.flatnonzero(mask.any(axis=0))
-        out[bodies[b]] = (int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+        box = (int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+        if box[2] - box[0] >= min_side and box[3] - box[1] >= min_side:
+            out[bodies[b]] = box
     return out

@@ -23,8 +23,9 @@ __all__ = ["ChaseCamera"]
 
 
 class ChaseCamera:
-    """A camera that follows the robot from behind and above, its heading smoothed (a camera that
-    turned with every step of the trot would shake)."""
+    """A camera that follows the robot from behind, above and a little to the side (so that the legs
+    show in three-quarter view), its heading smoothed (a camera that turned with every step of the
+    trot would shake)."""
 
     def __init__(
         self,
@@ -32,8 +33,9 @@ class ChaseCamera:
         spawn: tuple[float, float, float] | None = None,
         width: int = 640,
         height: int = 480,
-        distance_m: float = 3.0,
-        elevation_deg: float = -24.0,
+        distance_m: float = 2.8,
+        elevation_deg: float = -22.0,
+        azimuth_offset_deg: float = -30.0,  # what is ahead shows left of the inset
         heading_tau_s: float = 0.6,
     ) -> None:
         xml, _ = build_world_xml(world, spawn, (width, height))
@@ -53,6 +55,7 @@ class ChaseCamera:
         self._cam.distance = distance_m
         self._cam.elevation = elevation_deg
         self._tau = heading_tau_s
+        self._offset = azimuth_offset_deg
         self._heading: float | None = None
         self._t: float | None = None
 
@@ -90,7 +93,7 @@ class ChaseCamera:
             self._heading += a * math.atan2(math.sin(yaw - self._heading), math.cos(yaw - self._heading))
         self._t = t
         self._cam.lookat[:] = (base_pos[0], base_pos[1], 0.25)
-        self._cam.azimuth = math.degrees(self._heading)
+        self._cam.azimuth = math.degrees(self._heading) + self._offset
         self._renderer.update_scene(d, camera=self._cam, scene_option=self._opt)
         return self._renderer.render()
 

@@ -65,7 +65,7 @@ class EvalOptions:
     params: dict[str, dict[str, Any]] = field(default_factory=dict)
     interface: str = "lo"
     domain_id: int | None = None  # one fixed domain (one worker only)
-    log_level: str = "warn"  # of the nodes in the workers
+    log_level: str = "error"  # of the nodes in the workers (every episode's start and stop would bury the progress)
     progress: bool = True
 
 

@@ -36,7 +36,8 @@ Publishes:
                                                     of the head camera frame with the same stamp, from
                                                     a segmentation render (class_id = the body name,
                                                     score 1.0, the box of the visible part; specks
-                                                    under 16 pixels left out): the perfect detector
+                                                    under 16 pixels or 2 pixels a side left out): the
+                                                    perfect detector
   /sim/status                 std_msgs/String       latched JSON, 2 Hz (wall): sim_time, wall_time, rtf
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
