@@ -5,7 +5,8 @@ and where the CPU goes, thread by thread.
     .venv/bin/python benchmarks/bench_demo.py --duration 30 --no-fast --json out.json
 
 Runs the demo in this process exactly as `go2vlm demo` does (sim + color_detector + follower +
-safety gate + the recorder, video on), on a private DDS domain on loopback. Reports:
+safety gate + the recorder, video on: it is rendered after the run, so it is not in the CPU per sim
+second), on a private DDS domain on loopback. Reports:
 - the achieved real-time factor at target 1.0 (must stay >= 1.0 on the 2-core reference machine),
 - the CPU seconds per thread per sim second (physics, render + Mesa's llvmpipe workers, nodes),
 - with --fast, the highest real-time factor this machine reaches (the headroom).
@@ -26,7 +27,7 @@ from typing import Any
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(20, 220)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 
-from go2vlm.apps.follow_demo import DemoOptions, run_demo  # noqa: E402
+from go2vlm.apps.episodes import Episode, RunOptions, run_episode  # noqa: E402
 
 
 def group(cpu: dict[str, float]) -> dict[str, float]:
@@ -41,8 +42,8 @@ def group(cpu: dict[str, float]) -> dict[str, float]:
             key = "color_detector"
         elif name in ("node:follower", "node:safety"):
             key = "follower + safety gate"
-        elif name in ("node:demo_recorder", "demo:video"):
-            key = "demo recorder + video"
+        elif name == "node:episode_recorder":
+            key = "episode recorder (video: rendered after the run)"
         else:
             key = "other (DDS, main thread, sim executor)"
         out[key] = out.get(key, 0.0) + s
@@ -51,8 +52,8 @@ def group(cpu: dict[str, float]) -> dict[str, float]:
 
 def run(duration: float, fast: bool, video: bool) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
-        opts = DemoOptions(duration=duration, fast=fast, mode="dynamic", out=Path(tmp), video=video, progress=False)
-        m = run_demo(opts).metrics
+        ep = Episode(world="follow_ball", duration_s=duration, mode="dynamic")
+        m = run_episode(ep, RunOptions(fast=fast, out=Path(tmp), video=video, cpu=True)).metrics
     sim_s = max(m["duration_s"], 1e-9)
     groups = group(m["cpu_s_by_thread"])
     return {

@@ -10,7 +10,6 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 GO2VLM = [sys.executable, "-m", "go2vlm"]
@@ -109,58 +108,15 @@ class Recorder:
 
 
 # -- a DDS domain of our own ---------------------------------------------------------------------
-_DOMAIN_LOCK: Any = None  # held for the whole session
-
-
-def _domain_in_use(domain_id: int, wait_s: float = 0.6) -> bool:
-    """True if any participant answers discovery on `domain_id` (on loopback) within `wait_s`."""
-    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
-    from cyclonedds.domain import Domain, DomainParticipant
-
-    from go2vlm.bus.domain import cyclone_config
-
-    dom = Domain(domain_id, cyclone_config("lo"))
-    dp = DomainParticipant(domain_id)
-    reader = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
-    try:
-        deadline = time.monotonic() + wait_s
-        while time.monotonic() < deadline:
-            if any(getattr(s, "key", None) != dp.guid for s in reader.take(N=64) if hasattr(s, "key")):
-                return True
-            time.sleep(0.05)
-        return False
-    finally:
-        for entity in (reader, dp, dom):
-            entity.__del__()
 
 
 def claim_free_domain(lo: int = 1, hi: int = 101) -> int:
-    """A DDS domain in lo..hi that no other test session holds and no participant on this host uses.
-    The claim (an flock on a file per domain) lasts as long as this process."""
-    import fcntl
-    import random
+    """A DDS domain in lo..hi for this test session (bus/domain.py claim_free_domain: no other
+    go2vlm process holds it, no participant on this host speaks on it); GO2VLM_TEST_DOMAIN wins."""
+    from go2vlm.bus.domain import claim_free_domain as claim
 
-    global _DOMAIN_LOCK
     fixed = os.environ.get("GO2VLM_TEST_DOMAIN")
-    if fixed:
-        return int(fixed)
-    lock_dir = Path(os.environ.get("TMPDIR", "/tmp")) / "go2vlm-test-domains"
-    lock_dir.mkdir(parents=True, exist_ok=True)
-    candidates = list(range(lo, hi + 1))
-    random.Random(os.getpid()).shuffle(candidates)
-    for domain_id in candidates:
-        fd = os.open(lock_dir / f"{domain_id}.lock", os.O_CREAT | os.O_RDWR, 0o666)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(fd)
-            continue
-        if _domain_in_use(domain_id):
-            os.close(fd)
-            continue
-        _DOMAIN_LOCK = fd
-        return domain_id
-    raise RuntimeError(f"no free DDS domain in {lo}..{hi} on this host")
+    return int(fixed) if fixed else claim(lo, hi)
 
 
 # -- foreign bytes: what a C++ ROS 2 node would put on the wire ---------------------------------

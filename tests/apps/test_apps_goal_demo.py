@@ -15,7 +15,8 @@ pytest.importorskip("mujoco")
 
 from busutil import wait_for  # noqa: E402
 
-from go2vlm.apps.goal_demo import GoalDemoOptions, run_goal_demo  # noqa: E402
+from go2vlm.apps.episodes import RunOptions, run_episode  # noqa: E402
+from go2vlm.apps.episodes.demo import goal_episode  # noqa: E402
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ShutdownRequested, running  # noqa: E402
 from go2vlm.launch.registry import make_node  # noqa: E402
 from go2vlm.msgs.geometry_msgs import Twist  # noqa: E402
@@ -29,12 +30,13 @@ RTF = 2.0
 
 
 def run(goal: str, **kw) -> dict:
-    opts = GoalDemoOptions(goal=goal, mode="kinematic", rtf=RTF, **kw)
-    return run_goal_demo(opts, shutdown=ShutdownRequested()).metrics
+    """`go2vlm demo --goal` as a function: the episode runner, nothing written."""
+    ep = goal_episode(goal, mode="kinematic", **kw)
+    return run_episode(ep, RunOptions(rtf=RTF, video=False), ShutdownRequested()).metrics
 
 
 def test_go_to_the_blue_cylinder_stops_within_a_metre_without_collision() -> None:
-    m = run("go to the blue cylinder", timeout_s=40.0)
+    m = run("go to the blue cylinder", duration_s=40.0)
     assert m["final_state"] == "reached", m
     assert m["states"][0] == "searching" and "approaching" in m["states"]  # it starts out of view
     assert m["goal_reached"]
@@ -46,7 +48,7 @@ def test_go_to_the_blue_cylinder_stops_within_a_metre_without_collision() -> Non
 
 
 def test_look_for_the_green_box_in_chinese() -> None:
-    m = run("找一下绿色盒子", timeout_s=30.0)
+    m = run("找一下绿色盒子", duration_s=30.0)
     assert m["final_state"] == "found", m
     assert m["goal_reached"] and m["target_in_view_at_end"]
     assert m["robot_distance_travelled_m"] < 0.1  # looking means turning in place
@@ -54,7 +56,7 @@ def test_look_for_the_green_box_in_chinese() -> None:
 
 
 def test_follow_the_moving_red_ball() -> None:
-    m = run("follow the red ball", follow_duration_s=16.0)
+    m = run("follow the red ball", duration_s=16.0)
     assert m["world"] == "follow_ball" and m["target_body"] == "red_ball"
     assert m["tracked_fraction"] >= 0.8, m
     assert m["within_follow_distance_fraction"] >= 0.8, m
@@ -136,7 +138,7 @@ def test_stop_and_unparseable_goals_interrupt_motion_and_sit_stand_are_forwarded
 
 
 def test_look_for_something_absent_gives_up_and_stays_still() -> None:
-    m = run("find the yellow ball", timeout_s=20.0, params={"commander": {"search_timeout_s": 2.0}})
+    m = run("find the yellow ball", duration_s=20.0, params={"commander": {"search_timeout_s": 2.0}})
     assert m["final_state"] == "not_found" and not m["goal_reached"], m
     assert m["states"] == ["searching", "not_found"]
     assert m["final_cmd"] == [0.0, 0.0] and m["robot_distance_travelled_m"] < 0.1

@@ -4,6 +4,9 @@
 - Memory: large frames are allocated and freed at camera rate; glibc would hand each one back to the
   kernel and fault in fresh zeroed pages for the next (2 ms of CPU per 640x480 frame on the
   receiving side). `tune_malloc` keeps them in the heap instead; `GO2VLM_MALLOC_TUNE=0` opts out.
+- A domain of one's own: `claim_free_domain` finds a domain that no other go2vlm process has
+  claimed and no participant on this host speaks on, and holds it while the process lives (test
+  sessions and `go2vlm eval` workers use it so that parallel runs never hear each other).
 - Network interface: `GO2VLM_IFACE` or the `interface` argument (`lo` for a local sim, the robot's
   interface such as `eth0` or `enp3s0` for a real Go2). If neither is given and `CYCLONEDDS_URI` is
   set, Cyclone's own configuration is used unchanged, so the VLM article's setup (its
@@ -13,9 +16,13 @@
 from __future__ import annotations
 
 import os
+import random
 import re
 import socket
+import tempfile
 import threading
+import time
+from pathlib import Path
 
 from cyclonedds.core import DDSException
 from cyclonedds.domain import Domain, DomainParticipant
@@ -138,3 +145,58 @@ def dds_topic_name(ros_topic: str) -> str:
 
 def ros_topic_name(dds_name: str) -> str | None:
     return dds_name[2:] if dds_name.startswith("rt/") else None
+
+
+# -- a domain of one's own -----------------------------------------------------------------------
+_claims: list[int] = []  # lock file descriptors held for the life of the process
+
+
+def domain_in_use(domain_id: int, interface: str = "lo", wait_s: float = 0.6) -> bool:
+    """True if any participant answers discovery on `domain_id` (on `interface`) within `wait_s`
+    (wall seconds: a DDS discovery wait)."""
+    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant
+
+    dom = Domain(domain_id, cyclone_config(interface))
+    dp = DomainParticipant(domain_id)
+    reader = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
+    try:
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline:
+            if any(getattr(s, "key", None) != dp.guid for s in reader.take(N=64) if hasattr(s, "key")):
+                return True
+            time.sleep(0.05)
+        return False
+    finally:
+        for entity in (reader, dp, dom):
+            entity.__del__()  # delete now: a lingering participant would make the domain look busy
+
+
+def domain_lock_dir() -> Path:
+    """Where domain claims live: one lock file per domain, shared by every go2vlm process of this host."""
+    return Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "go2vlm-domains"
+
+
+def claim_free_domain(lo: int, hi: int, interface: str = "lo", seed: int | None = None) -> int:
+    """A DDS domain in lo..hi that no other process holds (an flock on a file per domain) and no
+    participant on this host uses; the claim lasts as long as this process. ParamError if none is free."""
+    import fcntl
+
+    if not 0 <= lo <= hi <= 232:
+        raise ParamError(f"domain range {lo}..{hi} is outside 0..232")
+    lock_dir = domain_lock_dir()
+    lock_dir.mkdir(parents=True, exist_ok=True)
+    candidates = list(range(lo, hi + 1))
+    random.Random(os.getpid() if seed is None else seed).shuffle(candidates)
+    for domain_id in candidates:
+        fd = os.open(lock_dir / f"{domain_id}.lock", os.O_CREAT | os.O_RDWR, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue
+        if domain_in_use(domain_id, interface):
+            os.close(fd)
+            continue
+        _claims.append(fd)
+        return domain_id
+    raise ParamError(f"no free DDS domain in {lo}..{hi} on this host")

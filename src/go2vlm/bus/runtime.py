@@ -11,6 +11,7 @@ import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any
 
 from go2vlm.bus.node import Node
 
@@ -21,20 +22,56 @@ SHUTDOWN_GRACE_S = 4.0
 
 
 class ShutdownRequested:
-    """Set by SIGINT/SIGTERM; wait on it instead of sleeping. A second signal exits at once."""
+    """Set by SIGINT/SIGTERM; wait on it instead of sleeping. A second signal exits at once, except
+    for a program that writes results: inside `hold()` further signals wait for the block (they are
+    noted and ignored until it ends), and after a `hold()` a second signal sets `abort` (skip what is
+    left, e.g. a video) while a third exits at once. `event` may be any Event-like object (a
+    multiprocessing Event shared with worker processes)."""
 
-    def __init__(self) -> None:
-        self.event = threading.Event()
+    def __init__(self, event: Any = None) -> None:
+        self.event = event if event is not None else threading.Event()
         self.signal: int | None = None
+        self.abort = threading.Event()
+        self._held: str | None = None
+        self._graceful = False
+        self._deferred: int | None = None
+
+    @property
+    def exit_code(self) -> int:
+        """128 + the signal that stopped us (130 for SIGINT, 143 for SIGTERM), else 0."""
+        return 128 + self.signal if self.signal else 0
+
+    @contextmanager
+    def hold(self, what: str) -> Iterator[None]:
+        """While `what` is being written, a second signal waits for it (and then sets `abort`)."""
+        self._graceful = True
+        self._held = what
+        try:
+            yield
+        finally:
+            self._held = None
+            if self._deferred is not None:
+                self.abort.set()
+
+    def _on_signal(self, signum: int) -> None:
+        if not self.event.is_set():
+            self.signal = signum
+            self.event.set()
+        elif self._held is not None:
+            if self._deferred is None:
+                print(f"signal {signum}: still writing {self._held}; stopping right after that", file=sys.stderr)
+            self._deferred = signum
+        elif self._graceful and not self.abort.is_set():
+            print(f"signal {signum}: skipping what is left (once more exits at once)", file=sys.stderr)
+            self.abort.set()
+        else:
+            print("second signal: exiting without a clean shutdown; threads were at:", file=sys.stderr)
+            faulthandler.dump_traceback(all_threads=True)
+            os._exit(128 + signum)
 
     def install(self) -> None:
         def handler(signum: int, _frame: FrameType | None) -> None:
-            if self.event.is_set():
-                print("second signal: exiting without a clean shutdown; threads were at:", file=sys.stderr)
-                faulthandler.dump_traceback(all_threads=True)
-                os._exit(128 + signum)
-            self.signal = signum
-            self.event.set()
+            self._on_signal(signum)
 
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, handler)

@@ -1,4 +1,5 @@
-"""`go2vlm demo`: the simulated Go2 follows a red ball; metrics, a plot and a video at the end."""
+"""`go2vlm demo [--goal TEXT]`: one episode of the episode runner (apps/episodes), with a progress
+bar and a summary; metrics.json, series.json, plot.png and video.mp4 in the run folder."""
 
 from __future__ import annotations
 
@@ -18,12 +19,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "the robot fell."
         ),
     )
-    p.add_argument("--duration", type=float, default=60.0, help="sim seconds to run (default 60)")
+    p.add_argument(
+        "--duration", type=float, default=60.0, help="sim seconds to run; with --goal, the timeout (default 60)"
+    )
     speed = p.add_mutually_exclusive_group()
     speed.add_argument("--rtf", type=float, default=1.0, help="target real-time factor (default 1.0)")
     speed.add_argument("--fast", action="store_true", help="run the sim as fast as possible")
     p.add_argument("--mode", default="dynamic", choices=("dynamic", "kinematic"), help="physics mode")
-    p.add_argument("--out", type=Path, default=None, help="output folder (default runs/demo-<timestamp>)")
+    p.add_argument(
+        "--out", type=Path, default=None, help="output folder (default runs/demo-<timestamp>, runs/goal-<timestamp>)"
+    )
     p.add_argument(
         "--robot",
         default="sim",
@@ -66,10 +71,11 @@ def node_params(items: list[str]) -> dict[str, dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.goal:
-        return run_goal_cli(args)
-    args.world = args.world or "follow_ball"
-    from go2vlm.apps.follow_demo import DemoOptions, run_demo, summary
+    from go2vlm.apps.episodes import Episode, RunOptions
+    from go2vlm.apps.episodes.demo import default_out_dir, demo_world, goal_summary, run_with_progress, summary
+    from go2vlm.behavior.goals import GoalParseError, parse_goal
+    from go2vlm.bus import ShutdownRequested
+    from go2vlm.launch.launcher import LaunchError
 
     if args.duration <= 0:
         print("go2vlm demo: --duration must be positive", file=sys.stderr)
@@ -77,63 +83,51 @@ def run(args: argparse.Namespace) -> int:
     if not args.fast and args.rtf <= 0:
         print("go2vlm demo: --rtf must be positive", file=sys.stderr)
         return 2
-    opts = DemoOptions(
-        duration=args.duration,
-        rtf=args.rtf,
-        fast=args.fast,
-        mode=args.mode,
-        out=args.out,
-        robot=args.robot,
-        video=args.video,
-        world=args.world,
-        ball_speed=args.ball_speed,
-        progress=args.progress,
-        interface=args.interface,
-        domain_id=args.domain,
-        params=node_params(args.param),
-    )
+    if args.goal is not None:
+        try:
+            parse_goal(args.goal)
+        except GoalParseError as exc:
+            print(f"go2vlm demo: {exc}", file=sys.stderr)
+            return 2
     try:
-        result = run_demo(opts)
-    except RuntimeError as exc:
-        print(f"go2vlm demo: {exc}", file=sys.stderr)
-        return 3
-    print(summary(result))
-    if result.fell:
-        print("go2vlm demo: FAILED: the robot fell", file=sys.stderr)
-        return 1
-    return 130 if result.metrics.get("interrupted") else 0
-
-
-def run_goal_cli(args: argparse.Namespace) -> int:
-    """`go2vlm demo --goal TEXT`: uses the demo parser's --duration, --rtf/--fast, --mode, --world,
-    --out, --ball-speed, --param, --interface, --domain (a --world of None picks the world from the goal)."""
-    from go2vlm.apps.goal_demo import GoalDemoOptions, goal_summary, run_goal_demo
-    from go2vlm.behavior.goals import GoalParseError, parse_goal
-
-    try:
-        parse_goal(args.goal)
-    except GoalParseError as exc:
+        ep = Episode(
+            world=args.world or demo_world(args.goal),
+            goal=args.goal,
+            mode=args.mode,
+            ball_speed=args.ball_speed,
+            duration_s=args.duration,
+            robot=args.robot,
+            params=node_params(args.param),
+        )
+    except ValueError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)
         return 2
-    opts = GoalDemoOptions(
-        goal=args.goal,
-        world=getattr(args, "world", None),
-        mode=getattr(args, "mode", "kinematic"),
-        rtf=getattr(args, "rtf", 1.0),
-        fast=getattr(args, "fast", False),
-        timeout_s=getattr(args, "duration", None) or 60.0,
-        follow_duration_s=getattr(args, "duration", None) or 30.0,
-        ball_speed=getattr(args, "ball_speed", 0.3),
-        params=node_params(getattr(args, "param", []) or []),
-        out=getattr(args, "out", None),
-        interface=getattr(args, "interface", None),
-        domain_id=getattr(args, "domain", None),
-        progress=getattr(args, "progress", True),
+    opts = RunOptions(
+        rtf=args.rtf,
+        fast=args.fast,
+        out=args.out or default_out_dir(args.goal),
+        video=args.video,
+        interface=args.interface,
+        domain_id=args.domain,
+        cpu=args.goal is None,
     )
+    stop = ShutdownRequested()
+    stop.install()
     try:
-        result = run_goal_demo(opts)
+        result = run_with_progress(ep, opts, stop, progress=args.progress)
+    except LaunchError as exc:
+        print(f"go2vlm demo: {exc}", file=sys.stderr)
+        return 2
     except RuntimeError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)
         return 3
-    print(goal_summary(result))
-    return 0 if result.metrics["goal_reached"] else 1
+    if args.goal is None:
+        print(summary(result), flush=True)
+        if result.metrics["fell"]:
+            print("go2vlm demo: FAILED: the robot fell", file=sys.stderr)
+            return 1
+    else:
+        print(goal_summary(result), flush=True)
+    if result.interrupted:
+        return stop.exit_code or 130
+    return 0 if args.goal is None or result.metrics["goal_reached"] else 1

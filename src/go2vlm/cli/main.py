@@ -18,6 +18,7 @@ COMMANDS = {
     "param": "go2vlm.cli.param",
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
+    "eval": "go2vlm.cli.eval",
     "go2": "go2vlm.cli.go2",
     "record": "go2vlm.cli.record",
     "play": "go2vlm.cli.play",

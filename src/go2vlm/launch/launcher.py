@@ -12,6 +12,9 @@ Launch file: a list of nodes (or a mapping with a `nodes:` list):
 
 There is no start-up ordering and no readiness dependency: topics use late-joiner-safe QoS, so any
 start order works. Children that die are reported, not restarted.
+
+In-process graphs for programs (the episode runner): `load_launch` -> `with_overrides` (parameters
+per node name, e.g. the episode's world and goal) -> `make_nodes` -> start each node.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +37,17 @@ from go2vlm.bus import Node, ShutdownRequested, build_node_config
 from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
 from go2vlm.launch.registry import NODES, make_node, node_class
 
-__all__ = ["LaunchEntry", "LaunchError", "available", "load_launch", "resolve", "run_in_process", "run_processes"]
+__all__ = [
+    "LaunchEntry",
+    "LaunchError",
+    "available",
+    "load_launch",
+    "make_nodes",
+    "resolve",
+    "run_in_process",
+    "run_processes",
+    "with_overrides",
+]
 
 LAUNCH_DIR = Path(__file__).resolve().parent
 
@@ -117,6 +130,35 @@ def load_launch(name: str) -> tuple[Path, list[LaunchEntry]]:
     return path, parse_entries(doc, str(path))
 
 
+def with_overrides(
+    entries: list[LaunchEntry], params: Mapping[str, Mapping[str, Any]], every: Mapping[str, Any] | None = None
+) -> list[LaunchEntry]:
+    """A copy of a graph with `params[name]` merged into the parameters of the node called `name`,
+    then `every` into every node's. A name that is not in the graph is a LaunchError."""
+    names = [e.name for e in entries]
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise LaunchError(f"no node named {', '.join(map(repr, unknown))} in this graph (nodes: {', '.join(names)})")
+    return [
+        LaunchEntry(e.kind, e.name, {**e.params, **params.get(e.name, {}), **(every or {})}, dict(e.remap))
+        for e in entries
+    ]
+
+
+def make_nodes(entries: list[LaunchEntry], **kwargs: Any) -> list[Node]:
+    """The graph's nodes, built in this process in the file's order (not started); `kwargs` go to
+    every node (domain_id, interface). A node that fails to build shuts down the ones built before it."""
+    nodes: list[Node] = []
+    try:
+        for e in entries:
+            nodes.append(make_node(e.kind, params=e.params, node_name=e.name, remap=e.remap, **kwargs))
+    except BaseException:
+        for node in reversed(nodes):
+            node.shutdown()
+        raise
+    return nodes
+
+
 def _say(msg: str) -> None:
     print(f"[launch] {msg}", flush=True)
 
@@ -136,8 +178,7 @@ def run_in_process(entries: list[LaunchEntry], duration_s: float | None = None) 
     stop.install()
     nodes: list[Node] = []
     try:
-        for e in entries:
-            nodes.append(make_node(e.kind, params=e.params, node_name=e.name, remap=e.remap))
+        nodes = make_nodes(entries)
         for node, e in zip(nodes, entries, strict=False):
             node.start()
             _say(f"up: {e.name} ({e.kind})")

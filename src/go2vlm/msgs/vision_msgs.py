@@ -1,6 +1,8 @@
 """vision_msgs/msg (ROS 2 Jazzy, vision_msgs 4.x): Point2D, Pose2D, BoundingBox2D, ObjectHypothesis,
-ObjectHypothesisWithPose, Detection2D, Detection2DArray."""
+ObjectHypothesisWithPose, Detection2D, Detection2DArray; and the one conversion between pixel boxes
+(label, (x1, y1, x2, y2), score) and a Detection2DArray, both ways."""
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from cyclonedds.idl import types
@@ -60,3 +62,38 @@ class Detection2D(IdlStruct, typename="vision_msgs::msg::dds_::Detection2D_"):
 class Detection2DArray(IdlStruct, typename="vision_msgs::msg::dds_::Detection2DArray_"):
     header: Header = default(Header)
     detections: types.sequence[Detection2D] = default(list)
+
+
+PixelBox = tuple[str, tuple[float, float, float, float], float]  # label, (x1, y1, x2, y2), score
+
+
+def detection_array(header: Header, boxes: Iterable[PixelBox]) -> Detection2DArray:
+    """Labelled pixel boxes -> a Detection2DArray: class_id = the label, id = the index, every
+    detection with the array's header (the source image's stamp and frame)."""
+    dets = []
+    for i, (label, (x1, y1, x2, y2), score) in enumerate(boxes):
+        dets.append(
+            Detection2D(
+                header=Header(stamp=header.stamp, frame_id=header.frame_id),
+                results=[ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=label, score=float(score)))],
+                bbox=BoundingBox2D(
+                    center=Pose2D(position=Point2D(x=(x1 + x2) / 2.0, y=(y1 + y2) / 2.0), theta=0.0),
+                    size_x=float(x2 - x1),
+                    size_y=float(y2 - y1),
+                ),
+                id=str(i),
+            )
+        )
+    return Detection2DArray(header=header, detections=dets)
+
+
+def detection_boxes(msg: Detection2DArray) -> list[PixelBox]:
+    """A Detection2DArray -> (label, (x1, y1, x2, y2), score) per detection (its best hypothesis)."""
+    out: list[PixelBox] = []
+    for d in msg.detections:
+        best = max(d.results, key=lambda r: r.hypothesis.score, default=None)
+        label, score = (best.hypothesis.class_id, best.hypothesis.score) if best is not None else ("", 0.0)
+        cx, cy = d.bbox.center.position.x, d.bbox.center.position.y
+        hw, hh = d.bbox.size_x / 2.0, d.bbox.size_y / 2.0
+        out.append((label, (cx - hw, cy - hh, cx + hw, cy + hh), score))
+    return out

@@ -81,15 +81,19 @@ class Label:
         return self.color is not None or self.shape is not None
 
 
+# Shape words the grounder's names stand for (body names in the sim: red_sphere).
+_SHAPE_WORDS = {"sphere": "ball", "cube": "box"}
+
+
 def _words(text: str) -> list[str]:
-    return re.sub(r"[^\w]+", " ", text.lower()).split()
+    return re.sub(r"[\W_]+", " ", text.lower()).split()
 
 
 def parse_label(text: str) -> Label:
-    """ "blue cylinder" -> Label(color="blue", shape="cylinder"); "person" -> free text."""
+    """ "blue cylinder" (or "blue_cylinder") -> Label(color="blue", shape="cylinder"); "person" -> free text."""
     words = _words(text)
     color = next((w for w in words if w in PRESETS), None)
-    shape = next((w for w in words if w in SHAPES), None)
+    shape = next((_SHAPE_WORDS.get(w, w) for w in words if _SHAPE_WORDS.get(w, w) in SHAPES), None)
     return Label(" ".join(text.split()), color, shape)
 
 

@@ -21,7 +21,7 @@ API
 ---
 ``SimConfig`` (sim/config.py; the sim node's parameters are the same fields), main fields::
 
-    world="follow_ball"        # "vision_test" | "follow_ball" | "obstacles" | "empty" | path to .xml
+    world="follow_ball"        # "vision_test" | "follow_ball" | "obstacles" | "distractors" | "empty" | .xml path
     mode="dynamic"             # "dynamic" (torque-controlled trot) | "kinematic" (animated)
     spawn=None                 # (x, y, yaw) or None for the world's default
     start_standing=True        # False: start lying on the belly

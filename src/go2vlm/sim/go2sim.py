@@ -15,7 +15,7 @@ from go2vlm.sim.config import SimConfig
 from go2vlm.sim.controller import JointTrajectory, RobotInput, TrotController
 from go2vlm.sim.gl import RenderingUnavailable, patch_late_import
 from go2vlm.sim.kinematic_gait import KinematicGait
-from go2vlm.sim.render import camera_scene_option
+from go2vlm.sim.render import camera_scene_option, render_segmentation
 from go2vlm.sim.state import Pose, RobotState
 from go2vlm.sim.worlds import build_world_xml
 
@@ -446,16 +446,7 @@ class Go2Sim:
     def render_head_segmentation(self, width: int | None = None, height: int | None = None) -> np.ndarray:
         """(H, W) int32 geom ids seen by the head camera (-1: background)."""
         w, h = width or self.config.camera_width, height or self.config.camera_height
-        r = self._renderer(w, h)
-        r.enable_segmentation_rendering()
-        try:
-            r.update_scene(self.data, camera=self._head_cam, scene_option=self._head_opt)
-            seg = r.render().copy()
-        finally:
-            r.disable_segmentation_rendering()
-        ids = seg[:, :, 0].astype(np.int32)
-        ids[seg[:, :, 1] != int(mujoco.mjtObj.mjOBJ_GEOM)] = -1
-        return ids
+        return render_segmentation(self._renderer(w, h), self.data, self._head_cam, self._head_opt)
 
     def robot_geom_ids(self) -> np.ndarray:
         return np.flatnonzero(np.isin(self.model.geom_bodyid, sorted(self._robot_bodies)))

@@ -13,7 +13,14 @@ from typing import Generic, TypeVar
 import mujoco
 import numpy as np
 
-__all__ = ["NewestOnly", "camera_scene_option", "pose_mirror"]
+__all__ = [
+    "NewestOnly",
+    "camera_scene_option",
+    "labelled_bodies",
+    "pose_mirror",
+    "render_segmentation",
+    "segmentation_boxes",
+]
 
 T = TypeVar("T")
 
@@ -69,3 +76,54 @@ def pose_mirror(
     data.mocap_quat[:] = mocap_quat
     mujoco.mj_kinematics(model, data)
     mujoco.mj_camlight(model, data)
+
+
+def labelled_bodies(model: mujoco.MjModel) -> dict[int, str]:
+    """Body id -> name of every named body that is neither the world nor part of the robot: the
+    objects a detector may be asked about (their names are the ground-truth labels)."""
+    robot_root = model.body("base").id
+    out: dict[int, str] = {}
+    for b in range(1, model.nbody):
+        name = model.body(b).name
+        if name and model.body_rootid[b] != robot_root:
+            out[b] = name
+    return out
+
+
+def render_segmentation(
+    renderer: mujoco.Renderer, data: mujoco.MjData, camera: int | mujoco.MjvCamera, scene_option: mujoco.MjvOption
+) -> np.ndarray:
+    """(H, W) int32 geom ids seen by `camera` (-1: background or not a geom)."""
+    renderer.enable_segmentation_rendering()
+    try:
+        renderer.update_scene(data, camera=camera, scene_option=scene_option)
+        seg = renderer.render()
+    finally:
+        renderer.disable_segmentation_rendering()
+    ids = seg[:, :, 0].astype(np.int32)
+    ids[seg[:, :, 1] != int(mujoco.mjtObj.mjOBJ_GEOM)] = -1
+    return ids
+
+
+def segmentation_boxes(
+    geom_ids: np.ndarray, geom_bodyid: np.ndarray, bodies: dict[int, str], min_pixels: int = 16, min_side: int = 2
+) -> dict[str, tuple[int, int, int, int]]:
+    """Body name -> the pixel box (x1, y1, x2, y2; x2, y2 exclusive) of what the camera sees of it:
+    an occluded or border-cut object gets the box of its visible part. Bodies with fewer than
+    `min_pixels` visible pixels, or a box thinner than `min_side`, are left out (a speck or a sliver
+    at the image border is not a detection)."""
+    valid = geom_ids >= 0
+    body = np.full(geom_ids.shape, -1, dtype=np.int32)
+    body[valid] = geom_bodyid[geom_ids[valid]]
+    out: dict[str, tuple[int, int, int, int]] = {}
+    present, counts = np.unique(body[body >= 0], return_counts=True)
+    for b, n in zip(present.tolist(), counts.tolist(), strict=True):
+        if b not in bodies or n < min_pixels:
+            continue
+        mask = body == b
+        rows = np.flatnonzero(mask.any(axis=1))
+        cols = np.flatnonzero(mask.any(axis=0))
+        box = (int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+        if box[2] - box[0] >= min_side and box[3] - box[1] >= min_side:
+            out[bodies[b]] = box
+    return out

@@ -13,9 +13,12 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
+from go2vlm.geometry.footprint import Footprint
 from go2vlm.sim import go2_model
+from go2vlm.sim.render import labelled_bodies
 
 WORLDS_DIR = Path(__file__).with_name("worlds")
 
@@ -119,3 +122,31 @@ def gazebo_rpy_to_xyaxes(roll: float, pitch: float, yaw: float) -> np.ndarray:
     rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
     r = rz @ ry @ rx
     return np.concatenate([-r[:, 1], r[:, 2]])
+
+
+def world_footprints(model: mujoco.MjModel) -> dict[str, Footprint]:
+    """Floor footprints of the named world bodies at their initial poses (spheres, cylinders and
+    capsules as circles, boxes as oriented rectangles; the first geom of a body counts). A moving
+    body (the mocap ball) takes its pose from ground truth at run time (`Footprint.moved`)."""
+    circles = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE)
+    bodies = labelled_bodies(model)
+    out: dict[str, Footprint] = {}
+    for g in range(model.ngeom):
+        b = int(model.geom_bodyid[g])
+        name = bodies.get(b)
+        if name is None or name in out:
+            continue
+        t, size = int(model.geom_type[g]), model.geom_size[g]
+        pos, q = model.body_pos[b], model.body_quat[b]
+        yaw = math.atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2))
+        if t in circles:
+            out[name] = Footprint("circle", float(pos[0]), float(pos[1]), r=float(size[0]))
+        elif t == mujoco.mjtGeom.mjGEOM_BOX:
+            out[name] = Footprint("rect", float(pos[0]), float(pos[1]), yaw, hx=float(size[0]), hy=float(size[1]))
+    return out
+
+
+def world_model(name: str, spawn: tuple[float, float, float] | None = None) -> tuple[mujoco.MjModel, WorldInfo]:
+    """The compiled MuJoCo model of a world with the Go2 in it (for geometry; nothing is stepped)."""
+    xml, info = build_world_xml(name, spawn)
+    return mujoco.MjModel.from_xml_string(xml), info

@@ -56,15 +56,7 @@ from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.msgs.vision_msgs import (
-    BoundingBox2D,
-    Detection2D,
-    Detection2DArray,
-    ObjectHypothesis,
-    ObjectHypothesisWithPose,
-    Point2D,
-)
-from go2vlm.msgs.vision_msgs import Pose2D as VPose2D
+from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array
 from go2vlm.perception.vlm.backend import (
     Backend,
     BackendError,
@@ -168,27 +160,8 @@ def image_to_rgb(msg: Image) -> np.ndarray:
 
 def detections_msg(boxes: list[Box], header: Header) -> Detection2DArray:
     """Boxes (original pixels) -> Detection2DArray with the source image's header."""
-    dets = []
-    for i, b in enumerate(boxes):
-        x1, y1, x2, y2 = b.box
-        dets.append(
-            Detection2D(
-                header=Header(stamp=Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec), frame_id=header.frame_id),
-                results=[
-                    ObjectHypothesisWithPose(
-                        # VLM grounding has no calibrated confidence: 1.0 means "reported", unless it gave one
-                        hypothesis=ObjectHypothesis(class_id=b.label, score=1.0 if b.score is None else b.score)
-                    )
-                ],
-                bbox=BoundingBox2D(
-                    center=VPose2D(position=Point2D(x=(x1 + x2) / 2.0, y=(y1 + y2) / 2.0), theta=0.0),
-                    size_x=x2 - x1,
-                    size_y=y2 - y1,
-                ),
-                id=str(i),
-            )
-        )
-    return Detection2DArray(header=header, detections=dets)
+    # VLM grounding has no calibrated confidence: 1.0 means "reported", unless it gave one
+    return detection_array(header, ((b.label, b.box, 1.0 if b.score is None else b.score) for b in boxes))
 
 
 class VlmNode(Node):

@@ -32,6 +32,12 @@ Publishes:
                                                     100 Hz of sim time): the clock of nodes with use_sim_time
   /sim/ground_truth           tf2_msgs/TFMessage    world -> gt/go2 (the base) and world -> gt/<body> for
                                                     every named world body (gt/red_ball, ...)
+  /sim/detections             vision_msgs/Detection2DArray  only with `detections`: ground-truth boxes
+                                                    of the head camera frame with the same stamp, from
+                                                    a segmentation render (class_id = the body name,
+                                                    score 1.0, the box of the visible part; specks
+                                                    under 16 pixels or 2 pixels a side left out): the
+                                                    perfect detector
   /sim/status                 std_msgs/String       latched JSON, 2 Hz (wall): sim_time, wall_time, rtf
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
@@ -85,9 +91,17 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array
 from go2vlm.robots.go2 import spec
 from go2vlm.sim import Go2Sim, SimConfig
-from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
+from go2vlm.sim.render import (
+    NewestOnly,
+    camera_scene_option,
+    labelled_bodies,
+    pose_mirror,
+    render_segmentation,
+    segmentation_boxes,
+)
 
 # A real-time run that falls behind by less than this catches up (briefly faster than real time),
 # so that a short stall (another process, a GC pause) does not lower the real-time factor for good.
@@ -120,6 +134,7 @@ class SimNodeConfig(SimConfig):
     cmd_timeout_s: float = param(
         0.5, help="zero the velocity after this long without /cmd_vel (sim s with use_sim_time)", min=0.05, max=10.0
     )
+    detections: bool = param(False, help="publish ground-truth boxes of each head frame on /sim/detections")
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
 
@@ -199,6 +214,7 @@ class _Renderer:
         try:
             data = mujoco.MjData(self.model)
             head_opt = camera_scene_option(hide_robot=True)
+            bodies = labelled_bodies(self.model)
             world_opt = camera_scene_option(hide_robot=False)
             head_r = world_r = None
             if cfg.camera:
@@ -233,6 +249,10 @@ class _Renderer:
                 if snap.head and head_r is not None:
                     head_r.update_scene(data, camera=self._head_cam, scene_option=head_opt)
                     self.node._publish_frame("head", head_r.render(), snap.stamp)
+                    if cfg.detections:  # same pose, same camera: the boxes of exactly that frame
+                        ids = render_segmentation(head_r, data, self._head_cam, head_opt)
+                        boxes = segmentation_boxes(ids, self.model.geom_bodyid, bodies)
+                        self.node._publish_detections(boxes, snap.stamp)
                 if snap.world and world_r is not None:
                     world_r.update_scene(data, camera=self._world_cam, scene_option=world_opt)
                     self.node._publish_frame("world", world_r.render(), snap.stamp)
@@ -298,6 +318,8 @@ class SimNode(Node):
         self.pub_clock = self.create_publisher(Clock, "/clock", QOS_DEFAULT)
         self.pub_gt = self.create_publisher(TFMessage, "/sim/ground_truth", QOS_DEFAULT)
         self.pub_status = self.create_publisher(String, "/sim/status", QOS_LATCHED)
+        if cfg.detections:
+            self.pub_dets = self.create_publisher(Detection2DArray, "/sim/detections", QOS_DEFAULT)
 
         self._renderer = _Renderer(self, self.sim.model)
         self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
@@ -602,6 +624,11 @@ class SimNode(Node):
         img_pub.publish(numpy_to_image(rgb, "rgb8", header))
         info.header = header
         info_pub.publish(info)
+
+    def _publish_detections(self, boxes: dict[str, tuple[int, int, int, int]], stamp: float) -> None:
+        """Called on the render thread."""
+        header = Header(stamp=self.stamp(stamp), frame_id=spec.CAMERA_FRAME)
+        self.pub_dets.publish(detection_array(header, ((name, box, 1.0) for name, box in sorted(boxes.items()))))
 
     def _publish_static_tf(self) -> None:
         m, d = self.sim.model, self.sim.data

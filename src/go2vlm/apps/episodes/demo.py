@@ -1,0 +1,133 @@
+"""`go2vlm demo` and `go2vlm demo --goal TEXT`: one episode each, with a progress bar and a summary.
+
+    go2vlm demo                                   the follow article's loop: the Go2 follows the red ball
+    go2vlm demo --goal "go to the blue cylinder"  a language goal through the commander
+
+Both are thin users of the episode runner (runner.py): the same graph files, recorder, metrics and
+run folder as `go2vlm eval`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from go2vlm.apps.episodes.episode import Episode
+from go2vlm.apps.episodes.runner import EpisodeResult, RunOptions, run_episode
+from go2vlm.bus import ShutdownRequested
+
+__all__ = ["default_out_dir", "demo_world", "goal_episode", "goal_summary", "run_with_progress", "summary"]
+
+
+def demo_world(goal: str | None) -> str:
+    """follow_ball for the follow loop and for following a ball, else vision_test (the VLM article's world)."""
+    if goal is None:
+        return "follow_ball"
+    from go2vlm.behavior.goals import GoalParseError, parse_goal
+
+    try:
+        g = parse_goal(goal)
+    except GoalParseError:
+        return "vision_test"
+    if g.kind == "follow" and g.target is not None and g.target.shape in (None, "ball"):
+        return "follow_ball"
+    return "vision_test"
+
+
+def default_out_dir(goal: str | None) -> Path:
+    return Path("runs") / time.strftime(f"{'demo' if goal is None else 'goal'}-%Y%m%d-%H%M%S")
+
+
+def run_with_progress(ep: Episode, opts: RunOptions, stop: ShutdownRequested, progress: bool = True) -> EpisodeResult:
+    """`run_episode` with a progress bar in sim seconds on a terminal (a line every 10 s otherwise)."""
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(
+            total=ep.duration_s,
+            unit="sim s",
+            desc="demo",
+            file=sys.stderr,
+            bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.0f} sim s [{elapsed}<{remaining}{postfix}]",
+            disable=None,  # no bar when stderr is not a terminal
+        )
+    next_line = [time.monotonic() + 10.0]  # wall time: how often a line goes to a log
+
+    def tick(t: float, rec: Any, sim: Any) -> None:
+        rtf = getattr(sim, "rtf", 0.0)
+        state = rec.latest_state() if ep.goal is not None else None
+        if bar is not None and not bar.disable:
+            bar.n = min(t, ep.duration_s)
+            bar.set_postfix_str(f"rtf {rtf:.2f}{f' {state}' if state else ''}{' FELL' if rec.fell else ''}")
+        elif progress and time.monotonic() >= next_line[0]:
+            next_line[0] += 10.0
+            more = f", state {state}" if state else ""
+            print(f"demo: sim time {t:.1f}/{ep.duration_s:g} s, real-time factor {rtf:.2f}{more}", file=sys.stderr)
+
+    try:
+        return run_episode(ep, opts, stop, tick)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _fmt(v: Any, unit: str = "") -> str:
+    return "n/a" if v is None else (f"{v:.2f}{unit}" if isinstance(v, float) else f"{v}{unit}")
+
+
+def summary(result: EpisodeResult) -> str:
+    """The follow loop's summary (`go2vlm demo`)."""
+    m = result.metrics
+    pct = 100 * m["target_visible_fraction"]
+    lines = [
+        f"go2vlm demo: {m['duration_s']:.1f} s of sim time in {m['wall_s']:.1f} s "
+        f"(real-time factor {m['real_time_factor']:.2f}, {m['mode']} physics, robot={m['robot']})",
+        f"  ball in view:      {pct:.1f} % of {m['frames']} camera frames",
+        f"  mean |x| error:    {_fmt(m['mean_abs_x_error'])} (normalised, 0 = centred)",
+        f"  distance to ball:  mean {_fmt(m['mean_distance_to_ball_m'], ' m')}, "
+        f"min {_fmt(m['min_distance_to_ball_m'], ' m')}, max {_fmt(m['max_distance_to_ball_m'], ' m')}",
+        f"  /cmd_vel rate:     {m['cmd_rate_hz']:.1f} Hz",
+        f"  fell:              {'YES' if m['fell'] else 'no'}",
+        f"  wrote:             {', '.join(result.files.values())}",
+    ]
+    if m.get("interrupted"):
+        lines.insert(1, "  (interrupted: partial run)")
+    return "\n".join(lines)
+
+
+def goal_summary(result: EpisodeResult) -> str:
+    """A language goal's summary (`go2vlm demo --goal`)."""
+    m = result.metrics
+    ep = result.episode
+    lines = [
+        f"go2vlm demo --goal {m['goal']!r}: {'REACHED' if m['goal_reached'] else 'NOT reached'} "
+        f"({m['kind']}, world {m['world']}, {m['mode']} physics, {_fmt(m['sim_s'], ' s')} sim in "
+        f"{_fmt(m['wall_s'], ' s')})",
+        f"  final state:     {m['final_state']} ({m['final_reason']})",
+        f"  states:          {' -> '.join(map(str, m['states']))}",
+        f"  target body:     {m['target_body']}",
+        f"  time to goal:    {_fmt(m['time_to_goal_s'], ' s')}",
+        f"  final distance:  {_fmt(m['final_distance_m'], ' m')} (base centre -> object surface)",
+        f"  collisions:      {m['collisions']} (min clearance {_fmt(m['min_clearance_m'], ' m')})",
+    ]
+    if m["kind"] == "follow":
+        lines.append(
+            f"  follow:          tracked {100 * m['tracked_fraction']:.0f} %, "
+            f"within {ep.follow_success_m} m {100 * m['within_follow_distance_fraction']:.0f} %, "
+            f"mean distance {_fmt(m['mean_distance_m'], ' m')}"
+        )
+    if m["kind"] == "go_to":
+        lines.append(f"  SPL:             {_fmt(m['spl'])} (path {_fmt(m['path_length_m'], ' m')})")
+    if m.get("interrupted"):
+        lines.insert(1, "  (interrupted: partial run)")
+    if result.files:
+        lines.append(f"  wrote:           {', '.join(result.files.values())}")
+    return "\n".join(lines)
+
+
+def goal_episode(goal: str, world: str | None = None, **kw: Any) -> Episode:
+    """The episode `go2vlm demo --goal` runs: the world picked from the goal unless given."""
+    return Episode(world=world or demo_world(goal), goal=goal, **kw)

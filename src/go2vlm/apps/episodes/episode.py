@@ -1,0 +1,161 @@
+"""What an episode is: a world and a spawn pose, a task, a perception variant, and the node graph
+that runs it (a launch YAML read through the launcher, with the episode's values as overrides).
+
+Tasks: a language goal for the `commander` ("go to the blue cylinder", "look for the green box",
+"follow the red ball", ...), or `goal=None`: the follow article's loop (colour detector + follower),
+which is `go2vlm demo`.
+
+Perception variants (goal episodes): which grounding feeds the tracker, and nothing else changes:
+  oracle  the sim's ground-truth boxes of each head frame (/sim/detections, from a segmentation
+          render): the upper bound of any detector
+  color   the classical colour-shape grounder (perception/grounding.py), no weights
+  vlm     the `vlm` node (mode=detect; a local model or an OpenAI-compatible server)
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from go2vlm.behavior.goals import GoalParseError, Target, parse_goal, parse_target
+
+__all__ = [
+    "PERCEPTIONS",
+    "Episode",
+    "graph_name",
+    "label_matches",
+    "node_overrides",
+    "target_body",
+    "task_kind",
+]
+
+PERCEPTIONS = ("oracle", "color", "vlm")
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One run of the robot in the sim. Everything that decides its outcome is here, so that the same
+    Episode runs the same scenario again (up to how late the nodes answer in sim time)."""
+
+    world: str
+    goal: str | None = None  # None: the follow article's loop (colour detector + follower)
+    perception: str = "color"  # oracle | color | vlm (goal episodes)
+    spawn: tuple[float, float, float] | None = None  # x, y, yaw; None: the world's own
+    seed: int = 0  # the sim's seed (initial joint noise, when the sim's init_noise > 0)
+    mode: str = "kinematic"  # sim physics: kinematic | dynamic
+    ball_speed: float = 0.3  # m/s, worlds with a moving ball
+    duration_s: float = 60.0  # sim seconds: how long a follow runs; the timeout of other goals
+    settle_s: float = 1.0  # sim seconds kept running after a goal ends (it must stay put)
+    robot: str = "sim"  # sim | go2 (the follow loop through the Unitree protocol and the go2 driver)
+    camera_width: int = 640
+    camera_height: int = 480
+    camera_rate_hz: float = 10.0
+    success_distance_m: float = 1.0  # go to: within this of the object's surface
+    follow_success_m: float = 2.5  # follow: within this of the ball's surface
+    params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node name -> more parameters
+    id: str = ""  # a name in a suite (e.g. goals/007)
+
+    def __post_init__(self) -> None:
+        if self.perception not in PERCEPTIONS:
+            raise ValueError(f"perception {self.perception!r} is not one of {', '.join(PERCEPTIONS)}")
+        if self.goal is None and self.perception != "color":
+            raise ValueError("the follow article's loop has its own colour detector: perception must be color")
+        if self.mode not in ("kinematic", "dynamic"):
+            raise ValueError(f"mode {self.mode!r} is not kinematic or dynamic")
+        if self.robot not in ("sim", "go2"):
+            raise ValueError(f"robot {self.robot!r} is not sim or go2")
+        if self.robot == "go2" and self.goal is not None:
+            raise ValueError("--robot go2 runs the follow article's loop only (no goal)")
+        if self.duration_s <= 0:
+            raise ValueError(f"duration must be positive, got {self.duration_s:g}")
+
+    @property
+    def kind(self) -> str:
+        """follow | go_to | look_for | stop | sit | stand | invalid."""
+        return "follow" if self.goal is None else task_kind(self.goal)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["spawn"] = list(self.spawn) if self.spawn is not None else None
+        return d
+
+    @staticmethod
+    def from_dict(d: dict[str, Any]) -> Episode:
+        d = dict(d)
+        if d.get("spawn") is not None:
+            d["spawn"] = tuple(float(v) for v in d["spawn"])
+        return Episode(**d)
+
+
+def task_kind(goal: str) -> str:
+    try:
+        return parse_goal(goal).kind
+    except GoalParseError:
+        return "invalid"
+
+
+def graph_name(ep: Episode) -> str:
+    """The packaged launch graph that runs this episode."""
+    if ep.goal is None:
+        return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
+    return f"episode_{ep.perception}"
+
+
+def goal_target(goal: str | None) -> Target | None:
+    if goal is None:
+        return parse_target("red ball")  # the follow article's loop follows the red ball
+    try:
+        return parse_goal(goal).target
+    except GoalParseError:
+        return None
+
+
+def label_matches(target: Target, label: str) -> bool:
+    """True when a detection or body label names the target (colour and shape agree where the
+    target names them; "red_sphere" and "red ball" are the same thing)."""
+    try:
+        t = parse_target(label.replace("_", " "))
+    except GoalParseError:
+        return False
+    if target.color is None and target.shape is None:
+        return t.label == target.label
+    return (target.color is None or t.color == target.color) and (target.shape is None or t.shape == target.shape)
+
+
+def target_body(goal: str | None, names: list[str]) -> str | None:
+    """The world body the goal's object names (red_sphere for "the red ball", ...), if exactly one
+    body fits best: an exact colour-and-shape match wins over a partial one."""
+    target = goal_target(goal)
+    if target is None:
+        return None
+    fits = sorted(n for n in names if label_matches(target, n))
+    return fits[0] if fits else None
+
+
+def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, Any]]:
+    """Parameters per node name that make the graph run this episode (the user's own `params` last)."""
+    sim: dict[str, Any] = {
+        "world": ep.world,
+        "mode": ep.mode,
+        "rtf": rtf,
+        "fast": fast,
+        "ball_speed": ep.ball_speed,
+        "camera_width": ep.camera_width,
+        "camera_height": ep.camera_height,
+        "camera_rate_hz": ep.camera_rate_hz,
+        "seed": ep.seed,
+        "world_camera": False,  # nobody looks at it here: save the render time
+    }
+    if ep.spawn is not None:
+        sim["spawn"] = list(ep.spawn)
+    out: dict[str, dict[str, Any]] = {"sim": sim}
+    if ep.robot == "go2":
+        from go2vlm.robots.go2 import spec
+
+        hfov = spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height)
+        out["go2"] = {"camera_rate_hz": ep.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
+    if ep.goal is not None:
+        out["commander"] = {"goal": ep.goal}
+    for name, values in ep.params.items():
+        out.setdefault(name, {}).update(values)
+    return out

@@ -1,0 +1,398 @@
+"""`go2vlm eval`: a suite of seeded episodes for one perception variant, in worker processes, into an
+eval folder that grows by whole results and can be resumed.
+
+    DIR/results.jsonl    one line per finished episode: its metrics, the episode and the exact
+                         configuration of its run (suite file text, variant, model, seeds, git commit,
+                         versions, machine); appended and synced line by line
+    DIR/runs/RUN.json    that configuration, once per run
+    DIR/summary.json, DIR/report.md, DIR/*.png   rewritten from results.jsonl at the end (report.py)
+    DIR/episodes/ID/     with --video: each episode's run folder (metrics.json, plot.png, video.mp4)
+
+A run is (suite file, variant, model, server, seed, speed, node parameters): its id is a hash of them.
+Several runs share a folder (oracle, color and vlm side by side); the report compares them. An
+interrupted run goes on with --resume: finished episodes are kept and skipped, the unfinished one is
+run again from its start.
+
+Workers: every worker is a process with its own DDS domain (bus/domain.py claim_free_domain), so
+episodes in parallel never hear each other; each runs its episodes one after the other, every node
+in the worker process. A vlm variant's workers all ask the one server at --base-url.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides
+from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
+from go2vlm.apps.episodes.suites import Suite, load_suite
+from go2vlm.bus import ShutdownRequested
+
+__all__ = ["EvalError", "EvalOptions", "EvalOutcome", "run_eval"]
+
+EVAL_DOMAINS = (102, 232)  # claimed per worker; test sessions claim 1..101, a robot speaks on 0
+
+
+class EvalError(ValueError):
+    """An eval that cannot start as asked (a usage or configuration error)."""
+
+
+@dataclass
+class EvalOptions:
+    suite: str
+    perception: str
+    out: Path
+    model: str | None = None
+    base_url: str | None = None
+    episodes: int | None = None  # None: the suite's
+    seed: int | None = None  # None: the suite's
+    workers: int = 1
+    resume: bool = False
+    fast: bool = False
+    rtf: float = 1.0
+    mode: str | None = None  # None: the suite's
+    video: bool = False
+    params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    interface: str = "lo"
+    domain_id: int | None = None  # one fixed domain (one worker only)
+    log_level: str = "error"  # of the nodes in the workers (every episode's start and stop would bury the progress)
+    progress: bool = True
+
+
+@dataclass
+class EvalOutcome:
+    run_id: str
+    total: int
+    done_before: int
+    done: int
+    interrupted: bool
+    errors: list[str]
+    summary: dict[str, Any]
+    wall_s: float
+
+    @property
+    def group(self) -> dict[str, Any] | None:
+        """This run's row of the summary (its suite, variant and model)."""
+        return next((g for g in self.summary["groups"] if g.get("run_ids") and self.run_id in g["run_ids"]), None)
+
+
+# -- the exact configuration ---------------------------------------------------------------------
+
+
+def _git() -> dict[str, Any]:
+    src = Path(__file__).resolve().parent
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=src, capture_output=True, text=True, timeout=10
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=src,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return {}
+    return {"commit": commit or None, "dirty": bool(dirty)} if commit else {}
+
+
+def _versions() -> dict[str, str | None]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out: dict[str, str | None] = {"python": platform.python_version()}
+    for pkg in ("go2vlm", "mujoco", "cyclonedds", "numpy", "opencv-python-headless", "torch", "transformers"):
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            out[pkg] = None
+    return out
+
+
+def _machine() -> dict[str, Any]:
+    cpu = None
+    mem_gb = None
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                mem_gb = round(int(line.split()[1]) / 2**20, 1)
+    except OSError:
+        pass
+    return {
+        "host": platform.node(),
+        "platform": platform.platform(),
+        "cpu": cpu or platform.processor(),
+        "cores": os.cpu_count(),
+        "memory_gb": mem_gb,
+        "mujoco_gl": os.environ.get("MUJOCO_GL"),
+    }
+
+
+def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """What decides a run's results, hashed into its id, plus where and with what it ran."""
+    decides = {
+        "suite": suite.name,
+        "suite_sha256": suite.sha256,
+        "perception": opts.perception,
+        "model": opts.model,
+        "base_url": opts.base_url,
+        "seed": seed,
+        "fast": opts.fast,
+        "rtf": None if opts.fast else opts.rtf,
+        "mode": opts.mode,
+        "params": params,
+    }
+    digest = hashlib.sha256(json.dumps(decides, sort_keys=True).encode()).hexdigest()[:10]
+    return {
+        "run_id": f"{suite.name}-{opts.perception}-{digest}",
+        **decides,
+        "suite_file": str(suite.path),
+        "suite_text": suite.text,
+        "git": _git(),
+        "versions": _versions(),
+        "machine": _machine(),
+    }
+
+
+# -- worker processes ----------------------------------------------------------------------------
+
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_init(stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str) -> None:
+    # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
+    # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    os.environ["GO2VLM_IFACE"] = interface
+    from go2vlm.bus import Logger
+    from go2vlm.bus.domain import claim_free_domain
+
+    Logger.set_level(log_level)  # the nodes' start-up chatter of every episode would bury the progress
+    _WORKER["stop"] = stop_event
+    _WORKER["domain"] = domain_id if domain_id is not None else claim_free_domain(lo, hi, interface)
+    _WORKER["interface"] = interface
+
+
+def _worker_run(index: int, episode: dict[str, Any], run: dict[str, Any]) -> dict[str, Any]:
+    from go2vlm.apps.episodes.runner import RunOptions, run_episode
+
+    ep = Episode.from_dict(episode)
+    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] else None
+    opts = RunOptions(
+        rtf=run["rtf"],
+        fast=run["fast"],
+        out=out,
+        video=run["video"],
+        plot=run["video"],
+        interface=_WORKER["interface"],
+        domain_id=_WORKER["domain"],
+    )
+    started = time.time()
+    result = run_episode(ep, opts, ShutdownRequested(event=_WORKER["stop"]))
+    metrics = {k: v for k, v in result.metrics.items() if k != "options"}
+    return {
+        "index": index,
+        "metrics": metrics,
+        "interrupted": result.interrupted,
+        "started_at": started,
+        "finished_at": time.time(),
+        "worker": {"pid": os.getpid(), "domain": _WORKER["domain"]},
+    }
+
+
+# -- the run -------------------------------------------------------------------------------------
+
+
+def _episodes(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict[str, Any]]) -> list[Episode]:
+    n = suite.episodes if opts.episodes is None else opts.episodes
+    out = []
+    for k in range(n):
+        ep = suite.episode(k, opts.perception, seed)
+        merged = {name: dict(p) for name, p in ep.params.items()}
+        for name, p in params.items():
+            merged.setdefault(name, {}).update(p)
+        values = ep.to_dict()
+        values.update(params=merged)
+        if opts.mode is not None:
+            values["mode"] = opts.mode
+        out.append(Episode.from_dict(values))
+    return out
+
+
+def _check(episodes: list[Episode], opts: EvalOptions) -> None:
+    """Every graph builds with its parameters (a typo fails here, before any worker starts)."""
+    from go2vlm.launch.launcher import check_entries, load_launch, with_overrides
+
+    seen: set[tuple[str, str]] = set()
+    for ep in episodes:
+        key = (graph_name(ep), json.dumps(ep.params, sort_keys=True))
+        if key in seen:
+            continue
+        seen.add(key)
+        _, entries = load_launch(graph_name(ep))
+        check_entries(with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True}))
+
+
+def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
+    params = {name: dict(p) for name, p in opts.params.items()}
+    if opts.perception == "vlm":
+        if not opts.model:
+            raise EvalError("--perception vlm needs --model (a checkpoint dir, a hub id, or the served model's name)")
+        vlm = {"model": opts.model, "backend": "openai" if opts.base_url else "transformers"}
+        if opts.base_url:
+            vlm["base_url"] = opts.base_url
+        params["vlm"] = {**vlm, **params.get("vlm", {})}
+    elif opts.model or opts.base_url:
+        raise EvalError(f"--model and --base-url are for --perception vlm, not {opts.perception}")
+    return params
+
+
+def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
+    """Run the suite's episodes that the folder does not hold yet; rewrite the report."""
+    from go2vlm.apps.episodes.report import write_report
+
+    if opts.workers < 1:
+        raise EvalError("--workers must be at least 1")
+    if opts.domain_id is not None and opts.workers > 1:
+        raise EvalError("--domain gives every worker the same domain: use it with --workers 1 only")
+    suite = load_suite(opts.suite)
+    seed = suite.seed if opts.seed is None else opts.seed
+    params = _vlm_params(opts)
+    episodes = _episodes(suite, opts, seed, params)
+    _check(episodes, opts)
+    config = run_config(suite, opts, seed, params)
+    run_id = config["run_id"]
+    out = Path(opts.out)
+    (out / "runs").mkdir(parents=True, exist_ok=True)
+    results = out / "results.jsonl"
+    lines = read_jsonl(results)
+    mine = {line["index"] for line in lines if line.get("config", {}).get("run_id") == run_id}
+    clash = {
+        line["config"]["run_id"]
+        for line in lines
+        if line["config"]["run_id"] != run_id
+        and (line["config"]["suite"], line["config"]["perception"], line["config"].get("model"), line["config"]["seed"])
+        == (suite.name, opts.perception, opts.model, seed)
+    }
+    if clash:
+        raise EvalError(
+            f"{out} holds results of {suite.name}/{opts.perception} seed {seed} made with another configuration "
+            f"(run {', '.join(sorted(clash))}: another suite file, speed or parameters); use another --out"
+        )
+    if mine and not opts.resume:
+        raise EvalError(f"{out} already holds {len(mine)} episode(s) of run {run_id}; --resume finishes it")
+    write_json(out / "runs" / f"{run_id}.json", config)
+    todo = [(k, ep) for k, ep in enumerate(episodes) if k not in mine]
+    session = time.strftime("%Y%m%dT%H%M%S")
+    session_t0 = time.time()  # wall time: the session's throughput
+    run = {
+        "rtf": opts.rtf,
+        "fast": opts.fast,
+        "video": opts.video,
+        "episodes_dir": str(out / "episodes"),
+    }
+    errors: list[str] = []
+    done = 0
+    interrupted = False
+    bar = _bar(opts, len(episodes), len(mine), suite.name)
+    wins = sum(bool(line["metrics"]["success"]) for line in lines if line["config"]["run_id"] == run_id)
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no DDS or GL state inherited
+    stop_ev = ctx.Event()
+    with stop.hold("the results"):
+        if todo and not stop.event.is_set():
+            with ProcessPoolExecutor(
+                max_workers=min(opts.workers, len(todo)),
+                mp_context=ctx,
+                initializer=_worker_init,
+                initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level),
+            ) as pool:
+                futs: dict[Future[dict[str, Any]], Episode] = {
+                    pool.submit(_worker_run, k, ep.to_dict(), run): ep for k, ep in todo
+                }
+                pending = set(futs)
+                while pending:
+                    finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                    if (stop.event.is_set() or errors) and not stop_ev.is_set():
+                        stop_ev.set()  # running episodes end now; queued ones never start
+                        for f in pending:
+                            f.cancel()
+                    for f in finished:
+                        if f.cancelled():
+                            continue
+                        ep = futs[f]
+                        exc = f.exception()
+                        if exc is not None:
+                            errors.append(f"{ep.id}: {type(exc).__name__}: {exc}")
+                            continue
+                        r = f.result()
+                        if r["interrupted"]:
+                            interrupted = True
+                            continue
+                        line = {
+                            "config": config,
+                            "index": r["index"],
+                            "episode": ep.to_dict(),
+                            "metrics": r["metrics"],
+                            "session": session,
+                            "session_started_at": session_t0,
+                            "started_at": r["started_at"],
+                            "finished_at": r["finished_at"],
+                            "worker": r["worker"],
+                            "workers": opts.workers,
+                        }
+                        append_jsonl(results, line)
+                        done += 1
+                        wins += bool(r["metrics"]["success"])
+                        _tick(bar, opts, ep, r, len(mine) + done, len(episodes), wins)
+        interrupted = interrupted or stop.event.is_set()
+        if bar is not None:
+            bar.close()
+        summary = write_report(out)
+    return EvalOutcome(run_id, len(episodes), len(mine), done, interrupted, errors, summary, time.time() - session_t0)
+
+
+def _bar(opts: EvalOptions, total: int, initial: int, name: str) -> Any:
+    if not opts.progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total,
+        initial=initial,
+        unit="episode",
+        desc=f"eval {name}/{opts.perception}",
+        file=sys.stderr,
+        disable=None,  # a line per episode instead when stderr is not a terminal
+        smoothing=0.1,
+    )
+
+
+def _tick(bar: Any, opts: EvalOptions, ep: Episode, r: dict[str, Any], n: int, total: int, wins: int) -> None:
+    m = r["metrics"]
+    if bar is not None and not bar.disable:
+        bar.update(1)
+        bar.set_postfix_str(f"success {wins}/{n}")
+    elif opts.progress:
+        verdict = "success" if m["success"] else "FAIL"
+        print(
+            f"eval: {n}/{total} {ep.id} {ep.goal!r}: {verdict} ({m['sim_s']:.1f} s sim, {m['wall_s']:.1f} s wall)",
+            file=sys.stderr,
+            flush=True,
+        )

@@ -1,0 +1,218 @@
+"""The one recorder of every episode: a node that listens like any other and keeps what the metrics,
+the plot and the video need. It runs on sim time, so every time it keeps is sim time (stamps, and
+the sim time at which a message arrived).
+
+Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
+/detected_target, /commander/status, /camera/camera_info, /sim/detections, /vlm/detections,
+/vlm/status and, for the video, /camera/image_raw (kept as small JPEGs).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node
+from go2vlm.msgs.geometry_msgs import PointStamped, Twist
+from go2vlm.msgs.image import image_to_numpy
+from go2vlm.msgs.rosgraph_msgs import Clock
+from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
+from go2vlm.msgs.std_msgs import String
+from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.vision_msgs import Detection2DArray, PixelBox, detection_boxes
+
+__all__ = ["THUMB_WIDTH", "EpisodeRecorder", "Recording"]
+
+THUMB_WIDTH = 320  # head frames are kept at this width for the video's inset (JPEG, ~15 kB each)
+
+Pose7 = tuple[float, float, float, float, float, float, float]  # x, y, z, qw, qx, qy, qz
+
+
+@dataclass
+class Recording:
+    """What the recorder heard, copied out at the end of an episode (plain data, no DDS)."""
+
+    sim_time: float = -1.0  # the newest /clock
+    status: list[dict[str, Any]] = field(default_factory=list)  # /sim/status of this run
+    fell: bool = False
+    poses: list[tuple[float, dict[str, Pose7]]] = field(default_factory=list)  # stamp, body -> pose
+    joints: list[tuple[float, list[float]]] = field(default_factory=list)  # stamp, 12 joint angles
+    cmds: list[tuple[float, float, float, float]] = field(default_factory=list)  # sim t, vx, vy, wz (/cmd_vel)
+    behavior: list[tuple[float, float, float]] = field(default_factory=list)  # sim t, vx, wz
+    targets: list[tuple[float, float, float, float]] = field(default_factory=list)  # stamp, x, y, z
+    commander: list[tuple[float, dict[str, Any]]] = field(default_factory=list)  # sim t, /commander/status
+    frames: list[float] = field(default_factory=list)  # camera_info stamps: one per head frame
+    thumbs: dict[float, bytes] = field(default_factory=dict)  # frame stamp -> JPEG (RGB order encoded)
+    truth: dict[float, list[PixelBox]] = field(default_factory=dict)  # /sim/detections by frame stamp
+    answers: list[tuple[float, float, list[PixelBox]]] = field(default_factory=list)  # sim t, stamp, boxes
+    vlm_status: list[dict[str, Any]] = field(default_factory=list)
+
+
+class EpisodeRecorder(Node):
+    """Listens to the whole graph; `snapshot()` copies what it heard."""
+
+    name = "episode_recorder"
+
+    def __init__(self, config: Any = None, *, video: bool = True, **kwargs: Any) -> None:
+        kwargs.setdefault("use_sim_time", True)
+        super().__init__(config, **kwargs)
+        # Latched /sim/status may still hold a previous run's sample (another episode in this
+        # process): its wall_time tells.
+        self.wall_start = time.time()  # wall time: /sim/status carries the wall time it was sent at
+        self.lock = threading.Lock()
+        self.rec = Recording()
+        self.create_subscription(Clock, "/clock", self._on_clock, QOS_DEFAULT)
+        self.create_subscription(String, "/sim/status", self._on_sim_status, QOS_LATCHED)
+        self.create_subscription(TFMessage, "/sim/ground_truth", self._on_gt, QOS_DEFAULT)
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd, QOS_DEFAULT)
+        self.create_subscription(Twist, "/behavior/cmd_vel", self._on_behavior, QOS_DEFAULT)
+        self.create_subscription(PointStamped, "/detected_target", self._on_target, QOS_DEFAULT)
+        self.create_subscription(String, "/commander/status", self._on_commander, QOS_LATCHED)
+        self.create_subscription(CameraInfo, "/camera/camera_info", self._on_info, QOS_DEFAULT)
+        self.create_subscription(Detection2DArray, "/sim/detections", self._on_truth, QOS_DEFAULT)
+        self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
+        self.create_subscription(String, "/vlm/status", self._on_vlm_status, QOS_DEFAULT)
+        if video:
+            self.create_subscription(JointState, "/joint_states", self._on_joints, QOS_DEFAULT)
+            self.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_SENSOR)
+
+    @property
+    def sim_time(self) -> float:
+        return self.rec.sim_time
+
+    @property
+    def fell(self) -> bool:
+        return self.rec.fell
+
+    def snapshot(self) -> Recording:
+        with self.lock:
+            r = self.rec
+            return Recording(
+                r.sim_time,
+                list(r.status),
+                r.fell,
+                list(r.poses),
+                list(r.joints),
+                list(r.cmds),
+                list(r.behavior),
+                list(r.targets),
+                list(r.commander),
+                list(r.frames),
+                dict(r.thumbs),
+                dict(r.truth),
+                list(r.answers),
+                list(r.vlm_status),
+            )
+
+    def latest_state(self) -> str | None:
+        with self.lock:
+            return self.rec.commander[-1][1].get("state") if self.rec.commander else None
+
+    def last_status(self) -> dict[str, Any]:
+        with self.lock:
+            return dict(self.rec.status[-1]) if self.rec.status else {}
+
+    def frame_count(self) -> int:
+        with self.lock:
+            return len(self.rec.frames)
+
+    # -- callbacks (the recorder's own thread) -------------------------------------------------
+    def _json(self, msg: String) -> dict[str, Any] | None:
+        try:
+            d = json.loads(msg.data)
+        except ValueError:
+            self.count("bad_status")
+            return None
+        return d if isinstance(d, dict) else None
+
+    def _on_clock(self, msg: Clock) -> None:
+        self.rec.sim_time = msg.clock.to_sec()
+
+    def _on_sim_status(self, msg: String) -> None:
+        st = self._json(msg)
+        if st is None or float(st.get("wall_time", 0.0)) < self.wall_start:
+            return
+        with self.lock:
+            self.rec.status.append(st)
+            self.rec.fell = self.rec.fell or bool(st.get("fell"))
+
+    def _on_gt(self, msg: TFMessage) -> None:
+        if not msg.transforms:
+            return
+        poses: dict[str, Pose7] = {}
+        for tf in msg.transforms:
+            t, q = tf.transform.translation, tf.transform.rotation
+            poses[tf.child_frame_id.removeprefix("gt/")] = (t.x, t.y, t.z, q.w, q.x, q.y, q.z)
+        with self.lock:
+            self.rec.poses.append((msg.transforms[0].header.stamp.to_sec(), poses))
+
+    def _on_joints(self, msg: JointState) -> None:
+        with self.lock:
+            self.rec.joints.append((msg.header.stamp.to_sec(), list(msg.position)))
+
+    def _on_cmd(self, msg: Twist) -> None:
+        with self.lock:
+            self.rec.cmds.append((self.now(), msg.linear.x, msg.linear.y, msg.angular.z))
+
+    def _on_behavior(self, msg: Twist) -> None:
+        with self.lock:
+            self.rec.behavior.append((self.now(), msg.linear.x, msg.angular.z))
+
+    def _on_target(self, msg: PointStamped) -> None:
+        p = msg.point
+        if not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
+            self.count("bad_targets")
+            return
+        with self.lock:
+            self.rec.targets.append((msg.header.stamp.to_sec(), p.x, p.y, p.z))
+
+    def _on_commander(self, msg: String) -> None:
+        st = self._json(msg)
+        if st is not None:
+            with self.lock:
+                self.rec.commander.append((self.now(), st))
+
+    def _on_info(self, msg: CameraInfo) -> None:
+        with self.lock:
+            self.rec.frames.append(msg.header.stamp.to_sec())
+
+    def _on_truth(self, msg: Detection2DArray) -> None:
+        with self.lock:
+            self.rec.truth[msg.header.stamp.to_sec()] = detection_boxes(msg)
+
+    def _on_answer(self, msg: Detection2DArray) -> None:
+        with self.lock:
+            self.rec.answers.append((self.now(), msg.header.stamp.to_sec(), detection_boxes(msg)))
+
+    def _on_vlm_status(self, msg: String) -> None:
+        st = self._json(msg)
+        if st is not None:
+            with self.lock:
+                self.rec.vlm_status.append(st)
+
+    def _on_image(self, msg: Image) -> None:
+        import cv2
+
+        try:
+            arr = image_to_numpy(msg)
+        except ValueError as exc:
+            self.count("bad_images")
+            self.log.throttled("error", 2.0, f"video: {exc}")
+            return
+        h, w = arr.shape[:2]
+        size = (THUMB_WIDTH, max(2, round(h * THUMB_WIDTH / w / 2) * 2))
+        small = cv2.resize(arr, size, interpolation=cv2.INTER_AREA)
+        if small.ndim == 2:
+            small = cv2.cvtColor(small, cv2.COLOR_GRAY2BGR)
+        elif small.shape[2] == 4:
+            small = small[:, :, :3]
+        if msg.encoding not in ("bgr8", "8UC3"):  # rgb8 (the sim's): JPEG wants BGR order
+            small = cv2.cvtColor(small, cv2.COLOR_RGB2BGR)
+        ok, jpg = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, 85])
+        if ok:
+            with self.lock:
+                self.rec.thumbs[msg.header.stamp.to_sec()] = jpg.tobytes()

@@ -1,0 +1,205 @@
+"""Suites: YAML files of tasks that expand into seeded episodes.
+
+A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
+obstacles) or a path to a file of your own (copy a packaged one and edit it):
+
+    name: goals
+    description: go to and look for each object of the VLM article's world from seeded random spawns
+    episodes: 24            # default of --episodes
+    seed: 0                 # default of --seed
+    defaults:               # any field of Episode (episode.py) for every task
+      mode: kinematic
+      duration_s: 40        # follow: how long; other goals: the timeout (sim seconds)
+    tasks:                  # episode k runs tasks[k % len(tasks)]
+      - world: vision_test
+        goals: [go to the red ball, look for the green box]   # one task per goal
+        spawn:              # the world's own spawn when left out
+          x: [-4, 4]        # a range: uniform; a number: fixed
+          y: [-4, 4]
+          yaw: [-3.14159, 3.14159]
+          min_clearance_m: 0.5       # robot footprint <-> every object (default 0.4)
+          min_goal_distance_m: 1.5   # base centre <-> the goal object's surface (default 1.3)
+        ball_speed: {choice: [0.2, 0.4]}   # any numeric field: a number, [lo, hi] or {choice: [...]}
+        params: {commander: {search_timeout_s: 20}}   # node name -> parameters
+
+Reproducible: episode k draws from numpy's generator seeded with (seed, k) and nothing else, so an
+episode is the same whatever --episodes, --workers or the order they run in.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from go2vlm.apps.episodes.episode import Episode, task_kind
+
+__all__ = ["SUITES_DIR", "Suite", "SuiteError", "available_suites", "load_suite"]
+
+SUITES_DIR = Path(__file__).resolve().parent / "suites"
+_SUITE_KEYS = {"name", "description", "episodes", "seed", "defaults", "tasks"}
+_TASK_ONLY = {"goals", "spawn"}
+_SPAWN_KEYS = {"x", "y", "yaw", "min_clearance_m", "min_goal_distance_m"}
+_EPISODE_FIELDS = {f.name for f in fields(Episode)} - {"id", "perception", "spawn", "seed"}
+_MAX_TRIES = 2000
+
+
+class SuiteError(ValueError):
+    """A suite file that cannot be found or read, or a task in it that is wrong."""
+
+
+@dataclass
+class Suite:
+    name: str
+    path: Path
+    text: str  # the file as it was read: stored with every result
+    description: str
+    episodes: int
+    seed: int
+    tasks: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def sha256(self) -> str:
+        return hashlib.sha256(self.text.encode()).hexdigest()
+
+    def episode(self, k: int, perception: str, seed: int | None = None) -> Episode:
+        """Episode k (0-based) of this suite for a perception variant, drawn from (seed, k)."""
+        s = self.seed if seed is None else seed
+        task = self.tasks[k % len(self.tasks)]
+        rng = np.random.default_rng([s, k])
+        values: dict[str, Any] = {}
+        for key, v in task.items():
+            if key in _TASK_ONLY or key == "params":
+                continue
+            values[key] = _draw(v, rng, key)
+        spawn = _spawn(task, rng, k) if task.get("spawn") is not None else None
+        return Episode(
+            **values,
+            spawn=spawn,
+            perception=perception,
+            seed=(s * 1_000_003 + k) % 2**31,
+            params={n: dict(p) for n, p in (task.get("params") or {}).items()},
+            id=f"{self.name}/{k:03d}",
+        )
+
+
+def available_suites() -> list[str]:
+    return sorted(p.stem for p in SUITES_DIR.glob("*.yaml"))
+
+
+def _draw(v: Any, rng: np.random.Generator, key: str) -> Any:
+    if isinstance(v, dict):
+        if set(v) != {"choice"} or not isinstance(v["choice"], list) or not v["choice"]:
+            raise SuiteError(f"{key}: expected a value, [lo, hi] or {{choice: [...]}}, got {v!r}")
+        return v["choice"][int(rng.integers(len(v["choice"])))]
+    if isinstance(v, list) and key not in ("goals",):
+        if len(v) != 2 or not all(isinstance(x, (int, float)) for x in v):
+            raise SuiteError(f"{key}: a range is [lo, hi], got {v!r}")
+        return float(rng.uniform(v[0], v[1]))
+    return v
+
+
+def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[float, float, float]:
+    """A spawn pose in the task's region, clear of every object and not already at the goal."""
+    from go2vlm.apps.episodes.episode import target_body
+    from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
+    from go2vlm.robots.go2 import spec
+
+    sp = task["spawn"]
+    shapes = _shapes(task["world"])
+    goal = task.get("goal")
+    target = shapes.get(target_body(goal, list(shapes)) or "") if goal and task_kind(goal) != "follow" else None
+    min_clear = float(sp.get("min_clearance_m", 0.4))
+    min_goal = float(sp.get("min_goal_distance_m", 1.3))
+    for _ in range(_MAX_TRIES):
+        x, y, yaw = (float(_draw(sp.get(a, 0.0), rng, f"spawn.{a}")) for a in ("x", "y", "yaw"))
+        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        if any(clearance(robot, s) < min_clear for s in shapes.values()):
+            continue
+        if target is not None and surface_distance(x, y, target) < min_goal:
+            continue
+        return round(x, 3), round(y, 3), round(math.atan2(math.sin(yaw), math.cos(yaw)), 3)
+    raise SuiteError(
+        f"task {k % 1000}: no spawn in its region clears the objects by {min_clear} m ({_MAX_TRIES} tries)"
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _shapes(world: str) -> dict[str, Any]:
+    from go2vlm.sim.worlds import world_footprints, world_model
+
+    return world_footprints(world_model(world)[0])
+
+
+def load_suite(name: str) -> Suite:
+    """A packaged suite by name, or a suite file by path; SuiteError with the reason otherwise."""
+    p = Path(name).expanduser()
+    if not p.is_file():
+        p = SUITES_DIR / f"{name}.yaml"
+        if "/" in name or not p.is_file():
+            raise SuiteError(f"suite {name!r} not found (no such file; packaged: {', '.join(available_suites())})")
+    text = p.read_text(encoding="utf-8")
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise SuiteError(f"{p}: not valid YAML: {exc}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("tasks"), list) or not doc["tasks"]:
+        raise SuiteError(f"{p}: expected a mapping with a non-empty `tasks:` list")
+    unknown = set(doc) - _SUITE_KEYS
+    if unknown:
+        raise SuiteError(f"{p}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(_SUITE_KEYS))}")
+    defaults = doc.get("defaults") or {}
+    if not isinstance(defaults, dict):
+        raise SuiteError(f"{p}: defaults must be a mapping")
+    tasks: list[dict[str, Any]] = []
+    for i, raw in enumerate(doc["tasks"]):
+        where = f"{p}: task #{i}"
+        if not isinstance(raw, dict):
+            raise SuiteError(f"{where}: expected a mapping, got {raw!r}")
+        task = {**defaults, **raw}
+        bad = set(task) - _EPISODE_FIELDS - _TASK_ONLY
+        if bad:
+            raise SuiteError(f"{where}: unknown key(s) {sorted(bad)}")
+        if "world" not in task:
+            raise SuiteError(f"{where}: needs a world")
+        if not isinstance(task.get("spawn", {}) or {}, dict) or set(task.get("spawn") or {}) - _SPAWN_KEYS:
+            raise SuiteError(f"{where}: spawn takes {', '.join(sorted(_SPAWN_KEYS))}")
+        goals = task.pop("goals", None)
+        for goal in goals if goals is not None else [task.get("goal")]:
+            t = {**task, "goal": goal}
+            _check_task(t, where)
+            tasks.append(t)
+    suite = Suite(
+        name=str(doc.get("name") or p.stem),
+        path=p,
+        text=text,
+        description=str(doc.get("description") or ""),
+        episodes=int(doc.get("episodes") or len(tasks)),
+        seed=int(doc.get("seed") or 0),
+        tasks=tasks,
+    )
+    return suite
+
+
+def _check_task(task: dict[str, Any], where: str) -> None:
+    from go2vlm.sim.worlds import world_path
+
+    try:
+        world_path(task["world"])
+    except ValueError as exc:
+        raise SuiteError(f"{where}: {exc}") from None
+    goal = task.get("goal")
+    if goal is not None and task_kind(goal) == "invalid":
+        raise SuiteError(f"{where}: cannot understand the goal {goal!r}")
+    try:  # every drawn value must make a valid Episode: try the first draw
+        rng = np.random.default_rng(0)
+        vals = {k: _draw(v, rng, k) for k, v in task.items() if k not in _TASK_ONLY and k != "params"}
+        Episode(**vals)
+    except (TypeError, ValueError) as exc:
+        raise SuiteError(f"{where}: {exc}") from None

@@ -1,0 +1,146 @@
+"""`go2vlm eval`: a suite of seeded episodes for one perception variant; results a user can compare."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from go2vlm.cli.demo import node_params
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "eval",
+        help="run a suite of seeded sim episodes and report success, SPL and grounding with confidence intervals",
+        description=(
+            "Run the episodes of a suite (packaged: smoke, goals, follow, distractors, obstacles; or a path to a "
+            "suite YAML) with one perception variant (oracle: the sim's ground-truth boxes; color: the colour-shape "
+            "grounder; vlm: a vision-language model, local or OpenAI-compatible) and write results.jsonl (one line "
+            "per episode, with its exact configuration), summary.json, report.md and plots to --out. Several "
+            "variants can share one --out; the report compares them. Ctrl-C keeps every finished episode; "
+            "--resume finishes the run. See docs/eval.md."
+        ),
+    )
+    p.add_argument("--suite", default=None, help="suite name or YAML path (see --list)")
+    p.add_argument("--perception", choices=("oracle", "color", "vlm"), default=None, help="the perception variant")
+    p.add_argument("--model", default=None, help="vlm: checkpoint dir, hub id, or the served model's name")
+    p.add_argument("--base-url", default=None, help="vlm: an OpenAI-compatible server, e.g. http://gpu-box:8000/v1")
+    p.add_argument("--episodes", type=int, default=None, help="how many episodes (default: the suite's)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the spawns and draws (default: the suite's)")
+    p.add_argument("--workers", type=int, default=1, help="episodes in parallel, one process and DDS domain each")
+    p.add_argument("--out", type=Path, default=None, help="the eval folder (results.jsonl, summary.json, report.md)")
+    p.add_argument("--resume", action="store_true", help="finish an interrupted run in --out, skipping done episodes")
+    speed = p.add_mutually_exclusive_group()
+    speed.add_argument("--rtf", type=float, default=1.0, help="target real-time factor (default 1.0)")
+    speed.add_argument("--fast", action="store_true", help="as fast as the host allows (fine for oracle/color)")
+    p.add_argument("--mode", choices=("kinematic", "dynamic"), default=None, help="sim physics (default: the suite's)")
+    p.add_argument("--video", action="store_true", help="also write each episode's run folder with video.mp4")
+    p.add_argument(
+        "--param",
+        "-p",
+        action="append",
+        default=[],
+        metavar="NODE.NAME=VALUE",
+        help="a node parameter for every episode",
+    )
+    p.add_argument("--interface", default="lo", help="network interface of the workers' DDS (default lo)")
+    p.add_argument("--domain", type=int, default=None, help="a fixed DDS domain (--workers 1); default: a free one")
+    p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    p.add_argument("--list", action="store_true", help="list the packaged suites and exit")
+    p.add_argument("--report", action="store_true", help="only rewrite summary.json and report.md of --out")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from go2vlm.apps.episodes.evaluate import EvalError, EvalOptions, run_eval
+    from go2vlm.apps.episodes.suites import SuiteError, available_suites, load_suite
+    from go2vlm.bus import ShutdownRequested
+    from go2vlm.launch.launcher import LaunchError
+
+    if args.list:
+        for name in available_suites():
+            s = load_suite(name)
+            print(f"{name:12s} {s.episodes:3d} episodes  {s.description}")
+        return 0
+    if args.out is None:
+        print("go2vlm eval: give --out DIR (the eval folder)", file=sys.stderr)
+        return 2
+    if args.report:
+        from go2vlm.apps.episodes.report import write_report
+
+        if not (args.out / "results.jsonl").is_file():
+            print(f"go2vlm eval: {args.out} has no results.jsonl", file=sys.stderr)
+            return 2
+        write_report(args.out)
+        print(f"wrote {args.out / 'summary.json'} and {args.out / 'report.md'}")
+        return 0
+    if not args.suite or not args.perception:
+        print(
+            "go2vlm eval: give --suite NAME and --perception {oracle,color,vlm} (--list shows the suites)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.episodes is not None and args.episodes < 1:
+        print("go2vlm eval: --episodes must be at least 1", file=sys.stderr)
+        return 2
+    if not args.fast and args.rtf <= 0:
+        print("go2vlm eval: --rtf must be positive", file=sys.stderr)
+        return 2
+    opts = EvalOptions(
+        suite=args.suite,
+        perception=args.perception,
+        out=args.out,
+        model=args.model,
+        base_url=args.base_url,
+        episodes=args.episodes,
+        seed=args.seed,
+        workers=args.workers,
+        resume=args.resume,
+        fast=args.fast,
+        rtf=args.rtf,
+        mode=args.mode,
+        video=args.video,
+        params=node_params(args.param),
+        interface=args.interface,
+        domain_id=args.domain,
+        progress=args.progress,
+        log_level=args.log_level or "error",
+    )
+    stop = ShutdownRequested()
+    stop.install()
+    try:
+        outcome = run_eval(opts, stop)
+    except (EvalError, SuiteError, LaunchError) as exc:
+        print(f"go2vlm eval: {exc}", file=sys.stderr)
+        return 2
+    except RuntimeError as exc:
+        print(f"go2vlm eval: {exc}", file=sys.stderr)
+        return 1
+    group = next(
+        (
+            g
+            for g in outcome.summary["groups"]
+            if (g["suite"], g["perception"]) == (outcome.run_id.split("-")[0], args.perception)
+        ),
+        None,
+    )
+    rate = 3600 * outcome.done / outcome.wall_s if outcome.wall_s > 0 else 0.0
+    print(
+        f"go2vlm eval: run {outcome.run_id}: {outcome.done_before + outcome.done}/{outcome.total} episodes "
+        f"({outcome.done} now, {rate:.0f} per hour with {args.workers} worker(s))"
+    )
+    if group is not None:
+        ci = group["success_rate_ci95"] or [0, 0]
+        spl = "" if group["spl_mean"] is None else f", SPL {group['spl_mean']:.3f}"
+        print(
+            f"  success {group['success']}/{group['episodes']} = {100 * group['success_rate']:.1f} % "
+            f"[95 % CI {100 * ci[0]:.1f}, {100 * ci[1]:.1f}]{spl}"
+        )
+    print(f"  wrote {args.out / 'results.jsonl'}, {args.out / 'summary.json'}, {args.out / 'report.md'}")
+    for err in outcome.errors:
+        print(f"go2vlm eval: episode failed: {err}", file=sys.stderr)
+    if outcome.interrupted:
+        print("go2vlm eval: interrupted; `--resume` with the same options finishes the run", file=sys.stderr)
+        return stop.exit_code or 130
+    return 1 if outcome.errors else 0
