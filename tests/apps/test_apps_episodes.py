@@ -105,10 +105,12 @@ def test_episode_graphs_and_overrides() -> None:
         assert by["sim"].params["spawn"] == [1, 2, 0.5] and by["sim"].params["rtf"] == 2.0
         assert by["commander"].params["goal"] == "go to the blue cylinder"
         assert by["sim"].params.get("detections", False) is (p != "color")
-        if p == "oracle":  # the oracle's boxes come from the sim, through the commander's vlm input
-            assert by["commander"].remap == {"/vlm/detections": "/sim/detections"}
+        # The variant is the grounding that feeds the tracker; the commander's /target/query says what.
+        assert by["target_tracker"].params["grounding"] == ("color" if p == "color" else "vlm")
+        if p == "oracle":  # the oracle's boxes come from the sim, through the tracker's vlm input
+            assert by["target_tracker"].remap == {"/vlm/detections": "/sim/detections"}
         if p == "vlm":
-            assert by["vlm"].params["labels"] == ["blue cylinder"] and by["vlm"].params["mode"] == "detect"
+            assert by["vlm"].params["mode"] == "detect" and "labels" not in by["vlm"].params
     with pytest.raises(LaunchError, match="no node named 'vlm'"):
         with_overrides(load_launch("episode_color")[1], {"vlm": {"model": "x"}})
     for bad in (
