@@ -6,7 +6,7 @@ from go2vlm.bus import Node, param, QOS_SENSOR
 from go2vlm.bus.clock import Clock
 from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
 from go2vlm.bus.log import Logger
-from go2vlm.bus.node import Node, NoParams, Publisher, Subscription, Timer
+from go2vlm.bus.node import Endpoint, Node, NoParams, Publisher, Subscription, Timer
 from go2vlm.bus.params import (
     BASE_PARAMS,
     NodeParams,
@@ -44,6 +44,7 @@ __all__ = [
     "QOS_UNITREE_READER",
     "QOS_UNITREE_WRITER",
     "Clock",
+    "Endpoint",
     "Logger",
     "Node",
     "NoParams",
