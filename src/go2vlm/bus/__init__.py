@@ -27,10 +27,19 @@ from go2vlm.bus.qos import (
     QOS_LATCHED,
     QOS_SENSOR,
     QOS_UNITREE_READER,
+    QOS_UNITREE_SERVER,
     QOS_UNITREE_WRITER,
     QosProfile,
 )
-from go2vlm.bus.runtime import ShutdownRequested, running, spin
+from go2vlm.bus.runtime import (
+    Interrupted,
+    ShutdownRequested,
+    exit_code,
+    interrupt_on_signals,
+    running,
+    signal_of,
+    spin,
+)
 
 __all__ = [
     "BASE_PARAMS",
@@ -42,9 +51,11 @@ __all__ = [
     "QOS_LATCHED",
     "QOS_SENSOR",
     "QOS_UNITREE_READER",
+    "QOS_UNITREE_SERVER",
     "QOS_UNITREE_WRITER",
     "Clock",
     "Endpoint",
+    "Interrupted",
     "Logger",
     "Node",
     "NoParams",
@@ -61,10 +72,13 @@ __all__ = [
     "dds_topic_name",
     "describe_params",
     "domain_id_from_env",
+    "exit_code",
+    "interrupt_on_signals",
     "load_params_file",
     "param",
     "parse_overrides",
     "participant",
     "running",
+    "signal_of",
     "spin",
 ]

@@ -58,3 +58,6 @@ QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)
 # match any peer, so we use exactly that split; depth is local and does not affect matching.
 QOS_UNITREE_WRITER = QosProfile(reliable=True, transient_local=False, depth=10)
 QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)
+# The sim's sport server reads requests with a deep history, so that a burst of Moves from a client
+# does not push a Damp out of the reader's cache before the executor takes it.
+QOS_UNITREE_SERVER = QosProfile(reliable=False, transient_local=False, depth=8192)

@@ -19,6 +19,8 @@ import sys
 import time
 from typing import Any
 
+from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
+
 POSTURES = ("stand", "balance", "sit", "rise", "standdown", "damp", "recover", "hello", "stop")
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
 MAX_MOVE_S = 10.0
@@ -147,6 +149,7 @@ def cmd_move(args: argparse.Namespace) -> int:
     from go2vlm.bus import Node
     from go2vlm.msgs.geometry_msgs import Twist, Vector3
 
+    interrupt_on_signals()
     values = (args.x, args.y, args.z)
     if not all(math.isfinite(v) for v in values):
         print(f"go2vlm go2 move: {values} must be finite numbers", file=sys.stderr)
@@ -187,8 +190,8 @@ def cmd_move(args: argparse.Namespace) -> int:
                 time.sleep(0.02)
         print(f"teleop: {sent} commands over {args.duration:g} s to /teleop/cmd_vel (through the safety gate)")
         return 0
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:
+        return exit_code(signal_of(exc))
     finally:
         node.shutdown()
 
@@ -201,6 +204,7 @@ def cmd_state(args: argparse.Namespace) -> int:
     from go2vlm.msgs.unitree import SportModeState
     from go2vlm.robots.go2 import protocol as p
 
+    interrupt_on_signals()
     node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface)
     got: list[Any] = []
     done = threading.Event()
@@ -237,7 +241,7 @@ def cmd_state(args: argparse.Namespace) -> int:
                 return 1
             done.wait(0.05)
         return 0
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:
+        return exit_code(signal_of(exc))
     finally:
         node.shutdown()

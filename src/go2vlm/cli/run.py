@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from go2vlm.bus import describe_params, parse_overrides, spin
+from go2vlm.bus import describe_params, exit_code, parse_overrides, spin
 from go2vlm.launch.registry import NODES, make_node, node_class
 
 
@@ -85,5 +85,4 @@ def run(args: argparse.Namespace) -> int:
         interface=args.interface,
     )
     node.log.info(f"running (params: {node.params()})")
-    spin([node], duration_s=args.duration)
-    return 0
+    return exit_code(spin([node], duration_s=args.duration))
