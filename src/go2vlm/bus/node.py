@@ -111,8 +111,10 @@ class Publisher(Generic[M]):
         return self._writer.guid
 
     def close(self) -> None:
+        """Delete the writer now (idempotent): a latched sample leaves with it."""
         with self._lock:
-            _delete(self._writer)
+            if self._writer is not None:
+                _delete(self._writer)
             self._writer = None
 
 
@@ -239,6 +241,7 @@ class Node:
         self.clock = Clock(sim=use_sim_time)
         self._clock_started_seen = False  # the executor has seen sim time start (timers re-anchored)
         self._jumps_seen = 0
+        self.domain_id = domain.domain_id_from_env() if domain_id is None else domain_id
         self.participant = domain.participant(domain_id, interface)
         self.counters: dict[str, int] = {}
         self.publishers: list[Publisher[Any]] = []
