@@ -95,7 +95,7 @@ class Verdict:
 
 def judge(writers: Iterable[Writer], gate_writers: set[str] | frozenset[str]) -> Verdict:
     """The rule: exactly one announced gate writer and nothing else, or nobody drives."""
-    ws = sorted(set(writers), key=lambda w: w.guid)
+    ws = sorted({w.guid: w for w in writers}.values(), key=lambda w: w.guid)  # one entry per writer GUID
     gates = tuple(w for w in ws if w.guid in gate_writers)
     foreign = tuple(w for w in ws if w.guid not in gate_writers)
     if foreign:
@@ -143,20 +143,25 @@ class OneCommander:
 
 @dataclass
 class ThroughZero:
-    """Motion resumes only through zero: after `require()` (start-up, a stop, an e-stop release),
-    commands read as zero until a zero command arrives; from then on they pass unchanged."""
+    """Motion resumes only through zero. After `require()` (a stop, an e-stop release) commands read
+    as zero until the command stream has been at zero: if the newest command seen was zero already
+    (a gate that held zero while the robot end was stopped, and ramps up from zero), nothing more is
+    needed; if it was not (a stream still asking for speed), a zero must come first. Commands the
+    robot end refuses but sees from a gate (during a conflict) count as seen. At start-up the first
+    command must be zero: the stopped state is the default."""
 
-    due: bool = True  # the stopped state is the default
+    due: bool = True
+    last_zero: bool = False  # the newest command seen was exactly zero
 
     def require(self) -> None:
-        self.due = True
+        self.due = not self.last_zero
 
-    def filter(self, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        if self.due:
-            if any(x != 0.0 for x in v):  # NaN is not zero either
-                return (0.0, 0.0, 0.0)
+    def see(self, v: tuple[float, float, float]) -> bool:
+        """Observe a command; True when it may drive (else the robot end holds zero)."""
+        self.last_zero = all(x == 0.0 for x in v)  # NaN is not zero
+        if self.last_zero:
             self.due = False
-        return v
+        return not self.due
 
 
 # -- the heartbeat ---------------------------------------------------------------------------------
@@ -275,14 +280,16 @@ class CmdVelInput:
 
     def _on_msg(self, msg: Twist, sender: Endpoint | None) -> None:
         guid = sender.guid if sender is not None else None
+        vals = (msg.linear.x, msg.linear.y, msg.angular.z)
         if not self.watch.rule.accepts(guid):
             if not self.watch.known(guid):
                 self.watch.check()  # a writer not judged yet: judge it now, stop now
             if not self.watch.rule.accepts(guid):
                 self.node.count("cmd_vel_refused")
+                if guid in self.watch.gate_writers:
+                    self.zero.see(vals)  # a gate's stream, refused for now: still what it commands
                 return
-        vals = (msg.linear.x, msg.linear.y, msg.angular.z)
-        if self.zero.filter(vals) is not vals:  # identity: NaN != NaN
+        if not self.zero.see(vals):
             self.node.count("cmd_vel_held_for_zero")
             msg = Twist()
         self._on_cmd(msg)
