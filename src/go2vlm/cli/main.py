@@ -18,6 +18,8 @@ COMMANDS = {
     "sim": "go2vlm.cli.sim",
     "demo": "go2vlm.cli.demo",
     "go2": "go2vlm.cli.go2",
+    "estop": "go2vlm.cli.estop",
+    "doctor": "go2vlm.cli.doctor",
 }
 
 
