@@ -28,6 +28,10 @@ BURST = 5000
 TRIALS = 5
 
 
+# Slow: the sim runs as a process for the module, and the burst test runs five trials.
+pytestmark = pytest.mark.slow
+
+
 class Client(Node):
     """A raw sport client (as any unitree_sdk2 program is), plus what the sim says about itself."""
 

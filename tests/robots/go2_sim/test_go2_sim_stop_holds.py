@@ -26,6 +26,10 @@ from go2vlm.msgs.std_msgs import Bool, String
 SIM = ["run", "sim", *("--param", "mode=kinematic", "--param", "camera=false", "--param", "world_camera=false")]
 
 
+# Slow: the sim runs as a process in every test (as in the other sim node tests).
+pytestmark = pytest.mark.slow
+
+
 class Probe(Node):
     name = "stop_holds_probe"
 
