@@ -147,10 +147,11 @@ class ThroughZero:
     as zero until the command stream has been at zero: if the newest command seen was zero already
     (a gate that held zero while the robot end was stopped, and ramps up from zero), nothing more is
     needed; if it was not (a stream still asking for speed), a zero must come first. Commands the
-    robot end refuses but sees from a gate (during a conflict) count as seen. At start-up the first
-    command must be zero: the stopped state is the default."""
+    robot end refuses but sees from a gate (during a conflict) count as seen. Start-up is not a stop:
+    the robot is standing still, and the gate's own output ramps up from zero (on sim time a gate's
+    first tick may already carry its first ramp step, so a zero first would never come)."""
 
-    due: bool = True
+    due: bool = False
     last_zero: bool = False  # the newest command seen was exactly zero
 
     def require(self) -> None:
@@ -243,9 +244,8 @@ class _Watch:
 
 
 class CmdVelInput:
-    """A robot end's /cmd_vel: commands only from the one safety gate, and only once /cmd_vel has
-    passed through zero since start-up or since anything stopped it (another writer, an e-stop:
-    `require_zero()`).
+    """A robot end's /cmd_vel: commands only from the one safety gate, and after anything stopped it
+    (another writer, an e-stop release: `require_zero()`) only once /cmd_vel has been at zero.
 
     `on_cmd(msg)` gets the commands to execute (a zero while a pass through zero is due);
     `on_stop(reason)` is called when driving stops being allowed. Counters on the node:

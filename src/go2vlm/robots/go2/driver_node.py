@@ -8,8 +8,8 @@ Subscribes:
                                                 Move resumes only after /cmd_vel has gone through zero
   /cmd_vel                 geometry_msgs/Twist  only from the one safety gate (safety/commander.py): any
                                                 other writer stops the robot (StopMove) until it is gone;
-                                                motion starts from a zero command after start-up, a stop
-                                                or a release; sent as sport Move (1008) at
+                                                motion starts from a zero command after such a stop or
+                                                a release; sent as sport Move (1008) at
                                                 `move_rate_hz`; a zero (or stale, `cmd_timeout_s`)
                                                 command sends StopMove (1003), repeated until answered ok
   /safety/heartbeat        std_msgs/String      (latched) which /cmd_vel writer is a safety gate

@@ -14,8 +14,8 @@ Subscribes:
                                                     /cmd_vel moves it only after passing through zero
   /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z),
                                                     only from the one safety gate (safety/commander.py):
-                                                    another writer stops the robot; after start-up, a stop
-                                                    or a release, motion starts from a zero command;
+                                                    another writer stops the robot; after such a stop or
+                                                    a release, motion starts from a zero command;
                                                     zeroed after `cmd_timeout_s` without a valid command
                                                     (the safety gate streams at >= 20 Hz); seconds of the
                                                     node's clock: sim time with use_sim_time, else wall
