@@ -5,12 +5,18 @@
 - Every test session gets a DDS domain that nothing on this host is using: a lock file per domain
   keeps concurrent sessions apart, and a discovery probe skips domains where any participant (a
   running demo, a ROS 2 node) already speaks. Traffic stays on loopback.
+- State the nodes keep across restarts (the safety gate's e-stop latch, under XDG_STATE_HOME) goes
+  to a temporary folder: one for the session, and one of its own for every test, so a test that ends
+  with a gate latched never latches the next test's gate, and nothing lands in the user's home.
 """
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
@@ -18,6 +24,8 @@ sys.path.insert(0, SRC)
 os.environ["PYTHONPATH"] = os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])])
 os.environ["GO2VLM_IFACE"] = "lo"
 os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ["XDG_STATE_HOME"] = tempfile.mkdtemp(prefix="go2vlm-test-state-")
+atexit.register(shutil.rmtree, os.environ["XDG_STATE_HOME"], True)
 
 from busutil import Procs, claim_free_domain  # noqa: E402
 
@@ -25,6 +33,12 @@ from busutil import Procs, claim_free_domain  # noqa: E402
 os.environ["ROS_DOMAIN_ID"] = str(claim_free_domain())
 
 import pytest  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _own_state_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each test's nodes (in-process and the processes it starts) keep their state in its own folder."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "state"))
 
 
 @pytest.fixture

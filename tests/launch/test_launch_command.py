@@ -1,5 +1,6 @@
 """`go2vlm launch`: the packaged launch file in one process, and a launch file as one process per
-node (pids printed, a dead child reported), both stopped cleanly by a signal with exit code 0."""
+node (pids printed, a dead child reported), both stopped cleanly by a signal, with the signal
+convention's exit code (130 for SIGINT, 143 for SIGTERM)."""
 
 from __future__ import annotations
 
@@ -39,7 +40,7 @@ def test_packaged_launch_in_one_process(procs, probe) -> None:
     assert wait_for(lambda: out.text().count("up:") == 4, 20.0), out.text()
     wait_settled(probe, timeout=20.0)
     p.send_signal(signal.SIGTERM)
-    assert p.wait(10) == 0, out.text()
+    assert p.wait(10) == 128 + signal.SIGTERM, out.text()
     assert "all nodes stopped" in out.text()
     t = time.monotonic()
     time.sleep(0.5)
@@ -72,7 +73,7 @@ def test_launch_processes_reports_pids_and_deaths(procs, probe, tmp_path) -> Non
     assert all(is_zero(m) for _, m in probe.items_after(t_kill + 0.6))
 
     p.send_signal(signal.SIGINT)
-    assert p.wait(15) == 0, out.text()
+    assert p.wait(15) == 128 + signal.SIGINT, out.text()
     for pid in pids.values():
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # signal 0 only checks: every child is gone

@@ -37,7 +37,8 @@ step = st.tuples(st.just("step"), dt)
 tokens = st.sampled_from([TOKEN, TOKEN, TOKEN, " RELEASE\n", "release", "", "RELEASE!", "x"])
 estop_ev = st.tuples(st.just("estop"), st.sampled_from([True, False, False]), dt)
 release_ev = st.tuples(st.just("release"), tokens, dt)
-event = st.one_of(cmd, cmd, cmd, cmd, step, step, step, estop_ev, release_ev, release_ev)
+block_ev = st.tuples(st.just("block"), st.sampled_from([None, "another /cmd_vel writer"]), dt)
+event = st.one_of(cmd, cmd, cmd, cmd, step, step, step, estop_ev, release_ev, release_ev, block_ev)
 
 
 def _core(lim: tuple[float, ...], timeouts: tuple[float, float, float], engaged: bool) -> SafetyCore:
@@ -69,6 +70,7 @@ def test_no_sequence_breaks_the_gate(lim, timeouts, engaged, events) -> None:
     assert 0 <= limits.vx_forward <= HARD_VX_FORWARD and 0 <= limits.vx_backward <= HARD_VX_BACKWARD
     assert 0 <= limits.vy <= HARD_VY and 0 <= limits.wz <= HARD_WZ
     model_engaged = engaged
+    blocked = None
     last_valid: dict[str, float] = {}
     now = 0.0
     prev, t_prev = ZERO, None
@@ -89,15 +91,21 @@ def test_no_sequence_breaks_the_gate(lim, timeouts, engaged, events) -> None:
             model_engaged = model_engaged or ev[1]
         elif kind == "release":
             released = core.release(ev[1])
-            assert released == (model_engaged and ev[1].strip() == TOKEN)
+            assert released == (model_engaged and ev[1] == TOKEN)  # exactly the token, no trimming
             if released:
                 model_engaged = False
+        elif kind == "block":
+            core.block(ev[1])
+            blocked = ev[1]
         assert core.estopped == model_engaged, "the e-stop left its state without the release token"
         out = core.step(now)
         assert all(math.isfinite(v) for v in (out.vx, out.vy, out.wz))
         assert limits.within(out), f"{out} exceeds {limits}"
         if model_engaged:
             assert out == ZERO, "moving while the e-stop is latched"
+        if blocked:
+            assert out == ZERO, "moving while another writer is on /cmd_vel"
+            assert core.reason == ("estop" if model_engaged else blocked)
         live = [n for n, t in last_valid.items() if 0 <= now - t < dict(zip(NAMES, timeouts, strict=True))[n]]
         if not live:
             assert out == ZERO, "moving with no live input"
@@ -141,6 +149,7 @@ def test_estop_latch_needs_the_token() -> None:
     assert not latch.release("GO")  # nothing to release
     latch.engage()
     assert not latch.release("go") and not latch.release("") and latch.engaged
-    assert latch.release(" GO ") and not latch.engaged
+    assert not latch.release(" GO ") and latch.engaged  # exactly the token: padding does not release
+    assert latch.release("GO") and not latch.engaged
     with pytest.raises(ValueError):
         EstopLatch("")

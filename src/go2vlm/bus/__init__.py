@@ -6,7 +6,16 @@ from go2vlm.bus import Node, param, QOS_SENSOR
 from go2vlm.bus.clock import Clock
 from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
 from go2vlm.bus.log import Logger
-from go2vlm.bus.node import Node, NoParams, Publisher, RawSample, RawSubscription, Subscription, Timer
+from go2vlm.bus.node import (
+    Endpoint,
+    Node,
+    NoParams,
+    Publisher,
+    RawSample,
+    RawSubscription,
+    Subscription,
+    Timer,
+)
 from go2vlm.bus.params import (
     BASE_PARAMS,
     NodeParams,
@@ -27,10 +36,19 @@ from go2vlm.bus.qos import (
     QOS_LATCHED,
     QOS_SENSOR,
     QOS_UNITREE_READER,
+    QOS_UNITREE_SERVER,
     QOS_UNITREE_WRITER,
     QosProfile,
 )
-from go2vlm.bus.runtime import ShutdownRequested, running, spin
+from go2vlm.bus.runtime import (
+    Interrupted,
+    ShutdownRequested,
+    exit_code,
+    interrupt_on_signals,
+    running,
+    signal_of,
+    spin,
+)
 
 __all__ = [
     "BASE_PARAMS",
@@ -42,8 +60,11 @@ __all__ = [
     "QOS_LATCHED",
     "QOS_SENSOR",
     "QOS_UNITREE_READER",
+    "QOS_UNITREE_SERVER",
     "QOS_UNITREE_WRITER",
     "Clock",
+    "Endpoint",
+    "Interrupted",
     "Logger",
     "Node",
     "NoParams",
@@ -62,10 +83,13 @@ __all__ = [
     "dds_topic_name",
     "describe_params",
     "domain_id_from_env",
+    "exit_code",
+    "interrupt_on_signals",
     "load_params_file",
     "param",
     "parse_overrides",
     "participant",
     "running",
+    "signal_of",
     "spin",
 ]

@@ -7,6 +7,9 @@ for every `Node` in this process: the Node runtime calls `node_added`, `endpoint
 `node_removed`, and every change republishes the participant's full list.
 
 Set `GO2VLM_DISCOVERY_INFO=0` to switch it off.
+
+`directory()` reads the same topic back: which node (ours or a ROS 2 node) owns a writer GUID, and
+which nodes live in a participant, for tools and for status reports that name a DDS endpoint.
 """
 
 from __future__ import annotations
@@ -20,9 +23,10 @@ from typing import Any
 
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
 
 from go2vlm.bus import domain
-from go2vlm.bus.qos import QOS_LATCHED
+from go2vlm.bus.qos import QOS_LATCHED, QosProfile
 from go2vlm.msgs.rmw_dds_common import Gid, NodeEntitiesInfo, ParticipantEntitiesInfo
 
 TOPIC = "ros_discovery_info"
@@ -136,3 +140,66 @@ def current(dp: DomainParticipant | None = None) -> ParticipantEntitiesInfo | No
     with _lock:
         a = _announcers.get(id(dp or domain.participant()))
         return a.message() if a else None
+
+
+class Directory:
+    """The nodes announced on `ros_discovery_info` by every participant on the domain (ROS 2's too).
+
+    The topic is keyless (one DDS instance for all participants): a keep-last-1 reader would keep
+    only the last participant's announcement, so the reader keeps a deep history and every call
+    takes what arrived; the newest announcement of each participant wins.
+    """
+
+    def __init__(self, dp: DomainParticipant) -> None:
+        qos = QosProfile(reliable=True, transient_local=True, depth=256)
+        self._reader = DataReader(dp, domain.topic(dp, TOPIC, ParticipantEntitiesInfo), qos=qos.to_dds())
+        self._latest: dict[bytes, ParticipantEntitiesInfo] = {}
+        self._lock = threading.Lock()
+
+    def announcements(self) -> list[ParticipantEntitiesInfo]:
+        """The newest announcement of each participant seen so far."""
+        with self._lock:
+            for s in self._reader.take(N=256):
+                if isinstance(s, ParticipantEntitiesInfo):
+                    self._latest[s.gid.to_bytes()] = s
+            return list(self._latest.values())
+
+    def node_of(self, guid: Any) -> str | None:
+        """The full name ("/safety") of the node that owns the reader or writer `guid`, if announced."""
+        raw = _guid_bytes(guid)
+        for info in self.announcements():
+            for n in info.node_entities_info_seq:
+                if any(g.to_bytes() == raw for g in (*n.writer_gid_seq, *n.reader_gid_seq)):
+                    return full_name(n.node_namespace, n.node_name)
+        return None
+
+    def nodes_in(self, participant: Any) -> list[str]:
+        """The full names of the nodes a participant announces (empty if it announces none)."""
+        raw = _guid_bytes(participant)
+        for info in self.announcements():
+            if info.gid.to_bytes() == raw:
+                return [full_name(n.node_namespace, n.node_name) for n in info.node_entities_info_seq]
+        return []
+
+
+def full_name(namespace: str, name: str) -> str:
+    return f"{namespace.rstrip('/')}/{name}"
+
+
+def _guid_bytes(guid: Any) -> bytes:
+    if isinstance(guid, str):
+        return uuid.UUID(guid).bytes
+    return _gid_bytes(guid)
+
+
+_directories: dict[int, Directory] = {}
+
+
+def directory(dp: DomainParticipant | None = None) -> Directory:
+    """The process-wide Directory of a participant (created on first use)."""
+    dp = dp or domain.participant()
+    with _lock:
+        d = _directories.get(id(dp))
+        if d is None:
+            d = _directories[id(dp)] = Directory(dp)
+        return d

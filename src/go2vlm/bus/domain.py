@@ -8,9 +8,16 @@
   claimed and no participant on this host speaks on, and holds it while the process lives (test
   sessions and `go2vlm eval` workers use it so that parallel runs never hear each other).
 - Network interface: `GO2VLM_IFACE` or the `interface` argument (`lo` for a local sim, the robot's
-  interface such as `eth0` or `enp3s0` for a real Go2). If neither is given and `CYCLONEDDS_URI` is
-  set, Cyclone's own configuration is used unchanged, so the VLM article's setup (its
-  CYCLONEDDS_URI with `lo`) keeps working.
+  interface such as `eth0` or `enp3s0` for a real Go2).
+- Socket receive buffer: a camera frame is hundreds of UDP datagrams sent in one burst (1280x720 rgb8
+  is 2.8 MB); when the kernel's socket buffer overflows before Cyclone's receive thread drains it, a
+  best-effort reader loses the whole frame and a reliable one waits for repairs. Every participant
+  asks for `RCVBUF_REQUEST` (Cyclone's default is 1 MiB); the kernel grants at most
+  `net.core.rmem_max` (`go2vlm doctor` compares the two and prints the sysctl). Reliable writers may
+  also hold a whole frame unacknowledged (`WhcHigh`) instead of blocking on Cyclone's 500 kB default.
+- Configuration (Cyclone merges the parts; a later one wins): our defaults above, then either the
+  interface binding, when an interface is given, or else the user's `CYCLONEDDS_URI`, so the VLM
+  article's setup (its CYCLONEDDS_URI with `lo`) keeps working and any setting in it wins over ours.
 """
 
 from __future__ import annotations
@@ -48,6 +55,13 @@ def domain_id_from_env() -> int:
     return value
 
 
+# What every participant asks the kernel for (see the module docstring and docs/bus.md for the
+# figures): enough for a 1920x1080 rgb8 frame in one burst. The kernel caps it at net.core.rmem_max.
+RCVBUF_REQUEST = 16 << 20
+# Unacknowledged bytes a reliable writer keeps before it blocks: more than one 1920x1080 rgb8 frame.
+WHC_HIGH = 16 << 20
+
+
 def cyclone_config(interface: str) -> str:
     """Cyclone XML that binds to one interface, as the VLM article's CYCLONEDDS_URI does with `lo`."""
     if not _IFACE_RE.match(interface):
@@ -57,6 +71,31 @@ def cyclone_config(interface: str) -> str:
         f'<NetworkInterface name="{interface}" priority="default" multicast="default"/>'
         "</Interfaces></General></Domain></CycloneDDS>"
     )
+
+
+def buffer_config() -> str:
+    """Cyclone XML with our socket receive buffer and writer watermark (asks; accepts what it gets)."""
+    return (
+        '<CycloneDDS><Domain id="any"><Internal>'
+        f'<SocketReceiveBufferSize min="default" max="{RCVBUF_REQUEST}B"/>'
+        f"<Watermarks><WhcHigh>{WHC_HIGH}B</WhcHigh></Watermarks>"
+        "</Internal></Domain></CycloneDDS>"
+    )
+
+
+def domain_config(interface: str | None) -> str:
+    """Our defaults, then an explicit interface or else the user's CYCLONEDDS_URI (a later part wins)."""
+    user = os.environ.get("CYCLONEDDS_URI", "").strip()
+    extra = cyclone_config(interface) if interface else user
+    return ",".join(p for p in (buffer_config(), extra) if p)
+
+
+def kernel_rmem_max() -> int | None:
+    """net.core.rmem_max: the most a socket receive buffer may be (None where it cannot be read)."""
+    try:
+        return int(open("/proc/sys/net/core/rmem_max").read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 _MALLOC_TUNED = False
@@ -92,7 +131,7 @@ def participant(domain_id: int | None = None, interface: str | None = None) -> D
             return _participants[did][0]
         if not 0 <= did <= 232:
             raise ParamError(f"DDS domain {did} is outside 0..232")
-        dom = _domain(did, iface) if iface else None
+        dom = _domain(did, iface)
         dp = DomainParticipant(did)
         tune_malloc()
         _participants[did] = (dp, dom)
@@ -106,18 +145,20 @@ def _interfaces() -> list[str]:
         return []
 
 
-def _domain(did: int, iface: str) -> Domain:
-    """Cyclone bound to `iface`; a missing interface is a clear ParamError (a ValueError), not a
-    bare DDS_RETCODE_ERROR."""
-    config = cyclone_config(iface)
+def _domain(did: int, iface: str | None) -> Domain:
+    """Cyclone with our configuration (bound to `iface` if given); a missing interface or a broken
+    CYCLONEDDS_URI is a clear ParamError (a ValueError), not a bare DDS_RETCODE_ERROR."""
+    config = domain_config(iface)
     known = _interfaces()
     hint = f"; this machine has: {', '.join(known)}" if known else ""
-    if known and iface not in known and not re.match(r"^\d+\.\d+\.\d+\.\d+$", iface):
+    if iface and known and iface not in known and not re.match(r"^\d+\.\d+\.\d+\.\d+$", iface):
         raise ParamError(f"network interface {iface!r} does not exist (GO2VLM_IFACE / --interface){hint}")
     try:
         return Domain(did, config)
     except DDSException as exc:
-        raise ParamError(f"cannot start DDS on network interface {iface!r}: {exc}{hint}") from None
+        if iface:
+            raise ParamError(f"cannot start DDS on network interface {iface!r}: {exc}{hint}") from None
+        raise ParamError(f"cannot start DDS (check CYCLONEDDS_URI): {exc}") from None
 
 
 def topic(dp: DomainParticipant, name: str, msg_type: type) -> Topic:

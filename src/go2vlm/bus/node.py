@@ -27,6 +27,12 @@ skipped (counted in `Timer.skipped`), not fired in a burst, and the timer keeps 
 sim), re-anchor every sim-time timer to now + period. `create_timer(..., wall=True)` makes a timer
 on the steady wall clock whatever use_sim_time says, for watchdogs that must fire while /clock
 stalls (the safety gate's).
+
+Who sent it: `create_subscription(..., with_sender=True)` calls `callback(msg, sender)`, where
+`sender` is the writer's `Endpoint` (its DDS GUID and its participant's GUID, from the sample's
+publication handle), or None when the writer is already gone. `Subscription.writers()` lists the
+writers matched with a subscription now. `discovery_info.directory()` names the node that owns a
+GUID, where its process announces it on ros_discovery_info (ours and ROS 2's do).
 """
 
 from __future__ import annotations
@@ -72,6 +78,20 @@ def _delete(entity: Any) -> None:
     """Delete a DDS entity now. cyclonedds-python deletes only when the object is garbage
     collected, and until then a latched writer keeps handing its last sample to late joiners."""
     entity.__del__()
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """A DDS writer (or reader) as discovery describes it: its GUID and its participant's GUID."""
+
+    guid: str
+    participant: str
+    topic: str = ""
+    type_name: str = ""
+
+
+def _endpoint(data: Any) -> Endpoint:
+    return Endpoint(str(data.key), str(data.participant_key), data.topic_name, data.type_name)
 
 
 class Publisher(Generic[M]):
@@ -129,8 +149,10 @@ class Publisher(Generic[M]):
         return self._writer
 
     def close(self) -> None:
+        """Delete the writer now (idempotent): a latched sample leaves with it."""
         with self._lock:
-            _delete(self._writer)
+            if self._writer is not None:
+                _delete(self._writer)
             self._writer = None
 
 
@@ -142,9 +164,10 @@ class Subscription(Generic[M]):
         node: Node,
         msg_type: type[M],
         topic: str,
-        callback: Callable[[M], None],
+        callback: Callable[..., None],
         qos: QosProfile,
         *,
+        with_sender: bool = False,
         dds_name: str | None = None,
         user_data: str | None = None,
     ) -> None:
@@ -152,15 +175,46 @@ class Subscription(Generic[M]):
         self.msg_type = msg_type
         self.qos = qos
         self.callback = callback
+        self.with_sender = with_sender
         dds_topic = domain.topic(node.participant, dds_name or domain.dds_topic_name(topic), msg_type)
         self._reader = DataReader(node.participant, dds_topic, qos=qos.to_dds(user_data))
         self.condition = ReadCondition(self._reader, SampleState.Any | ViewState.Any | InstanceState.Any)
         self.count = 0
+        self._senders: dict[int, Endpoint] = {}  # publication handle -> writer (handles are never reused)
 
     def take(self) -> list[M]:
         samples = self._reader.take(N=64)
         out = [s for s in samples if not isinstance(s, InvalidSample)]
         self.count += len(out)
+        return out
+
+    def sender(self, msg: Any) -> Endpoint | None:
+        """The writer of a message this subscription took (None once that writer is gone)."""
+        info = getattr(msg, "sample_info", None)
+        if info is None:
+            return None
+        handle = int(info.publication_handle)
+        found = self._senders.get(handle)
+        if found is None:
+            try:
+                data = self._reader.get_matched_publication_data(handle)
+            except Exception:  # unmatched since: the writer left
+                data = None
+            if data is None:
+                return None
+            found = self._senders[handle] = _endpoint(data)
+        return found
+
+    def writers(self) -> list[Endpoint]:
+        """The writers matched with this subscription now, ours included."""
+        out = []
+        for handle in self._reader.get_matched_publications():
+            try:
+                data = self._reader.get_matched_publication_data(handle)
+            except Exception:  # gone between the two calls
+                continue
+            if data is not None:
+                out.append(_endpoint(data))
         return out
 
     @property
@@ -258,6 +312,7 @@ class Node:
         self.clock = Clock(sim=use_sim_time)
         self._clock_started_seen = False  # the executor has seen sim time start (timers re-anchored)
         self._jumps_seen = 0
+        self.domain_id = domain.domain_id_from_env() if domain_id is None else domain_id
         self.participant = domain.participant(domain_id, interface)
         self.counters: dict[str, int] = {}
         self.publishers: list[Publisher[Any]] = []
@@ -301,10 +356,14 @@ class Node:
         self,
         msg_type: type[M],
         topic: str,
-        callback: Callable[[M], None],
+        callback: Callable[..., None],
         qos: QosProfile = QOS_DEFAULT,
+        *,
+        with_sender: bool = False,
     ) -> Subscription[M]:
-        return self._add_subscription(Subscription(self, msg_type, self.resolve(topic), callback, qos))
+        """`callback(msg)`; with `with_sender`, `callback(msg, sender)` (see the module docstring)."""
+        sub = Subscription(self, msg_type, self.resolve(topic), callback, qos, with_sender=with_sender)
+        return self._add_subscription(sub)
 
     def _add_subscription(self, sub: Subscription[M]) -> Subscription[M]:
         with self._lock:
@@ -437,7 +496,10 @@ class Node:
                 self.log.throttled("error", 2.0, f"cannot decode a message on {sub.topic}: {exc}")
                 continue
             for msg in msgs:
-                self._call(sub.callback, msg, sub.topic)
+                if sub.with_sender:
+                    self._call(sub.callback, msg, sub.topic, sub.sender(msg))
+                else:
+                    self._call(sub.callback, msg, sub.topic)
         for svc in self.services:
             if svc.pending:
                 svc.flush()
@@ -467,9 +529,9 @@ class Node:
         self._clock_started_seen = True
         self._jumps_seen = self.clock.jumps_back
 
-    def _call(self, fn: Callable[..., None], arg: Any, where: str) -> None:
+    def _call(self, fn: Callable[..., None], arg: Any, where: str, *more: Any) -> None:
         try:
-            fn() if arg is None and where == "timer" else fn(arg)
+            fn() if arg is None and where == "timer" else fn(arg, *more)
         except Exception as exc:
             self.count("callback_errors")
             self.log.throttled(

@@ -65,3 +65,6 @@ QOS_UNITREE_READER = QosProfile(reliable=False, transient_local=False, depth=32)
 # uses for /parameter_events. Reliable + volatile is what decides matching; depth is local.
 QOS_SERVICES = QosProfile(reliable=True, transient_local=False, depth=10)
 QOS_PARAMETERS = QosProfile(reliable=True, transient_local=False, depth=1000)
+# The sim's sport server reads requests with a deep history, so that a burst of Moves from a client
+# does not push a Damp out of the reader's cache before the executor takes it.
+QOS_UNITREE_SERVER = QosProfile(reliable=False, transient_local=False, depth=8192)

@@ -1,5 +1,11 @@
 """Running nodes: in the foreground with clean SIGINT/SIGTERM shutdown, or in the background for
-tests and the launcher."""
+tests and the launcher.
+
+Exit codes follow the shell's signal convention everywhere: a command stopped by signal N (after a
+clean shutdown) exits 128 + N, so 130 for SIGINT (Ctrl-C) and 143 for SIGTERM; `exit_code()` says
+which. Tools that are not node loops get KeyboardInterrupt for both signals (`interrupt_on_signals`,
+the exception carries the signal) and turn it into the same code with `exit_code()`.
+"""
 
 from __future__ import annotations
 
@@ -21,6 +27,36 @@ from go2vlm.bus.node import Node
 SHUTDOWN_GRACE_S = 4.0
 
 
+def exit_code(signum: int | None) -> int:
+    """0 when not stopped by a signal, else 128 + signum (130 for SIGINT, 143 for SIGTERM)."""
+    return 0 if signum is None else 128 + int(signum)
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGINT in a tool, as a KeyboardInterrupt that knows its signal."""
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+
+def signal_of(exc: BaseException) -> int:
+    """The signal behind a KeyboardInterrupt: its own for `Interrupted`, else SIGINT (Ctrl-C)."""
+    return getattr(exc, "signum", int(signal.SIGINT))
+
+
+def interrupt_on_signals() -> None:
+    """SIGINT and SIGTERM raise `Interrupted` in the main thread (a launcher, `timeout` and `kill` end
+    a tool as cleanly as Ctrl-C does); `exit_code(signal_of(exc))` is then the exit code."""
+
+    def handler(signum: int, _frame: FrameType | None) -> None:
+        raise Interrupted(signum)
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, handler)
+        signal.signal(signal.SIGTERM, handler)
+
+
 class ShutdownRequested:
     """Set by SIGINT/SIGTERM; wait on it instead of sleeping. A second signal exits at once, except
     for a program that writes results: inside `hold()` further signals wait for the block (they are
@@ -39,7 +75,7 @@ class ShutdownRequested:
     @property
     def exit_code(self) -> int:
         """128 + the signal that stopped us (130 for SIGINT, 143 for SIGTERM), else 0."""
-        return 128 + self.signal if self.signal else 0
+        return exit_code(self.signal)
 
     @contextmanager
     def hold(self, what: str) -> Iterator[None]:
@@ -84,8 +120,9 @@ def spin(
     until: Callable[[], bool] | None = None,
     duration_s: float | None = None,
     shutdown: ShutdownRequested | None = None,
-) -> None:
-    """Run `nodes` until SIGINT/SIGTERM, `until()` is true or `duration_s` passes, then shut all down."""
+) -> int | None:
+    """Run `nodes` until SIGINT/SIGTERM, `until()` is true or `duration_s` passes, then shut all down.
+    Returns the signal that stopped them, or None (`exit_code()` turns it into the exit code)."""
     stop = shutdown or ShutdownRequested()
     if shutdown is None:
         stop.install()
@@ -108,6 +145,7 @@ def spin(
                 node.shutdown()
         finally:
             faulthandler.cancel_dump_traceback_later()
+    return stop.signal
 
 
 @contextmanager

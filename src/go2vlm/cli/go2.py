@@ -4,8 +4,10 @@
 `move` is teleop, not a side door: it publishes on /teleop/cmd_vel, the safety gate's
 highest-priority input, so the gate's limits, watchdog and e-stop apply; it is also capped at
 CLI_LIMITS and `--duration` (max 10 s) and ends with zero commands. It needs a running safety gate
-and `go2` driver (or the sim). Posture verbs call the sport RPC directly and refuse while
-/emergency_stop is latched.
+and `go2` driver (or the sim). Posture verbs refuse while /emergency_stop is latched. While a `go2`
+driver runs they go through it (/go2/command, and its answer on /go2/status): one commander per
+robot, and the driver takes any other sport client for a foreign controller (it damps by default).
+Without a driver they call the sport RPC directly, for bring-up.
 
 Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
 the terminal and for DDS discovery, not a node's clock.
@@ -18,6 +20,8 @@ import json
 import sys
 import time
 from typing import Any
+
+from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
 
 POSTURES = ("stand", "balance", "sit", "rise", "standdown", "damp", "recover", "hello", "stop")
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
@@ -64,12 +68,14 @@ class _Session:
         self.p = p
         self.node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface, parameter_services=False)
         self._estop: dict[str, bool] = {}
+        self.driver: dict[str, Any] | None = None  # the go2 driver's newest /go2/status, if one runs
         # The e-stop as the gate and the driver see it (they latch it; /emergency_stop false does
         # not release), plus the raw topic for setups without them.
         estop.listen(self.node, self._on_estop)
         for topic in ("/safety/status", "/go2/status"):
             self.node.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
         self.sport = RpcClient(self.node, p.SPORT_SERVICE, timeout_s=args.timeout)
+        self.command = self.node.create_publisher(String, "/go2/command")
         self.node.start()
         self.timeout = args.timeout
 
@@ -79,9 +85,12 @@ class _Session:
 
     def _on_status(self, topic: str, msg: Any) -> None:
         try:
-            self._estop[topic] = bool(json.loads(msg.data).get("estop"))
+            status = json.loads(msg.data)
+            self._estop[topic] = bool(status.get("estop"))
         except (ValueError, AttributeError):
-            pass
+            return
+        if topic == "/go2/status":
+            self.driver = status
 
     @property
     def estop(self) -> bool:
@@ -114,11 +123,40 @@ class _Session:
         print(f"{name}: ok")
         return True
 
+    def through_driver(self, posture: str) -> int:
+        """Send `posture` on /go2/command and wait for the driver to say how it ended."""
+        from go2vlm.msgs.std_msgs import String
+
+        before = ((self.driver or {}).get("last_command") or {}).get("seq", 0)
+        deadline = time.monotonic() + self.timeout
+        while self.command.matched == 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        self.command.publish(String(data=posture))
+        print(f"{posture}: sent to the go2 driver (/go2/command)", flush=True)
+        deadline = time.monotonic() + self.timeout * len(self.p.COMMANDS[posture]) + 1.0
+
+        def answer() -> dict[str, Any] | None:
+            last = (self.driver or {}).get("last_command") or {}
+            return last if last.get("seq", 0) > before and last.get("name") == posture else None
+
+        while answer() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        last = answer()
+        if last is None:
+            print(f"go2vlm go2: the go2 driver did not report on {posture!r} in time", file=sys.stderr)
+            return 1
+        if last["result"] != "ok":
+            print(f"go2vlm go2: {posture}: {last['result']}", file=sys.stderr)
+            return 3 if last["result"].startswith("refused") else 1
+        print(f"{posture}: ok (through the go2 driver)")
+        return 0
+
     def close(self) -> None:
         self.node.shutdown()
 
 
 def cmd_posture(args: argparse.Namespace) -> int:
+    interrupt_on_signals()
     s = _Session(args)
     try:
         if not s.connect():
@@ -127,6 +165,8 @@ def cmd_posture(args: argparse.Namespace) -> int:
             msg = f"go2vlm go2: refused {args.posture!r}: /emergency_stop is latched; release it first"
             print(msg, file=sys.stderr)
             return 3
+        if s.driver is not None:
+            return s.through_driver(args.posture)
         for api in s.p.COMMANDS[args.posture]:
             if not s.call(api):
                 return 1
@@ -147,6 +187,7 @@ def cmd_move(args: argparse.Namespace) -> int:
     from go2vlm.bus import Node
     from go2vlm.msgs.geometry_msgs import Twist, Vector3
 
+    interrupt_on_signals()
     values = (args.x, args.y, args.z)
     if not all(math.isfinite(v) for v in values):
         print(f"go2vlm go2 move: {values} must be finite numbers", file=sys.stderr)
@@ -187,8 +228,8 @@ def cmd_move(args: argparse.Namespace) -> int:
                 time.sleep(0.02)
         print(f"teleop: {sent} commands over {args.duration:g} s to /teleop/cmd_vel (through the safety gate)")
         return 0
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:
+        return exit_code(signal_of(exc))
     finally:
         node.shutdown()
 
@@ -201,6 +242,7 @@ def cmd_state(args: argparse.Namespace) -> int:
     from go2vlm.msgs.unitree import SportModeState
     from go2vlm.robots.go2 import protocol as p
 
+    interrupt_on_signals()
     node = Node(node_name="go2_cli", domain_id=args.domain, interface=args.interface, parameter_services=False)
     got: list[Any] = []
     done = threading.Event()
@@ -237,7 +279,7 @@ def cmd_state(args: argparse.Namespace) -> int:
                 return 1
             done.wait(0.05)
         return 0
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:
+        return exit_code(signal_of(exc))
     finally:
         node.shutdown()

@@ -7,7 +7,7 @@ import importlib
 import signal
 import sys
 
-from go2vlm.bus import Logger, ParamError
+from go2vlm.bus import Logger, ParamError, exit_code, signal_of
 
 # verb -> module with `add_parser(subparsers)`; each sets `func` on its parser.
 COMMANDS = {
@@ -23,6 +23,8 @@ COMMANDS = {
     "record": "go2vlm.cli.record",
     "play": "go2vlm.cli.play",
     "view": "go2vlm.cli.view",
+    "estop": "go2vlm.cli.estop",
+    "doctor": "go2vlm.cli.doctor",
 }
 
 
@@ -54,8 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     except ParamError as exc:
         print(f"go2vlm: parameter error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:  # SIGINT (Ctrl-C), or SIGTERM in a tool: 128 + the signal
+        return exit_code(signal_of(exc))
 
 
 if __name__ == "__main__":

@@ -24,26 +24,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def cmd_list(args: argparse.Namespace) -> int:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
-    from cyclonedds.sub import DataReader
 
-    from go2vlm.bus import QosProfile, domain
-    from go2vlm.bus.discovery_info import TOPIC
-    from go2vlm.msgs.rmw_dds_common import ParticipantEntitiesInfo
+    from go2vlm.bus import discovery_info, domain
 
     dp = domain.participant()
-    # The topic is keyless (one instance for all participants): a keep-last-1 reader would keep only
-    # the last participant's announcement, so keep a deep history and take it all.
-    qos = QosProfile(reliable=True, transient_local=True, depth=256)
-    reader = DataReader(dp, domain.topic(dp, TOPIC, ParticipantEntitiesInfo), qos=qos.to_dds())
+    directory = discovery_info.directory(dp)
     pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
     subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
-    latest: dict[bytes, ParticipantEntitiesInfo] = {}  # per participant, the newest announcement wins
     topics: dict[bytes, str] = {}
     deadline = time.monotonic() + args.wait
     while True:
-        for s in reader.take(N=256):
-            if isinstance(s, ParticipantEntitiesInfo):
-                latest[s.gid.to_bytes()] = s
+        directory.announcements()
         for r in (pubs, subs):
             for ep in r.take(N=256):
                 if isinstance(getattr(ep, "topic_name", None), str):
@@ -52,10 +43,9 @@ def cmd_list(args: argparse.Namespace) -> int:
             break
         time.sleep(0.05)
     rows = []
-    for info in latest.values():
+    for info in directory.announcements():
         for n in info.node_entities_info_seq:
-            ns = n.node_namespace.rstrip("/")
-            full = f"{ns}/{n.node_name}"
+            full = discovery_info.full_name(n.node_namespace, n.node_name)
             rows.append(
                 (
                     full,

@@ -6,7 +6,7 @@ import argparse
 import sys
 import textwrap
 
-from go2vlm.bus import describe_params, parse_overrides, spin
+from go2vlm.bus import describe_params, exit_code, parse_overrides, spin
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.launch.registry import NODES, make_node, node_class
 
@@ -91,5 +91,4 @@ def run(args: argparse.Namespace) -> int:
     view = foxglove_params(args)
     if view is not None and args.node != "view":
         nodes.append(make_view(view, domain_id=args.domain, interface=args.interface))
-    spin(nodes, duration_s=args.duration)
-    return 0
+    return exit_code(spin(nodes, duration_s=args.duration))

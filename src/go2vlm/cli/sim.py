@@ -10,7 +10,7 @@ import argparse
 import sys
 import time
 
-from go2vlm.bus import ShutdownRequested, parse_overrides
+from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 
 
@@ -86,4 +86,4 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"go2vlm sim: stopped at sim time {node.sim_time:.1f} s{' (the robot fell)' if fell else ''}", file=sys.stderr
     )
-    return 0
+    return exit_code(stop.signal)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import signal
 import statistics
 import sys
 import threading
@@ -18,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile
+from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile, exit_code, interrupt_on_signals, signal_of
 from go2vlm.bus.graph import compatible_reader_qos, discover
 from go2vlm.msgs import get_type as lookup_type
 from go2vlm.msgs import ros_name
@@ -63,16 +62,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.add_argument("--wait", type=float, default=2.0, help="wait up to S seconds for a subscriber first")
     pb.add_argument("--stamp", action="store_true", help="set header.stamp to now on every message")
     pb.set_defaults(func=cmd_pub)
-
-
-def _stop_on_sigterm() -> None:
-    """SIGTERM (a launcher, `timeout`, `kill`) ends a tool as cleanly as Ctrl-C does."""
-
-    def handler(_signum: int, _frame: object) -> None:
-        raise KeyboardInterrupt
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, handler)
 
 
 def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -> tuple[type, QosProfile]:
@@ -121,7 +110,7 @@ class _Collector(Node):
 
 
 def cmd_echo(args: argparse.Namespace) -> int:
-    _stop_on_sigterm()
+    interrupt_on_signals()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     done = threading.Event()
     seen = 0
@@ -143,12 +132,15 @@ def cmd_echo(args: argparse.Namespace) -> int:
     node = _Collector(node_name="go2vlm_topic_echo", parameter_services=False)
     node.create_subscription(cls, args.topic, on_msg, profile)
     node.start()
+    stopped_by: int | None = None
     try:
         done.wait(args.timeout)
-    except KeyboardInterrupt:
-        pass
+    except KeyboardInterrupt as exc:
+        stopped_by = signal_of(exc)
     finally:
         node.shutdown()
+    if stopped_by is not None:
+        return exit_code(stopped_by)
     if args.count and seen < args.count:
         print(f"go2vlm: received {seen} of {args.count} messages on {args.topic} in time", file=sys.stderr)
         return 1
@@ -156,7 +148,7 @@ def cmd_echo(args: argparse.Namespace) -> int:
 
 
 def cmd_hz(args: argparse.Namespace) -> int:
-    _stop_on_sigterm()
+    interrupt_on_signals()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     stamps: list[float] = []
     lock = threading.Lock()
@@ -170,6 +162,7 @@ def cmd_hz(args: argparse.Namespace) -> int:
     node.create_subscription(cls, args.topic, on_msg, profile)
     node.start()
     start = time.monotonic()
+    stopped_by: int | None = None
     try:
         while args.duration is None or time.monotonic() - start < args.duration:
             time.sleep(1.0)
@@ -185,11 +178,11 @@ def cmd_hz(args: argparse.Namespace) -> int:
                 f"\tmin: {min(gaps):.3f}s max: {max(gaps):.3f}s std dev: {std:.5f}s window: {len(gaps) + 1}"
             )
             sys.stdout.flush()
-    except KeyboardInterrupt:
-        pass
+    except KeyboardInterrupt as exc:
+        stopped_by = signal_of(exc)
     finally:
         node.shutdown()
-    return 0
+    return exit_code(stopped_by)
 
 
 def parse_message(cls: type, text: str) -> Any:
@@ -204,7 +197,7 @@ def parse_message(cls: type, text: str) -> Any:
 
 
 def cmd_pub(args: argparse.Namespace) -> int:
-    _stop_on_sigterm()
+    interrupt_on_signals()
     cls = lookup_type(args.type)
     msg = parse_message(cls, args.values)
     if not args.rate > 0 or not math.isfinite(args.rate):
@@ -221,6 +214,7 @@ def cmd_pub(args: argparse.Namespace) -> int:
         time.sleep(0.25)
     count = 1 if args.once else args.count
     sent = 0
+    stopped_by: int | None = None
     period = 1.0 / args.rate
     next_t = time.monotonic()
     try:
@@ -237,8 +231,8 @@ def cmd_pub(args: argparse.Namespace) -> int:
             time.sleep(max(0.0, next_t - time.monotonic()))
         if PROFILES[args.qos].reliable:
             time.sleep(0.2)  # let reliable retransmits finish before the writer goes away
-    except KeyboardInterrupt:
-        pass
+    except KeyboardInterrupt as exc:
+        stopped_by = signal_of(exc)
     finally:
         node.shutdown()
-    return 0
+    return exit_code(stopped_by)

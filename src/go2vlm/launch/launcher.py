@@ -15,6 +15,11 @@ start order works. Children that die are reported, not restarted.
 
 In-process graphs for programs (the episode runner): `load_launch` -> `with_overrides` (parameters
 per node name, e.g. the episode's world and goal) -> `make_nodes` -> start each node.
+
+Exit codes (bus/runtime.py): stopped by signal N, the launcher exits 128 + N once every node is
+down. A child that exits 0, or 128 + N after a SIGINT or SIGTERM (its clean shutdown), ended
+cleanly; with --processes the launcher exits 1 only when every child has ended and one of them did
+not end cleanly.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from typing import Any
 
 import yaml
 
-from go2vlm.bus import Node, ShutdownRequested, build_node_config
+from go2vlm.bus import Node, ShutdownRequested, build_node_config, exit_code
 from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
 from go2vlm.launch.registry import NODES, make_node, node_class
 
@@ -188,7 +193,7 @@ def run_in_process(entries: list[LaunchEntry], duration_s: float | None = None) 
         for node in reversed(nodes):
             node.shutdown()
     _say("all nodes stopped")
-    return 0
+    return exit_code(stop.signal)
 
 
 def child_command(e: LaunchEntry, params_file: str, log_level: str | None = None) -> list[str]:
@@ -217,6 +222,7 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
                 children.append((e, p))
                 _say(f"up: {e.name} ({e.kind}) pid {p.pid}")
             reported: set[int] = set()
+            unclean: set[int] = set()
             lock = threading.Lock()
 
             def alive() -> bool:
@@ -224,7 +230,9 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
                     for e, p in children:
                         if p.poll() is not None and p.pid not in reported:
                             reported.add(p.pid)
-                            _say(f"died: {e.name} ({e.kind}) pid {p.pid} exit code {p.returncode}")
+                            if not clean_exit(p.returncode):
+                                unclean.add(p.pid)
+                            _say(f"died: {e.name} ({e.kind}) pid {p.pid} {describe_exit(p.returncode)}")
                     return len(reported) < len(children)
 
             _wait(stop, duration_s, alive)
@@ -232,7 +240,26 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
         finally:
             _stop_children([p for _, p in children])
     _say("all nodes stopped")
-    return 1 if all_dead else 0
+    if stop.signal is not None:
+        return exit_code(stop.signal)
+    return 1 if all_dead and unclean else 0
+
+
+CLEAN_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def clean_exit(code: int | None) -> bool:
+    """0, or 128 + N after SIGINT/SIGTERM: a node that shut down cleanly (the signal convention)."""
+    return code == 0 or code in {exit_code(s) for s in CLEAN_SIGNALS}
+
+
+def describe_exit(code: int | None) -> str:
+    for s in CLEAN_SIGNALS:
+        if code == exit_code(s):
+            return f"exit code {code} (stopped cleanly by {signal.Signals(s).name})"
+    if code is not None and code < 0:
+        return f"killed by {signal.Signals(-code).name}"
+    return f"exit code {code}"
 
 
 def _stop_children(procs: list[subprocess.Popen[bytes]], timeout_s: float = SHUTDOWN_GRACE_S + 1.0) -> None:

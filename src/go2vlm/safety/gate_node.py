@@ -6,17 +6,27 @@ Topics
               /follower/cmd_vel  geometry_msgs/Twist  priority 50   } {name, topic, priority,
               /behavior/cmd_vel  geometry_msgs/Twist  priority 10   }  timeout_s} (0.5 s default)
               /emergency_stop          std_msgs/Bool    true latches the e-stop; false does NOT release
-              /emergency_stop/release  std_msgs/String  data == release_token ("RELEASE") releases
+              /emergency_stop/release  std_msgs/String  data == release_token ("RELEASE"), exactly, releases
+              /cmd_vel           geometry_msgs/Twist  best-effort, only to see who else writes it
+              /safety/heartbeat  std_msgs/String      the other gates' heartbeats (latched)
   publishes   /cmd_vel           geometry_msgs/Twist  at rate_hz (50 Hz), exactly zero when no input is
-                                 live or the e-stop is latched; a stop goes out at once
+                                 live, the e-stop is latched or another writer is on /cmd_vel; a stop
+                                 goes out at once
               /safety/status     std_msgs/String (latched) JSON {active, estop, last_zero_reason, output,
-                                 limits, inputs, counters}, on every change and every status_period_s
+                                 limits, inputs, commander, estop_state_file, counters}, on every change
+                                 and every status_period_s
+              /safety/heartbeat  std_msgs/String (latched) JSON {node, participant, cmd_vel_writer, topic}:
+                                 this gate's /cmd_vel writer, every status_period_s (safety/commander.py)
 
-Release the e-stop from a shell:
-  go2vlm topic pub /emergency_stop/release std_msgs/msg/String "{data: RELEASE}" --once
-Engage it:
-  go2vlm topic pub /emergency_stop std_msgs/msg/Bool "{data: true}" --once --qos latched
+E-stop from a shell (cli/estop.py; it holds the latched e-stop until the release):
+  go2vlm estop              # latch, and keep it latched for nodes that start later
+  go2vlm estop --release    # the deliberate release; waits until the gates and robots report it
 
+E-stop across restarts: every change of the latch is written atomically to estop_state_file (default
+$XDG_STATE_HOME/go2vlm/estop/<node>-domain<N>.json, ~/.local/state/... without XDG_STATE_HOME); a
+gate that went down latched (even kill -9) comes up latched, and a file it cannot read counts as
+latched. One commander: any other writer on /cmd_vel (another gate, a raw publisher) holds the
+output at zero and is named in /safety/status "commander" and in the log (safety/commander.py).
 Rules: the live input with the highest priority wins, even when it commands zero; an input is live
 while its last valid command is younger than its timeout_s. A command with NaN/inf or absurd values
 (|v| > 100) is rejected with a rate-limited error, counted, and makes that input absent at once.
@@ -50,11 +60,14 @@ from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, Node, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import String
-from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput
+from go2vlm.safety.commander import GateWatch
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, LatchFile, check_token, default_state_file
 from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
 from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec, SafetyCore
 
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
+
+LOG_PERIOD_S = 1.0  # at most one state-change INFO line per second
 
 
 def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
@@ -104,8 +117,15 @@ class SafetyGateConfig:
         1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
     )
     accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
-    release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
+    release_token: str = param(
+        RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
+    )
     start_engaged: bool = param(False, help="start with the e-stop latched (a release is needed to move)")
+    estop_state_file: str = param(
+        "",
+        help="where the e-stop latch survives restarts; '' = $XDG_STATE_HOME (~/.local/state)"
+        "/go2vlm/estop/<node>-domain<N>.json",
+    )
     status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0, live=True)
     wall_timeout_s: float = param(
         DEFAULT_WALL_TIMEOUT_S,
@@ -117,8 +137,7 @@ class SafetyGateConfig:
 
     def validate(self) -> None:
         parse_inputs(self.inputs)
-        if not self.release_token.strip():
-            raise ValueError("release_token must not be empty")
+        check_token(self.release_token)
 
 
 LIMIT_PARAMS = ("max_vx_forward", "max_vx_backward", "max_vy", "max_vyaw", "accel_linear", "accel_angular")
@@ -135,22 +154,41 @@ class SafetyGateNode(Node):
     def __init__(self, config: SafetyGateConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         c = self.config
+        self.store = LatchFile(c.estop_state_file or default_state_file(self.node_name, self.domain_id))
+        was_engaged, note = self.store.load()
         self.core = SafetyCore(
-            parse_inputs(c.inputs), limits_of(c), c.release_token.strip(), c.start_engaged, c.wall_timeout_s
+            parse_inputs(c.inputs),
+            limits_of(c),
+            c.release_token,
+            c.start_engaged or bool(was_engaged),
+            c.wall_timeout_s,
         )
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
         self._last_state: tuple[Any, ...] | None = None
         self._last_status = 0.0
+        self._state_changes = 0  # logged at most once per LOG_PERIOD_S (alternating bad input flips state)
+        self._last_state_log = -math.inf
+        # The e-stop first: each executor pass takes it before the inputs (a stop is never queued behind them).
+        self.estop = EstopInput(
+            self,
+            self.core.latch,
+            held="/cmd_vel held at zero",
+            on_engage=self.tick,
+            on_release=self.tick,
+            store=self.store,
+        )
         for spec in self.core.specs:
             self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
-        self.estop = EstopInput(
-            self, self.core.latch, held="/cmd_vel held at zero", on_engage=self.tick, on_release=self.tick
-        )
-        if c.start_engaged:
+        self.commander = GateWatch(self, str(self.cmd_pub.guid), self.cmd_pub.topic, self._commander_changed)
+        if was_engaged:
+            self.log.warning(f"the e-stop was latched when this gate went down: {note}")
+        if self.core.estopped:
             self.log.warning(
-                f"starting with the e-stop latched; publish {c.release_token!r} on /emergency_stop/release"
+                f"starting with the e-stop latched; `go2vlm estop --release` (or {c.release_token!r} on "
+                "/emergency_stop/release) releases it"
             )
+            self.estop.persist()
         self.create_timer(1.0 / c.rate_hz, self.tick)
         if self.clock.sim:
             self.create_timer(1.0 / c.rate_hz, self._stall_watchdog, wall=True)
@@ -174,6 +212,12 @@ class SafetyGateNode(Node):
     def _times(self) -> tuple[float, float | None]:
         """(node time, wall time): the wall reading bounds a sim clock (see the contract); None on wall time."""
         return self.clock.monotonic(), (time.monotonic() if self.clock.sim else None)
+
+    def _commander_changed(self) -> None:
+        was = self.core.blocked
+        self.core.block(self.commander.blocked)
+        if self.core.blocked != was:
+            self.tick()  # a block goes out now
 
     def _stall_watchdog(self) -> None:
         if self.core.clock_stalled(time.monotonic()):  # wall time: the bound on a stalled sim clock
@@ -203,10 +247,26 @@ class SafetyGateNode(Node):
         state = (self.core.active, self.core.estopped, self.core.reason)
         if state != self._last_state or now - self._last_status >= self.config.status_period_s:
             if state != self._last_state and self._last_state is not None:
-                why = f" ({state[2]})" if state[0] is None else ""
-                self.log.info(f"active={state[0]} estop={state[1]}{why}")
+                self._state_changes += 1
+            if now - self._last_status >= self.config.status_period_s:
+                self.commander.beat()
             self._last_state, self._last_status = state, now
             self.status_pub.publish(String(data=json.dumps(self.status(now, wall))))
+        if self._state_changes:
+            self._log_state(state)
+
+    def _log_state(self, state: tuple[Any, ...]) -> None:
+        """The state after a change, at most once per LOG_PERIOD_S of wall time: input that flips the
+        state at the tick rate (alternating NaN and valid commands) must not flood the console. The
+        line counts the changes it stands for and comes at the latest LOG_PERIOD_S after the last
+        one; /safety/status has every change."""
+        t = time.monotonic()  # wall time: the console's rate, whatever the node's clock
+        if t - self._last_state_log < LOG_PERIOD_S:
+            return
+        why = f" ({state[2]})" if state[0] is None else ""
+        more = f" [{self._state_changes} changes since the last line]" if self._state_changes > 1 else ""
+        self.log.info(f"active={state[0]} estop={state[1]}{why}{more}")
+        self._last_state_log, self._state_changes = t, 0
 
     def status(self, now: float, wall: float | None = None) -> dict[str, Any]:
         return {
@@ -220,5 +280,7 @@ class SafetyGateNode(Node):
                 "wz": self.core.limits.wz,
             },
             "inputs": self.core.inputs_status(now, wall),
+            "commander": self.commander.status(),
+            "estop_state_file": str(self.store.path),
             "counters": {**self.core.counters, **self.counters},
         }

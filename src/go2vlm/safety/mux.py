@@ -18,8 +18,10 @@ Rules
 - A command with NaN/inf or absurd values is rejected, counted, and makes that input absent at once.
 - E-stop: `estop(True)` latches; while latched the output is exactly zero. `estop(False)` does NOT
   release it; only `release(token)` with the configured token does.
+- Block: `block(reason)` holds the output at zero (another writer drives /cmd_vel, see
+  safety/commander.py) until `block(None)`; then the output ramps up again from zero.
 - The output is the winner clamped to the limits, then ramped within the acceleration limits; zero
-  (no live input, e-stop) is output immediately.
+  (no live input, e-stop, block) is output immediately.
 """
 
 from __future__ import annotations
@@ -88,6 +90,8 @@ class SafetyCore:
         self.output = ZERO
         self.active: str | None = None
         self.reason = "estop" if self.engaged else "no live input"
+        self.blocked: str | None = None
+        self._held = self.engaged  # the last step held zero for the e-stop, a block or a stalled clock
         self.counters: dict[str, int] = {}
         self._t_out: float | None = None
         self._clock_t: float | None = None  # the newest node-clock time seen ...
@@ -126,6 +130,12 @@ class SafetyCore:
         else:
             self._count("estop_false_ignored")
 
+    def block(self, reason: str | None) -> None:
+        """Hold the output at zero for `reason`, or stop holding it (None)."""
+        if reason and reason != self.blocked:
+            self._count("blocks")
+        self.blocked = reason or None
+
     def release(self, token: str) -> bool:
         ok = self.latch.release(token)
         self._count("releases" if ok else "release_refused")
@@ -150,21 +160,21 @@ class SafetyCore:
         dt = 0.0 if self._t_out is None else min(max(now - self._t_out, 0.0), MAX_DT)
         self._t_out = now
         prev_active = self.active
-        if self.latch.engaged:
-            self.active = None
-            self.output = ZERO
-            self.reason = "estop"
-            return ZERO
-        if self.clock_stalled(wall):
+        held = "estop" if self.latch.engaged else self.blocked
+        if not held and self.clock_stalled(wall):
             if self.reason != "clock stalled":
                 self._count("clock_stalls")
+            held = "clock stalled"
+        if held:
             self.active = None
             self.output = ZERO
-            self.reason = "clock stalled"
+            self.reason = held
+            self._held = True
             return ZERO
+        was_held, self._held = self._held, False
         self.active = self.winner(now, wall)
         if self.active is None:
-            if not self.output.is_zero or self.reason in ("estop", "clock stalled"):
+            if not self.output.is_zero or was_held:
                 gone = self._inputs[prev_active] if prev_active else None
                 self.reason = (gone.why_absent or f"{gone.spec.name} timed out") if gone else "no live input"
             self.output = ZERO

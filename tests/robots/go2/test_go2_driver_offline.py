@@ -15,14 +15,15 @@ from go2vlm.msgs.std_msgs import Bool, String
 
 def test_driver_without_robot_keeps_running() -> None:
     driver = make_node("go2", params={"camera_rate_hz": 10.0, "rpc_timeout_s": 0.2})
+    gate = make_node("safety")  # /cmd_vel comes from the gate, the one writer the driver obeys
     probe = Node(node_name="go2_offline_probe")
     status = Recorder()
     probe.create_subscription(String, "/go2/status", lambda m: status(json.loads(m.data)), QOS_LATCHED)
-    cmd = probe.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
+    cmd = probe.create_publisher(Twist, "/teleop/cmd_vel", QOS_DEFAULT)
     estop = probe.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
     command = probe.create_publisher(String, "/go2/command", QOS_DEFAULT)
-    with running(driver, probe):
-        assert wait_for(lambda: len(status) > 0, 5.0)
+    with running(driver, gate, probe):
+        assert wait_for(lambda: len(status) > 0 and status.msgs()[-1]["commander"]["ok"], 5.0)
         assert status.msgs()[-1]["connected"] is False
         for _ in range(10):
             cmd.publish(Twist(linear=Vector3(0.3, 0.0, 0.0)))

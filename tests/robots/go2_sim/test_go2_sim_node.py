@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from busutil import GO2VLM, Procs, Recorder, env, wait_for
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
+from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.nav_msgs import Odometry
@@ -132,19 +133,22 @@ def odom_xy(rec: Recorder) -> np.ndarray:
 
 
 def test_cmd_vel_moves_and_its_timeout_stops(sim: tuple[Probe, dict[str, Recorder]]) -> None:
+    """/cmd_vel from the safety gate (the only writer the sim obeys) moves it; silence stops it."""
     probe, recs = sim
-    pub = probe.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
-    assert wait_for(lambda: pub.matched > 0, timeout=10)
-    start = odom_xy(recs["/odom"])
-    t_end = time.monotonic() + 2.0
-    while time.monotonic() < t_end:
-        pub.publish(Twist(linear=Vector3(0.5, 0.0, 0.0)))
-        time.sleep(0.05)
-    moved = np.linalg.norm(odom_xy(recs["/odom"]) - start)
-    assert moved > 0.5, f"the robot moved only {moved:.2f} m in 2 s at 0.5 m/s"
-    assert last(recs["/odom"]).twist.twist.linear.x == pytest.approx(0.5, abs=0.05)
+    gate = make_node("safety", params={"max_vx_forward": 0.5})
+    pub = probe.create_publisher(Twist, "/teleop/cmd_vel", QOS_DEFAULT)
+    with running(gate):
+        assert wait_for(lambda: pub.matched > 0 and json.loads(last(recs["/sim/status"]).data)["commander"]["ok"], 10)
+        start = odom_xy(recs["/odom"])
+        t_end = time.monotonic() + 2.0
+        while time.monotonic() < t_end:
+            pub.publish(Twist(linear=Vector3(0.5, 0.0, 0.0)))
+            time.sleep(0.05)
+        moved = np.linalg.norm(odom_xy(recs["/odom"]) - start)
+        assert moved > 0.5, f"the robot moved only {moved:.2f} m in 2 s at 0.5 m/s"
+        assert last(recs["/odom"]).twist.twist.linear.x == pytest.approx(0.5, abs=0.05)
 
-    # Silence: within cmd_timeout_s (0.5 s) the robot stops by itself.
+    # Silence (the gate is gone): within cmd_timeout_s (0.5 s) the robot stops by itself.
     time.sleep(1.0)
     a = odom_xy(recs["/odom"])
     time.sleep(1.0)
@@ -153,6 +157,7 @@ def test_cmd_vel_moves_and_its_timeout_stops(sim: tuple[Probe, dict[str, Recorde
 
 
 def test_bad_cmd_vel_and_push_move_nothing(sim: tuple[Probe, dict[str, Recorder]]) -> None:
+    """Bad values on /cmd_vel (from a writer that is not even the gate) and /sim/push move nothing."""
     probe, recs = sim
     pub = probe.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
     assert wait_for(lambda: pub.matched > 0, timeout=10)

@@ -86,14 +86,21 @@ class RpcClient:
         self.foreign_responses = 0
 
     @property
+    def writer_guid(self) -> Any:
+        """The GUID of this client's request writer (to tell our requests from other clients')."""
+        return self._pub.guid
+
+    @property
     def matched(self) -> bool:
-        """True once a server's request reader is matched (the robot or the sim is reachable)."""
-        return self._pub.matched > 0
+        """True once a server is matched both ways (the robot or the sim is reachable): a reader of our
+        requests and a writer of responses. A request reader alone may be a listener, not a server
+        (the go2 driver watches the sport requests of other clients)."""
+        return self._pub.matched > 0 and self._sub.publisher_count > 0
 
     def wait_for_server(self, timeout_s: float) -> bool:
         deadline = time.monotonic() + timeout_s  # wall time: waiting for DDS discovery
         while time.monotonic() < deadline:
-            if self.matched and self._sub.publisher_count > 0:
+            if self.matched:
                 return True
             time.sleep(0.02)
         return self.matched

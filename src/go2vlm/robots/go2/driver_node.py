@@ -1,17 +1,25 @@
 """go2: drives a real Unitree Go2 (or the simulator's Unitree bridge) over Unitree's own DDS protocol.
 
 Subscribes:
-  /cmd_vel                 geometry_msgs/Twist  from the safety gate; sent as sport Move (1008) at
-                                                `move_rate_hz`; a zero (or stale, `cmd_timeout_s`)
-                                                command sends StopMove (1003) once per transition
   /emergency_stop          std_msgs/Bool        true -> Damp (1001), latched: no Move, no standing up
                                                 until released; false does NOT release (as the safety gate)
-  /emergency_stop/release  std_msgs/String      data == `release_token` ("RELEASE") releases; the robot
-                                                stays damped until "recover" or "stand", and Move resumes
-                                                only after /cmd_vel has gone through zero
+  /emergency_stop/release  std_msgs/String      data == `release_token` ("RELEASE"), exactly, releases;
+                                                the robot stays damped until "recover" or "stand", and
+                                                Move resumes only after /cmd_vel has gone through zero
+  /cmd_vel                 geometry_msgs/Twist  only from the one safety gate (safety/commander.py): any
+                                                other writer stops the robot (StopMove) until it is gone;
+                                                motion starts from a zero command after such a stop or
+                                                a release; sent as sport Move (1008) at
+                                                `move_rate_hz`; a zero (or stale, `cmd_timeout_s`)
+                                                command sends StopMove (1003), repeated until answered ok
+  /safety/heartbeat        std_msgs/String      (latched) which /cmd_vel writer is a safety gate
   /go2/command             std_msgs/String      stand | balance | sit | rise | standdown | damp |
-                                                recover | hello | stop
+                                                recover | hello | stop (`go2vlm go2 <posture>` sends
+                                                here while a driver runs: one commander per robot)
   rt/sportmodestate        unitree_go/SportModeState_  (as /sportmodestate) the robot's state
+  rt/api/sport/request     unitree_api/Request_ other clients' sport requests: a foreign controller
+                                                (any writer but ours asking for a motion or posture)
+                                                triggers `foreign_sport` (see below)
   rt/api/sport/response, rt/api/videohub/response  unitree_api/Response_
 Publishes:
   rt/api/sport/request, rt/api/videohub/request    unitree_api/Request_
@@ -21,7 +29,21 @@ Publishes:
   /camera/image_raw/compressed  sensor_msgs/CompressedImage  front camera JPEG (videohub GetImageSample)
   /camera/image_raw        sensor_msgs/Image    the same frame decoded, bgr8, frame camera_optical_frame
   /camera/camera_info      sensor_msgs/CameraInfo  pinhole from `camera_hfov_deg`
-  /go2/status              std_msgs/String      latched JSON, 1 Hz: connected, estop, moving, mode, ...
+  /go2/status              std_msgs/String      latched JSON, 1 Hz and after each /go2/command: connected,
+                                                estop, moving, mode, commander, foreign_sport,
+                                                last_command {seq, name, result}, ...
+
+Stops are never dropped: Damp and StopMove are repeated (every 0.25 s) until the robot answers ok,
+and the e-stop is read before /cmd_vel in every executor pass. Against the simulator an ok means
+the stop was applied (robots/go2_sim/unitree_bridge.py).
+
+A foreign sport controller (`foreign_sport`): the Go2's sport API is open by Unitree's design, and a
+second program commanding it (another laptop's driver, an SDK script) makes the robot obey whoever
+spoke last. "damp" (the default) latches this driver's e-stop as if /emergency_stop had come: Damp,
+again after every further foreign request, and no Move until the deliberate release; it is the safe
+default because two masters on one robot is the situation where nobody knows what it does next,
+and Damp is the one action the other controller cannot make worse by accident. "report" only logs
+and counts. Either way the log says so loudly and /go2/status names the writer (GUID, node).
 
 Time: cmd_timeout_s, move_rate_hz, state_rate_hz, camera_rate_hz, the status period and the stamps
 are in the node's clock (sim time with use_sim_time, e.g. against the simulator); the sport and
@@ -40,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_READER, Node, param
+from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_READER, Endpoint, Node, discovery_info, param
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.msgs.base_state import base_state_messages
@@ -50,11 +72,14 @@ from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.msgs.unitree import SportModeState
+from go2vlm.msgs.unitree import Request, SportModeState
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.client import RpcClient
-from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch
+from go2vlm.safety.commander import CmdVelInput
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch, check_token
+
+RETRY_S = 0.25  # an unanswered Damp or StopMove is sent again after this long
 
 
 @dataclass
@@ -82,11 +107,17 @@ class Go2DriverConfig:
     odom_frame: str = param(spec.ODOM_FRAME, help="odometry frame")
     base_frame: str = param(spec.BASE_FRAME, help="robot base frame")
     camera_frame: str = param(spec.CAMERA_FRAME, help="frame_id of the camera images")
-    release_token: str = param(RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop")
+    release_token: str = param(
+        RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
+    )
+    foreign_sport: str = param(
+        "damp",
+        help="what a foreign sport controller on rt/api/sport/request triggers: damp (latch the e-stop) or report",
+        choices=("damp", "report"),
+    )
 
     def validate(self) -> None:
-        if not self.release_token.strip():
-            raise ValueError("release_token must not be empty")
+        check_token(self.release_token)
 
 
 class Go2DriverNode(Node):
@@ -107,12 +138,17 @@ class Go2DriverNode(Node):
         self._cmd = (0.0, 0.0, 0.0)
         self._cmd_time = -math.inf
         self.moving = False  # a non-zero Move was sent since the last StopMove
-        self.estop = EstopLatch(cfg.release_token.strip())
+        self.estop = EstopLatch(cfg.release_token)
         self._damp_acked = False
         self._damp_in_flight = False
         self._damp_last_try = -math.inf
-        self._need_zero = False  # after an e-stop release, Move waits for a zero /cmd_vel first
+        self._stop_acked = True  # the last StopMove was answered ok (or none was needed)
+        self._stop_in_flight = False
+        self._stop_last_try = -math.inf
         self._busy_command: str | None = None
+        self._command_seq = 0
+        self.last_command: dict[str, Any] | None = None
+        self.foreign: dict[str, Any] = {"requests": 0, "writers": {}}
         self._camera_pending = False
         self._last_state_pub = -math.inf
         self.state: SportModeState | None = None
@@ -133,7 +169,7 @@ class Go2DriverNode(Node):
             self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
             self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
+        # The e-stop first: each executor pass takes it before /cmd_vel (the priority lane).
         EstopInput(
             self,
             self.estop,
@@ -142,6 +178,11 @@ class Go2DriverNode(Node):
             on_release=self._on_release,
             released_note="the robot stays down until 'recover' or 'stand'",
         )
+        self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self._on_cmd_stop)
+        self.create_subscription(
+            Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
+        )
+        self._names = discovery_info.directory(self.participant)
         self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
         self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
@@ -158,12 +199,58 @@ class Go2DriverNode(Node):
         self._cmd = spec.clamp_velocity(*vals)
         self._cmd_time = self.clock.monotonic()
 
+    def _on_cmd_stop(self, reason: str) -> None:
+        """Driving is not allowed any more (another /cmd_vel writer): stop now, not at the timeout."""
+        self._cmd, self._cmd_time = (0.0, 0.0, 0.0), self.clock.monotonic()
+        if self.moving:
+            self._stop_move()
+
     def _on_estop(self) -> None:
         self._damp_acked = False
         self._damp()
 
     def _on_release(self) -> None:
-        self._need_zero = True
+        self.cmd_vel.require_zero()
+
+    def _on_sport_request(self, req: Request, sender: Endpoint | None) -> None:
+        own = str(self.sport.writer_guid)
+        if sender is not None and sender.guid == own:
+            return
+        api = int(req.header.identity.api_id)
+        if api not in p.SPORT_API_NAMES:
+            return  # a query (API version), not a command
+        name = p.SPORT_API_NAMES[api]
+        who = "an unknown writer" if sender is None else sender.guid
+        node = self._names.node_of(sender.guid) if sender is not None else None
+        self.foreign["requests"] += 1
+        writers = self.foreign["writers"]
+        if who not in writers and len(writers) >= 16:
+            writers.pop(next(iter(writers)))  # the status names the latest few, the log every one
+        writers[who] = {
+            "participant": None if sender is None else sender.participant,
+            "node": node,
+            "last_api": name,
+        }
+        n = self.count("foreign_sport_requests")
+        act = "damping and latching the e-stop" if self.config.foreign_sport == "damp" else "reporting only"
+        self.log.throttled(
+            "error",
+            2.0,
+            f"FOREIGN SPORT CONTROLLER: {name} from writer {who} (node {node or 'unknown'}), {n} so far; {act}",
+            key=f"foreign:{who}",
+        )
+        if self.config.foreign_sport != "damp":
+            return
+        if not self.estop.engaged:
+            self.log.warning(
+                f"EMERGENCY STOP (foreign_sport=damp): Damp, no Move until {self.estop.token!r} is "
+                "published on /emergency_stop/release"
+            )
+            self.estop.engage()
+            self.count("estops")
+        self._damp_acked = False  # damp again: the other controller may have stood it up
+        if not self._damp_in_flight and self.clock.monotonic() - self._damp_last_try > RETRY_S:
+            self._damp()
 
     def _on_command(self, msg: String) -> None:
         name = msg.data.strip().lower()
@@ -172,12 +259,20 @@ class Go2DriverNode(Node):
             self.log.throttled(
                 "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; use one of {', '.join(p.COMMANDS)}"
             )
+            self._command_done(name[:40], "unknown command")
             return
         if self.estop.engaged and name not in p.ESTOP_ALLOWED:
             self.count("refused_command")
             self.log.throttled("error", 2.0, f"refused {name!r}: emergency stop latched (release it first)")
+            self._command_done(name, "refused: emergency stop latched")
             return
         self.run_command(name)
+
+    def _command_done(self, name: str, result: str) -> None:
+        """Say how a /go2/command ended, on /go2/status at once (`go2vlm go2 <posture>` waits for it)."""
+        self._command_seq += 1
+        self.last_command = {"seq": self._command_seq, "name": name, "result": result}
+        self._status_tick()
 
     def run_command(self, name: str) -> None:
         """Send a posture command's API ids in order, each after the previous one answered ok."""
@@ -190,6 +285,7 @@ class Go2DriverNode(Node):
         if not api_ids:
             self._busy_command = None
             self.log.info(f"{name}: done")
+            self._command_done(name, "ok")
             return
         api = api_ids[0]
 
@@ -197,10 +293,13 @@ class Go2DriverNode(Node):
             if not result.ok:
                 self._busy_command = None
                 self.count("rpc_errors")
-                self.log.error(f"{name}: {p.SPORT_API_NAMES.get(api, api)} failed: {result.describe()}")
+                what = f"{p.SPORT_API_NAMES.get(api, api)} failed: {result.describe()}"
+                self.log.error(f"{name}: {what}")
+                self._command_done(name, what)
                 return
             if self.estop.engaged and name not in p.ESTOP_ALLOWED:
                 self._busy_command = None
+                self._command_done(name, "refused: emergency stop latched")
                 return  # an e-stop came in between: do not finish standing up
             self._chain(name, api_ids[1:])
 
@@ -226,19 +325,21 @@ class Go2DriverNode(Node):
         return self._cmd
 
     def _move_tick(self) -> None:
+        now = self.clock.monotonic()
         if self.estop.engaged:
-            retry_due = self.clock.monotonic() - self._damp_last_try > 0.25
+            retry_due = now - self._damp_last_try > RETRY_S
             if not self._damp_acked and not self._damp_in_flight and retry_due:
                 self._damp()  # keep trying while the e-stop holds: it must not be lost
             return
         cmd = self.current_command()
         zero = not any(cmd)
         if zero:
-            self._need_zero = False
             if self.moving:
                 self._stop_move()
+            elif not self._stop_acked and not self._stop_in_flight and now - self._stop_last_try > RETRY_S:
+                self._stop_move()  # the last StopMove was not answered ok: it must not be lost
             return
-        if self._need_zero or self._busy_command is not None:
+        if self._busy_command is not None:
             return
         if self.sport.send_noreply(p.MOVE, {"x": cmd[0], "y": cmd[1], "z": cmd[2]}):
             self.moving = True
@@ -250,8 +351,17 @@ class Go2DriverNode(Node):
     def _stop_move(self) -> None:
         self.moving = False
         self.stops_sent += 1
-        fut = self.sport.call_async(p.STOP_MOVE)
-        fut.add_done_callback(lambda r: None if r.ok else self._rpc_failed("StopMove", r))
+        self._stop_acked = False
+        self._stop_in_flight = True
+        self._stop_last_try = self.clock.monotonic()
+
+        def done(result: p.RpcResult) -> None:
+            self._stop_in_flight = False
+            self._stop_acked = result.ok
+            if not result.ok:
+                self._rpc_failed("StopMove", result)
+
+        self.sport.call_async(p.STOP_MOVE).add_done_callback(done)
 
     def _damp(self) -> None:
         self.moving = False
@@ -312,6 +422,11 @@ class Go2DriverNode(Node):
             "busy": self._busy_command,
             "moves_sent": self.moves_sent,
             "stops_sent": self.stops_sent,
+            "damps_sent": self.damps_sent,
+            "stop_acked": self._stop_acked,
+            "commander": self.cmd_vel.status(),
+            "foreign_sport": {"policy": self.config.foreign_sport, **self.foreign},
+            "last_command": self.last_command,
             "frames": self.frames,
             "errors": dict(self.counters),
         }

@@ -274,3 +274,7 @@ COMMANDS: dict[str, tuple[int, ...]] = {
 }
 # Allowed while the emergency stop is latched: nothing that makes the robot stand or move.
 ESTOP_ALLOWED = frozenset({"damp", "standdown", "stop"})
+ESTOP_ALLOWED_APIS = frozenset(api for name in ESTOP_ALLOWED for api in COMMANDS[name])
+# The stops: they travel in a priority lane (a server applies them before anything queued, and a
+# client retries them until they are acknowledged), and a Damp supersedes whatever came before it.
+STOP_APIS = frozenset({DAMP, STOP_MOVE})

@@ -5,13 +5,25 @@ machine allows (`fast: true`). Cameras are rendered on a separate render thread 
 context and works from a snapshot of the physics state, so rendering never stalls the physics.
 
 Subscribes:
-  /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z);
+  /emergency_stop             std_msgs/Bool         true latches the e-stop here too (safety/estop.py):
+                                                    Damp, as the go2 driver does on a real Go2, and no
+                                                    /cmd_vel, no standing up until released; false does
+                                                    NOT release
+  /emergency_stop/release     std_msgs/String       data == `release_token` ("RELEASE"), exactly, releases;
+                                                    the robot stays down until "recover" or "stand", and
+                                                    /cmd_vel moves it only after passing through zero
+  /cmd_vel                    geometry_msgs/Twist   body-frame velocity (linear.x, linear.y, angular.z),
+                                                    only from the one safety gate (safety/commander.py):
+                                                    another writer stops the robot; after such a stop or
+                                                    a release, motion starts from a zero command;
                                                     zeroed after `cmd_timeout_s` without a valid command
                                                     (the safety gate streams at >= 20 Hz); seconds of the
                                                     node's clock: sim time with use_sim_time, else wall
+  /safety/heartbeat           std_msgs/String       (latched) which /cmd_vel writer is a safety gate
   /go2/command                 std_msgs/String       posture, as the go2 driver takes it: stand, balance,
                                                     recover, sit/standdown (lie down), damp; only without
-                                                    `unitree` (then the driver sends sport RPCs instead)
+                                                    `unitree` (then the driver sends sport RPCs instead);
+                                                    while the e-stop is latched only damp, standdown, stop
   /sim/push                   geometry_msgs/Twist   disturbance test: an instant kick of the base, linear =
                                                     velocity change in the world frame (m/s, |v| <= 10),
                                                     angular = in the base frame (rad/s, |w| <= 30)
@@ -42,7 +54,8 @@ Publishes:
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
                                                     command, cmd_timed_out, frames, frames_dropped,
-                                                    overruns, render_error, use_sim_time
+                                                    overruns, render_error, use_sim_time, estop,
+                                                    commander (who may drive /cmd_vel, and why not)
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
@@ -60,6 +73,11 @@ ground truth, rt/sportmodestate) carries the sim time of the state it describes,
 and the Unitree Move timeout are sim seconds; without it headers carry wall-clock time, like the real
 robot. The pacing (rtf, fast), /sim/status (2 Hz of wall time, with both sim_time and wall_time) and
 the render thread are wall time in both modes: they are about how fast the host runs the sim.
+
+E-stop: the sim damps, as the go2 driver makes a real Go2 do (Unitree's own emergency action), so
+that what is rehearsed on the sim is what the robot will do; a stop-and-stand would teach the wrong
+recovery. With `unitree: true` its Unitree bridge also refuses every sport request but Damp,
+StandDown and StopMove while the e-stop is latched.
 
 With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport/request Move,
 StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
@@ -92,7 +110,9 @@ from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array
-from go2vlm.robots.go2 import spec
+from go2vlm.robots.go2 import protocol, spec
+from go2vlm.safety.commander import CmdVelInput
+from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch, check_token
 from go2vlm.sim import Go2Sim, SimConfig
 from go2vlm.sim.render import (
     NewestOnly,
@@ -137,6 +157,13 @@ class SimNodeConfig(SimConfig):
     detections: bool = param(False, help="publish ground-truth boxes of each head frame on /sim/detections")
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
+    release_token: str = param(
+        RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
+    )
+
+    def validate(self) -> None:
+        super().validate()
+        check_token(self.release_token)
 
 
 def _mat_quat(r: np.ndarray) -> np.ndarray:
@@ -304,7 +331,17 @@ class SimNode(Node):
         self.fell_reported = False
         self.bridge: Any = None
 
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, QOS_DEFAULT)
+        # The e-stop first: each executor pass takes it before /cmd_vel.
+        self.estop = EstopLatch(cfg.release_token)
+        EstopInput(
+            self,
+            self.estop,
+            held="Damp, no /cmd_vel, no standing up",
+            on_engage=self._on_estop,
+            on_release=self._on_release,
+            released_note="the robot stays down until 'recover' or 'stand'; /cmd_vel must pass through zero",
+        )
+        self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self._on_cmd_stop)
         self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
         if self.clock.sim:
             self.set_sim_time(self.sim.time)  # stamps from the start are sim time (0.0)
@@ -352,7 +389,7 @@ class SimNode(Node):
                 raise RuntimeError(
                     f"unitree: true needs go2vlm.robots.go2_sim.unitree_bridge, which cannot be imported: {exc}"
                 ) from exc
-            self.bridge = UnitreeSimBridge(self, self.sim)
+            self.bridge = UnitreeSimBridge(self, self.sim, estop=lambda: self.estop.engaged)
 
         self._publish_static_tf()
         for _, info_pub, info in self._cams.values():
@@ -369,6 +406,24 @@ class SimNode(Node):
         with self._cmd_lock:
             self._cmd = (float(vals[0]), float(vals[1]), float(vals[2]))
             self._cmd_t = self.clock.monotonic()
+
+    def _on_cmd_stop(self, reason: str) -> None:
+        """Driving is not allowed any more (another /cmd_vel writer): stop now."""
+        with self._cmd_lock:
+            self._cmd, self._cmd_t = (0.0, 0.0, 0.0), self.clock.monotonic()
+
+    def _on_estop(self) -> None:
+        self._on_cmd_stop("e-stop")
+        self.call_in_physics(self._damp)
+
+    def _damp(self, sim: Go2Sim) -> None:
+        if self.bridge is not None:
+            self.bridge.damp_now()  # through the bridge, so that its sport mode agrees
+        else:
+            sim.damp()
+
+    def _on_release(self) -> None:
+        self.cmd_vel.require_zero()
 
     def _on_push(self, msg: Twist) -> None:
         dv = (msg.linear.x, msg.linear.y, msg.linear.z)
@@ -388,6 +443,10 @@ class SimNode(Node):
             self.log.throttled(
                 "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; known: {', '.join(sorted(_POSTURES))}"
             )
+            return
+        if self.estop.engaged and word not in protocol.ESTOP_ALLOWED:
+            self.count("refused_command")
+            self.log.throttled("error", 2.0, f"refused {word!r}: emergency stop latched (release it first)")
             return
         self.log.info(f"posture: {word}")
         self.call_in_physics(action)
@@ -535,6 +594,9 @@ class SimNode(Node):
             except Exception as exc:
                 self.count("physics_call_errors")
                 self.log.throttled("error", 2.0, f"physics call failed: {type(exc).__name__}: {exc}")
+        if self.estop.engaged:  # nothing moves the robot while the e-stop holds
+            self.sim.set_command(0.0, 0.0, 0.0)
+            return
         timed_out = self.clock.monotonic() - stamp > self.config.cmd_timeout_s
         just_timed_out = timed_out and not self._cmd_timed_out
         if just_timed_out and any(cmd):
@@ -614,6 +676,9 @@ class SimNode(Node):
             "frames_dropped": self._renderer.dropped,
             "overruns": self.counters.get("physics_overruns", 0),
             "render_error": self._renderer.error,
+            "estop": self.estop.engaged,
+            "commander": self.cmd_vel.status(),
+            "counters": dict(self.counters),
         }
         self.pub_status.publish(String(data=json.dumps(status)))
 

@@ -17,6 +17,23 @@ Like the robot's sport service:
   malformed JSON / missing or non-numeric Move fields / oversized parameter or binary -> 3204
   (bad parameter), a handler failure -> 3202 (internal). Noreply requests are never answered.
 
+Stops are never dropped (unlike a real Go2, whose queue we cannot see, the sim promises this):
+- An answer means "applied": a request is answered on the physics thread after its action ran, so
+  code 0 for a Damp means the robot is damped. A request that is never applied is never answered
+  with 0: its client times out, or gets an error code, and retries (the go2 driver does).
+- Damp and StopMove (protocol.STOP_APIS) go in a priority lane, applied before anything else at
+  the next physics step. A Damp supersedes what is still pending from before it (postures are
+  answered 3202 "superseded", a pending Move is dropped); a StopMove supersedes a pending Move.
+- Moves do not queue: only the newest pending Move is applied (a burst of thousands of Moves after a
+  Damp is one ignored Move on a damped robot). Other postures wait in a bounded queue; when it is
+  full the new request is answered 3202 (busy) at once, never silently lost.
+- The request reader keeps a deep history (QOS_UNITREE_SERVER), so a burst does not push a Damp
+  out of the DDS cache before it is read.
+- `estop` (a callable, the owning SimNode's e-stop latch): while it says latched, only Damp,
+  StandDown and StopMove (protocol.ESTOP_ALLOWED_APIS) are obeyed; other requests are answered
+  3205 (lease denied) and Moves are ignored and counted. A real Go2 knows nothing of our e-stop;
+  the sim honours it because it is our own robot end (docs/safety.md).
+
 Threading: requests arrive on the node's executor thread; everything that touches the `Go2Sim`
 runs on the physics thread, which calls `on_step(state)` after each physics chunk (SimNode does;
 any other owner of a Go2Sim must do the same). Camera frames are rendered on the bridge's own
@@ -36,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
+from go2vlm.bus import QOS_UNITREE_SERVER, QOS_UNITREE_WRITER, Node
 from go2vlm.msgs.unitree import IMUState, Request, Response, SportModeState, TimeSpec
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.sim.render import NewestOnly, camera_scene_option, pose_mirror
@@ -54,6 +71,9 @@ _SPORT_MODE = {
     "recovering": "recovery_stand",
 }
 MAX_PENDING_CAMERA = 16  # answered in one batch per frame; more waiting clients are refused
+MAX_PENDING_POSTURES = 64  # postures waiting for the physics thread; more are answered "busy"
+
+_Call = tuple[Request, int, Callable[[], None]]  # request, api id, the action (physics thread)
 
 
 class UnitreeSimBridge:
@@ -69,6 +89,7 @@ class UnitreeSimBridge:
         camera_width: int | None = None,
         camera_height: int | None = None,
         move_timeout_s: float = 1.0,
+        estop: Callable[[], bool] = lambda: False,
     ) -> None:
         if not state_rate_hz > 0:
             raise ValueError(f"state_rate_hz must be positive, got {state_rate_hz}")
@@ -83,8 +104,11 @@ class UnitreeSimBridge:
             int(camera_height or sim.config.camera_height),
         )
         self.move_timeout_s = move_timeout_s
+        self.estop = estop
         self._lock = threading.Lock()
-        self._calls: deque[Callable[[], None]] = deque(maxlen=256)
+        self._stops: list[_Call] = []  # the priority lane
+        self._calls: deque[_Call] = deque()  # postures, in order, at most MAX_PENDING_POSTURES
+        self._pending_move: _Call | None = None  # only the newest Move counts
         self._camera_waiting: list[Request] = []
         self._balance = sim.mode in ("standing", "walking")
         self._sitting = False
@@ -95,13 +119,15 @@ class UnitreeSimBridge:
         self.errors = 0
         self.moves = 0
         self.ignored_moves = 0
+        self.refused = 0  # refused while the e-stop is latched
+        self.superseded = 0
         self.frames = 0
 
         self.pub_state = node.create_publisher(SportModeState, p.SPORT_STATE_TOPIC, QOS_UNITREE_WRITER)
         self.pub_sport = node.create_publisher(Response, p.response_topic(p.SPORT_SERVICE), QOS_UNITREE_WRITER)
         self.pub_video = node.create_publisher(Response, p.response_topic(p.VIDEO_SERVICE), QOS_UNITREE_WRITER)
-        node.create_subscription(Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER)
-        node.create_subscription(Request, p.request_topic(p.VIDEO_SERVICE), self._on_video_request, QOS_UNITREE_READER)
+        node.create_subscription(Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_SERVER)
+        node.create_subscription(Request, p.request_topic(p.VIDEO_SERVICE), self._on_video_request, QOS_UNITREE_SERVER)
         self._render = _JpegRenderer(self)
         self._render.start()  # GL context up front: the first camera request must not time out
 
@@ -136,9 +162,32 @@ class UnitreeSimBridge:
         except Exception as exc:  # a bug of ours must still produce an answer, not a hang
             self._reject(self.pub_sport, request, p.ERR_SERVER_INTERNAL, f"{type(exc).__name__}: {exc}")
             return
+        busy = False
+        superseded: list[_Call] = []
         with self._lock:
-            self._calls.append(action)
-        self._answer(self.pub_sport, request, p.OK)
+            call = (request, api, action)
+            if api in p.STOP_APIS:
+                self._stops.append(call)
+                if self._pending_move is not None:
+                    superseded.append(self._pending_move)
+                    self._pending_move = None
+                if api == p.DAMP:
+                    superseded.extend(self._calls)
+                    self._calls.clear()
+            elif api == p.MOVE:
+                if self._pending_move is not None:
+                    superseded.append(self._pending_move)
+                self._pending_move = call
+            elif len(self._calls) >= MAX_PENDING_POSTURES:
+                busy = True
+            else:
+                self._calls.append(call)
+        for old, _, _ in superseded:  # never applied, so never answered "ok"
+            self.superseded += 1
+            self.node.count("unitree_superseded")
+            self._answer(self.pub_sport, old, p.ERR_SERVER_INTERNAL)
+        if busy:
+            self._reject(self.pub_sport, request, p.ERR_SERVER_INTERNAL, "busy: too many requests waiting")
 
     def _sport_action(self, api: int, params: Any) -> Callable[[], None]:
         """Validate on the node thread; the returned action runs on the physics thread."""
@@ -196,15 +245,14 @@ class UnitreeSimBridge:
         """Apply queued sport commands, publish rt/sportmodestate when due, hand camera snapshots
         to the render thread. Call on the thread that steps the sim, after each step or chunk."""
         with self._lock:
-            calls = list(self._calls)
+            calls = [*self._stops, *self._calls]
+            if self._pending_move is not None:
+                calls.append(self._pending_move)
+            self._stops, self._pending_move = [], None
             self._calls.clear()
             want_frame = bool(self._camera_waiting)
-        for fn in calls:
-            try:
-                fn()
-            except Exception as exc:
-                self.node.count("unitree_action_errors")
-                self.node.log.throttled("error", 2.0, f"sport action failed: {type(exc).__name__}: {exc}")
+        for request, api, fn in calls:
+            self._apply(request, api, fn)
         now = self.node.clock.monotonic()
         if self._moving and now - self._last_move > self.move_timeout_s:
             self._moving = False
@@ -218,6 +266,24 @@ class UnitreeSimBridge:
             self.pub_state.publish(self.sport_state(state if state is not None else self.sim.state()))
 
     tick = on_step
+
+    def _apply(self, request: Request, api: int, fn: Callable[[], None]) -> None:
+        """Run one action on the physics thread, then answer: the answer says it was applied."""
+        if self.estop() and api not in p.ESTOP_ALLOWED_APIS:
+            self.refused += 1
+            self.node.count("unitree_refused_estop")
+            name = p.SPORT_API_NAMES.get(api, str(api))
+            self.node.log.throttled("warning", 2.0, f"sport {name} refused: the e-stop is latched", key="estop")
+            self._answer(self.pub_sport, request, p.ERR_SERVER_LEASE_DENIED)
+            return
+        try:
+            fn()
+        except Exception as exc:
+            self.node.count("unitree_action_errors")
+            self.node.log.throttled("error", 2.0, f"sport action failed: {type(exc).__name__}: {exc}")
+            self._answer(self.pub_sport, request, p.ERR_SERVER_INTERNAL)
+            return
+        self._answer(self.pub_sport, request, p.OK)
 
     def _move(self, vx: float, vy: float, vyaw: float) -> None:
         if not self._balance or self._sitting or self.sim.mode not in ("standing", "walking"):
@@ -234,6 +300,10 @@ class UnitreeSimBridge:
     def _stop(self) -> None:
         self._moving = False
         self.sim.stop()
+
+    def damp_now(self) -> None:
+        """Damp at once (the owner's e-stop); physics thread only."""
+        self._posture(self.sim.damp, balance=False)
 
     def _posture(self, fn: Callable[[], Any], *, balance: bool) -> None:
         self._stop()

@@ -1,0 +1,235 @@
+"""`go2vlm estop` holds the emergency stop; `go2vlm estop --release` is the deliberate release.
+
+    go2vlm estop              # latch /emergency_stop and keep holding it (leave it running)
+    go2vlm estop --release    # release it; waits until the gates and robot ends say so
+
+The holder publishes `true` on /emergency_stop with a latched (transient-local) writer and keeps it
+alive: a gate, sim or go2 driver that starts or restarts while it runs latches too (a `topic pub
+--once` would take its latched sample with it when it exits). It prints what it holds and, as they
+change, which gates (/safety/status) and robot ends (/go2/status, /sim/status) report latched. It
+exits by itself once the release token arrives on /emergency_stop/release (0); stopped by a signal it
+says that the latch stays engaged where it is engaged, and exits 128 + N.
+
+`--release` publishes the token on /emergency_stop/release, then waits until every gate and robot
+end that reported latched reports released (0), or says which still do not, for example because
+their `release_token` differs (1). Nothing reporting at all is a failure too (1): nobody confirmed it.
+
+Time here is wall time (time.monotonic): a tool's deadlines and waits are for the person at the
+terminal and for DDS discovery, not a node's clock.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from go2vlm.bus import (
+    QOS_ANY,
+    QOS_DEFAULT,
+    QOS_LATCHED,
+    Endpoint,
+    Node,
+    discovery_info,
+    exit_code,
+    interrupt_on_signals,
+    signal_of,
+)
+from go2vlm.msgs.std_msgs import Bool, String
+from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check_token
+
+# Who reports the e-stop, and as what.
+REPORTERS = {"/safety/status": "gate", "/go2/status": "robot (go2 driver)", "/sim/status": "robot (sim)"}
+HOLDER_NODE = "go2vlm_estop"
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "estop",
+        help="hold the emergency stop (latched until `go2vlm estop --release`)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--release", action="store_true", help="the deliberate release (publish the release token)")
+    p.add_argument("--token", default=RELEASE_TOKEN, help=f"the release token (default {RELEASE_TOKEN})")
+    p.add_argument("--timeout", type=float, default=10.0, help="--release: seconds to wait for the reports")
+    p.add_argument("--wait", type=float, default=1.5, help="seconds of discovery before the first report")
+    p.add_argument("--interface", default=None, help="network interface, e.g. lo or enp3s0 (env GO2VLM_IFACE)")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    p.set_defaults(func=run)
+
+
+@dataclass
+class Report:
+    topic: str
+    node: str
+    estop: bool
+    at: float  # wall time it arrived
+
+
+class Reports:
+    """The newest e-stop state of every gate and robot end, one per status writer."""
+
+    def __init__(self, node: Node) -> None:
+        self._lock = threading.Lock()
+        self._names = discovery_info.directory(node.participant)
+        self.by_writer: dict[str, Report] = {}
+        for topic in REPORTERS:
+            node.create_subscription(
+                String, topic, lambda m, s, t=topic: self._on(t, m, s), QOS_LATCHED, with_sender=True
+            )
+
+    def _on(self, topic: str, msg: String, sender: Endpoint | None) -> None:
+        try:
+            estop = json.loads(msg.data).get("estop")
+        except (ValueError, AttributeError):
+            return
+        if not isinstance(estop, bool) or sender is None:
+            return
+        name = self._names.node_of(sender.guid) or sender.participant
+        with self._lock:
+            self.by_writer[sender.guid] = Report(topic, name, estop, time.monotonic())
+
+    def snapshot(self) -> dict[str, Report]:
+        with self._lock:
+            return dict(self.by_writer)
+
+
+def label(r: Report) -> str:
+    return f"{r.node} ({REPORTERS[r.topic]})"
+
+
+def describe(reports: dict[str, Report]) -> str:
+    latched = sorted(label(r) for r in reports.values() if r.estop)
+    free = sorted(label(r) for r in reports.values() if not r.estop)
+    if not reports:
+        return "no gate or robot end reports yet (/safety/status, /go2/status, /sim/status)"
+    parts = [f"latched: {', '.join(latched) or 'none'}"]
+    if free:
+        parts.append(f"NOT latched: {', '.join(free)}")
+    return "; ".join(parts)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        token = check_token(args.token)
+    except ValueError as exc:
+        print(f"go2vlm estop: {exc}", file=sys.stderr)
+        return 2
+    if not args.timeout > 0 or not args.wait >= 0:
+        print("go2vlm estop: --timeout must be positive and --wait not negative", file=sys.stderr)
+        return 2
+    interrupt_on_signals()
+    node = Node(node_name=HOLDER_NODE, domain_id=args.domain, interface=args.interface)
+    try:
+        return release(node, token, args) if args.release else hold(node, token, args)
+    except KeyboardInterrupt as exc:
+        if not args.release:
+            print(
+                "go2vlm estop: stopped holding. Nodes that latched stay latched until `go2vlm estop --release`; "
+                "a node that starts from now on does not hear this e-stop.",
+                file=sys.stderr,
+            )
+        return exit_code(signal_of(exc))
+    finally:
+        node.shutdown()
+
+
+def hold(node: Node, token: str, args: argparse.Namespace) -> int:
+    released = threading.Event()
+    by: list[str] = []
+    names = discovery_info.directory(node.participant)
+
+    def on_release(msg: String, sender: Endpoint | None) -> None:
+        if msg.data == token and not released.is_set():
+            by.append((names.node_of(sender.guid) if sender else None) or "an unnamed publisher")
+            released.set()
+
+    reports = Reports(node)
+    node.create_subscription(String, RELEASE_TOPIC, on_release, QOS_ANY, with_sender=True)
+    pub = node.create_publisher(Bool, ESTOP_TOPIC, QOS_LATCHED)
+    node.start()
+    pub.publish(Bool(data=True))
+    print(
+        f"go2vlm estop: HOLDING {ESTOP_TOPIC} = true (latched): every gate and robot end, including any that "
+        f"starts later, stops and stays stopped. Release with `go2vlm estop --release`.",
+        flush=True,
+    )
+    time.sleep(args.wait)
+    last = ""
+    while not released.wait(0.2):
+        now = describe(reports.snapshot())
+        if now != last:
+            print(f"go2vlm estop: {now}", flush=True)
+            last = now
+    pub.close()  # no latched `true` left behind for late joiners
+    print(f"go2vlm estop: released by {by[0]}; no longer holding {ESTOP_TOPIC}", flush=True)
+    return 0
+
+
+def release(node: Node, token: str, args: argparse.Namespace) -> int:
+    reports = Reports(node)
+    holders = node.create_subscription(Bool, ESTOP_TOPIC, lambda _m: None, QOS_ANY)
+    pub = node.create_publisher(String, RELEASE_TOPIC, QOS_DEFAULT)
+    node.start()
+    deadline = time.monotonic() + args.wait
+    while time.monotonic() < deadline:  # discovery: the latched statuses and the release readers
+        time.sleep(0.05)
+    before = reports.snapshot()
+    latched = {g for g, r in before.items() if r.estop}
+    sent_at = time.monotonic()
+    pub.publish(String(data=token))
+    print(f"go2vlm estop: sent the release on {RELEASE_TOPIC}; {describe(before)}", flush=True)
+    deadline = sent_at + args.timeout
+    next_send = sent_at + 1.0
+
+    def done() -> bool:
+        now = reports.snapshot()
+        return all(g in now and not now[g].estop and now[g].at > sent_at for g in latched)
+
+    while not done() and time.monotonic() < deadline:
+        if time.monotonic() >= next_send:  # a reader that matched late; a release is idempotent
+            pub.publish(String(data=token))
+            next_send += 1.0
+        time.sleep(0.05)
+    after = reports.snapshot()
+    still = sorted(label(after[g]) for g in latched if g in after and after[g].estop)
+    gone = sorted(label(before[g]) for g in latched if g not in after)
+    if not before:
+        print(
+            "go2vlm estop: no gate or robot end reported (/safety/status, /go2/status, /sim/status): the release "
+            "was sent, but nobody confirmed it. Check --interface and the domain.",
+            file=sys.stderr,
+        )
+        return 1
+    if still or not done():
+        print(
+            f"go2vlm estop: still latched after {args.timeout:g} s: {', '.join(still or gone)}. Is their "
+            f"release_token {token!r}? Their status counts release_refused.",
+            file=sys.stderr,
+        )
+        return 1
+    released = sorted(label(after[g]) for g in latched) or ["nothing was latched"]
+    print(f"go2vlm estop: released: {', '.join(released)}", flush=True)
+    _report_holders(holders)
+    return 0
+
+
+def _report_holders(holders: Any) -> None:
+    """Say whether an `go2vlm estop` holder is still up (it exits by itself on the release)."""
+    names = discovery_info.directory()
+    deadline = time.monotonic() + 3.0
+
+    def remaining() -> list[Endpoint]:
+        return [w for w in holders.writers() if names.node_of(w.guid) == f"/{HOLDER_NODE}"]
+
+    while remaining() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if remaining():
+        print("go2vlm estop: an e-stop holder still publishes; it may use another token", file=sys.stderr)
+    else:
+        print("go2vlm estop: no e-stop holder left on /emergency_stop", flush=True)
