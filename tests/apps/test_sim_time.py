@@ -70,8 +70,9 @@ def test_follow_demo_same_outcome_at_rtf_1_and_fast(tmp_path: Path) -> None:
         assert m["fell"] is False and m["duration_s"] >= 19.8
         assert m["target_visible_fraction"] >= 0.9 and m["max_distance_to_ball_m"] < 3.0, m
     # The camera runs at 10 Hz of sim time in both: at --fast the physics waits for each frame to be
-    # drawn, at --rtf 1 a late render may drop one.
-    assert abs(rt["frames"] - fast["frames"]) <= 5 and fast["frames_dropped_by_renderer"] == 0
+    # drawn, at --rtf 1 a late render may drop some (a few percent on a busy machine).
+    assert fast["frames_dropped_by_renderer"] == 0 and fast["frames"] >= 195
+    assert 0.9 * fast["frames"] <= rt["frames"] <= fast["frames"] + 5
     _compare(rt, fast, FOLLOW_TOLERANCE)
 
 

@@ -397,14 +397,14 @@ def test_color_detector_rebuilds_its_ranges() -> None:
         assert r.successful and det._ranges == resolve_ranges([[0, 120, 70, 10, 255, 255]])
 
 
-def test_commander_rebuilds_its_approach_parameters() -> None:
+def test_commander_rebuilds_its_mission_parameters() -> None:
     from go2vlm.behavior.commander_node import CommanderNode
 
     cmd = CommanderNode()
     with running(cmd), ParameterClient("commander", timeout_s=15) as client:
         assert client.set_atomically({"max_linear": v(0.2), "kp_angular": v(1.0)}).successful
-        assert (cmd.approach.max_linear, cmd.approach.kp_angular) == (0.2, 1.0)
-        (r,) = client.set({"grounding": v("vlm")})
+        assert (cmd.mission.params.max_linear, cmd.mission.params.kp_angular) == (0.2, 1.0)
+        (r,) = client.set({"control_rate_hz": v(10.0)})
         assert not r.successful and "read-only" in r.reason
 
 

@@ -10,6 +10,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from go2vlm.msgs import REGISTRY, get_type, ros_name
 from go2vlm.msgs.msgdef import msgdef, rihs01, short_name
+from rosbagsutil import go2vlm_msgs
 
 # The packages' own .msg files (vision_msgs 4.x; unitree_ros2 with the unitree_sdk2 SportModeState).
 EXTRA_MSGS = {
@@ -54,7 +55,7 @@ EXTRA_MSGS = {
 def _reference_store() -> Any:
     ts = get_typestore(Stores.ROS2_JAZZY)
     found: dict[str, Any] = {}
-    for name, text in EXTRA_MSGS.items():
+    for name, text in {**EXTRA_MSGS, **go2vlm_msgs()}.items():
         found.update(get_types_from_msg(text, name))
     ts.register(found)
     return ts

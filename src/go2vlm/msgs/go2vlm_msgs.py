@@ -38,3 +38,9 @@ class TrackedTarget(IdlStruct, typename="go2vlm_msgs::msg::dds_::TrackedTarget_"
     distance_m: float = 0.0
     range_method: str = ""
     grounding_age_s: float = 0.0
+
+
+# The .msg text lists the state constants (msgs/msgdef.py reads `__ros_constants__`).
+TrackedTarget.__ros_constants__ = tuple(  # type: ignore[attr-defined]
+    ("uint8", name.upper(), value) for value, name in STATE_NAMES.items()
+)

@@ -263,6 +263,7 @@ class CmdVelInput:
         self._on_cmd = on_cmd
         self._on_stop = on_stop
         self.zero = ThroughZero()
+        self._drove = False  # driving has been allowed once
         self.sub = node.create_subscription(Twist, topic, self._on_msg, QOS_DEFAULT, with_sender=True)
         self.watch = _Watch(node, self.sub, own_writer=None, on_change=self._changed)
 
@@ -274,9 +275,12 @@ class CmdVelInput:
         self.zero.require()
 
     def _changed(self) -> None:
-        if not self.ok:
+        if self.ok:
+            self._drove = True
+            return
+        if self._drove:  # a stop; the not-yet-allowed verdicts of start-up are not one
             self.zero.require()
-            self._on_stop(self.watch.rule.verdict.reason)
+        self._on_stop(self.watch.rule.verdict.reason)
 
     def _on_msg(self, msg: Twist, sender: Endpoint | None) -> None:
         guid = sender.guid if sender is not None else None
