@@ -11,6 +11,7 @@ import re
 import struct
 import subprocess
 import time
+from pathlib import Path
 from typing import Any
 
 import cv2
@@ -18,6 +19,8 @@ import numpy as np
 import pytest
 import websockets
 from busutil import GO2VLM, Procs, env, wait_for
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
 
 from go2vlm.bus import Node, running
 from go2vlm.bus.graph import discover
@@ -186,3 +189,42 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
 def test_view_usage_errors() -> None:
     out = subprocess.run([*GO2VLM, "view", "--host", " "], capture_output=True, text=True, timeout=60, env=env())
     assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+
+
+@pytest.mark.slow
+def test_demo_serves_foxglove_live_and_records_a_bag(procs: Procs, tmp_path: Path) -> None:
+    """`go2vlm demo --foxglove 0 --bag`: a real WebSocket client sees the sim's camera while the demo
+    runs, and rosbags reads the demo's bag back afterwards."""
+    out = tmp_path / "demo"
+    demo = procs.start(
+        "demo", "--duration", "6", "--rtf", "1", "--mode", "kinematic", "--no-video", "--no-progress",
+        "--bag", "--foxglove", "0", "--out", str(out),
+    )  # fmt: skip
+    port = server_port(demo)
+
+    async def session() -> Client:
+        async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None) as ws:
+            c = Client(ws)
+            topic = "/camera/image_raw/compressed"
+            assert await c.pump(lambda: topic in c.channels, 60), sorted(c.channels)
+            for _ in range(4):  # see test_view_both_directions: a fresh channel may be unknown for a moment
+                await c.subscribe(topic)
+                if await c.pump(lambda: bool(c.received.get(topic)), 15):
+                    break
+            assert c.received.get(topic), c.statuses
+            return c
+
+    c = asyncio.run(session())
+    image = CompressedImage.deserialize(c.received["/camera/image_raw/compressed"][-1])
+    assert image.format == "jpeg"
+    assert demo.wait(timeout=300) == 0, demo.stdout.read() if demo.stdout else ""
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["bag"]["messages"] > 0 and metrics["options"]["bag"] is True
+    with AnyReader([out / "bag"], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+        n = {t: 0 for t in types}
+        for conn, _t, raw in reader.messages():
+            reader.deserialize(raw, conn.msgtype)
+            n[conn.topic] += 1
+    assert types["/camera/image_raw"] == "sensor_msgs/msg/Image" and types["/cmd_vel"] == "geometry_msgs/msg/Twist"
+    assert n["/camera/image_raw"] >= 20 and n["/cmd_vel"] > 0 and n["/clock"] > 0, n

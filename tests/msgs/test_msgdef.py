@@ -7,10 +7,10 @@ from typing import Any
 
 import pytest
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbagsutil import go2vlm_msgs
 
 from go2vlm.msgs import REGISTRY, get_type, ros_name
 from go2vlm.msgs.msgdef import msgdef, rihs01, short_name
-from rosbagsutil import go2vlm_msgs
 
 # The packages' own .msg files (vision_msgs 4.x; unitree_ros2 with the unitree_sdk2 SportModeState).
 EXTRA_MSGS = {

@@ -7,6 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from go2vlm.cli.view import add_foxglove_args, foxglove_params
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -36,6 +38,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="sim: /cmd_vel straight into the sim; go2: through the Go2 driver and the Unitree protocol",
     )
     p.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
+    p.add_argument("--bag", action="store_true", help="also record every topic into OUT/bag (rosbag2 MCAP)")
+    add_foxglove_args(p)
     p.add_argument("--world", default=None, help="world (default follow_ball; with --goal, picked from the goal)")
     p.add_argument(
         "--goal",
@@ -110,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
         interface=args.interface,
         domain_id=args.domain,
         cpu=args.goal is None,
+        bag=args.bag,
+        foxglove=foxglove_params(args),
     )
     stop = ShutdownRequested()
     stop.install()

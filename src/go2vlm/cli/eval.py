@@ -36,6 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     speed.add_argument("--fast", action="store_true", help="as fast as the host allows (fine for oracle/color)")
     p.add_argument("--mode", choices=("kinematic", "dynamic"), default=None, help="sim physics (default: the suite's)")
     p.add_argument("--video", action="store_true", help="also write each episode's run folder with video.mp4")
+    p.add_argument("--bag", action="store_true", help="also record each episode's topics into its run folder's bag/")
     p.add_argument(
         "--param",
         "-p",
@@ -101,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
         rtf=args.rtf,
         mode=args.mode,
         video=args.video,
+        bag=args.bag,
         params=node_params(args.param),
         interface=args.interface,
         domain_id=args.domain,

@@ -6,7 +6,8 @@ eval folder that grows by whole results and can be resumed.
                          versions, machine); appended and synced line by line
     DIR/runs/RUN.json    that configuration, once per run
     DIR/summary.json, DIR/report.md, DIR/*.png   rewritten from results.jsonl at the end (report.py)
-    DIR/episodes/ID/     with --video: each episode's run folder (metrics.json, plot.png, video.mp4)
+    DIR/episodes/ID/     with --video or --bag: each episode's run folder (metrics.json; plot.png and
+                         video.mp4 with --video; bag/ with --bag)
 
 A run is (suite file, variant, model, server, seed, speed, node parameters): its id is a hash of them.
 Several runs share a folder (oracle, color and vlm side by side); the report compares them. An
@@ -62,6 +63,7 @@ class EvalOptions:
     rtf: float = 1.0
     mode: str | None = None  # None: the suite's
     video: bool = False
+    bag: bool = False  # each episode's run folder gets bag/
     params: dict[str, dict[str, Any]] = field(default_factory=dict)
     interface: str = "lo"
     domain_id: int | None = None  # one fixed domain (one worker only)
@@ -192,13 +194,14 @@ def _worker_run(index: int, episode: dict[str, Any], run: dict[str, Any]) -> dic
     from go2vlm.apps.episodes.runner import RunOptions, run_episode
 
     ep = Episode.from_dict(episode)
-    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] else None
+    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] or run["bag"] else None
     opts = RunOptions(
         rtf=run["rtf"],
         fast=run["fast"],
         out=out,
         video=run["video"],
         plot=run["video"],
+        bag=run["bag"],
         interface=_WORKER["interface"],
         domain_id=_WORKER["domain"],
     )
@@ -304,6 +307,7 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
         "rtf": opts.rtf,
         "fast": opts.fast,
         "video": opts.video,
+        "bag": opts.bag,
         "episodes_dir": str(out / "episodes"),
     }
     errors: list[str] = []

@@ -15,7 +15,8 @@ runner's own deadlines (start-up, a stalled sim) and wall_s are wall time: they 
 
 Run folder (`RunOptions.out`), every file written atomically (temporary name, then rename):
 metrics.json first, then series.json (the time series behind the plot), plot.png, video.mp4 (after
-the run, from the recording; metrics.json is then rewritten with video_frames). A first SIGINT or
+the run, from the recording; metrics.json is then rewritten with video_frames); with `bag`, bag/ (a
+rosbag2 MCAP bag of every topic, for `go2vlm play` and Foxglove). A first SIGINT or
 SIGTERM ends the episode early (`interrupted`); further signals wait until metrics.json is written,
 and then only skip the plot and the video.
 """
@@ -57,6 +58,8 @@ class RunOptions:
     domain_id: int | None = None
     startup_timeout_s: float = 60.0  # wall seconds until the first /clock
     cpu: bool = False  # CPU seconds per thread (Linux /proc), for the demo's figures
+    bag: bool = False  # record every topic into out/bag (needs `out`)
+    foxglove: dict[str, Any] | None = None  # the Foxglove view node's parameters (port, host): live view
 
 
 @dataclass
@@ -98,9 +101,11 @@ def cpu_by_thread() -> dict[str, float]:
 
 def build_graph(ep: Episode, opts: RunOptions) -> tuple[list[Node], Any]:
     """The episode's nodes (not started) and the sim node among them."""
-    from go2vlm.launch.launcher import load_launch, make_nodes, with_overrides
+    from go2vlm.launch.launcher import LaunchEntry, load_launch, make_nodes, with_overrides
 
     _, entries = load_launch(graph_name(ep))
+    if opts.foxglove is not None:
+        entries.append(LaunchEntry("view", "foxglove_view", dict(opts.foxglove)))
     entries = with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True})
     nodes = make_nodes(entries, interface=opts.interface, domain_id=opts.domain_id)
     sim = next(n for n, e in zip(nodes, entries, strict=True) if e.kind == "sim")
@@ -140,9 +145,16 @@ def run_episode(
     out = Path(opts.out) if opts.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
+    if opts.bag and out is None:
+        raise ValueError("recording a bag needs a run folder (RunOptions.out)")
     recorder = EpisodeRecorder(video=opts.video, interface=opts.interface, domain_id=opts.domain_id)
+    bag = None
     try:
         nodes, sim = build_graph(ep, opts)
+        if opts.bag and out is not None:
+            from go2vlm.apps.bag.recorder import BagRecorder
+
+            bag = BagRecorder(out / "bag", all_topics=True, domain_id=opts.domain_id, interface=opts.interface)
     except BaseException:
         recorder.shutdown()
         raise
@@ -154,6 +166,8 @@ def run_episode(
         wall0 = time.monotonic()  # wall time: the runner's deadlines and wall_s
         cpu0, threads0 = os.times(), cpu_by_thread() if opts.cpu else {}
         recorder.start()
+        if bag is not None:
+            bag.start()
         for n in nodes:
             n.start()
         t0: float | None = None
@@ -178,9 +192,10 @@ def run_episode(
         finally:
             wall_s = time.monotonic() - wall0
             cpu = {k: v - threads0.get(k, 0.0) for k, v in cpu_by_thread().items()} if opts.cpu else {}
-            for n in reversed(nodes):  # the sim (first) goes last; the recorder hears everything
+            for n in reversed(nodes):  # the sim (first) goes last; the recorders hear everything
                 n.shutdown()
             recorder.shutdown()
+            bagged = bag.stop() if bag is not None else None
         cpu1 = os.times()
         rec = recorder.snapshot()
         ctx = Context(ep, shapes, t0 or 0.0, wall_s, opts.rtf, opts.fast, stop_distance)
@@ -201,8 +216,13 @@ def run_episode(
             "rtf": opts.rtf,
             "fast": opts.fast,
             "video": opts.video,
+            "bag": opts.bag,
         }
+        if bagged is not None:
+            metrics["bag"] = {"path": str(bagged.out), "messages": bagged.messages, "topics": len(bagged.topics)}
         result = EpisodeResult(ep, metrics, series, out, {}, rec)
+        if bagged is not None:
+            result.files["bag"] = str(bagged.out)
         if out is not None:
             write_json(out / "metrics.json", metrics)
             result.files["metrics"] = str(out / "metrics.json")
