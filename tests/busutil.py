@@ -134,3 +134,27 @@ def raw_take(reader: Any) -> list[bytes]:
 
     cond = ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any)
     return [bytes(data) for data, info in ddspy_take(reader._ref, cond.mask, 16) if info.valid_data]
+
+
+class Output:
+    """A process's stdout, read on a thread: wait on a line instead of sleeping."""
+
+    def __init__(self, proc: subprocess.Popen[str]) -> None:
+        self.proc = proc
+        self.lines: list[str] = []
+        self._thread = threading.Thread(target=self._read, daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    def wait_line(self, text: str, timeout: float = 60.0) -> bool:
+        return wait_for(lambda: any(text in line for line in self.lines), timeout)
+
+    def finish(self, timeout: float) -> str:
+        """Wait for the exit (TimeoutExpired past `timeout`) and return everything it printed."""
+        self.proc.wait(timeout)
+        self._thread.join(5)
+        return "".join(self.lines)

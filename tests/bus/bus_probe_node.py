@@ -56,6 +56,8 @@ class ProbeNode(Node):
             self.out.publish(String(data=self.config.prefix + text))
 
     def close(self) -> None:
+        if self.config.stuck_close:
+            self.log.info("close: stuck")
         while self.config.stuck_close:
             time.sleep(0.1)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import bus_probe_node
 import numpy as np
 import pytest
-from busutil import GO2VLM, Procs, Recorder, echo_json, env, wait_for
+from busutil import GO2VLM, Output, Procs, Recorder, echo_json, env, wait_for
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
@@ -228,24 +228,32 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     assert len(ticks) == n  # it really stopped publishing
 
 
+def _stuck_probe(procs: Procs, node: Listener, topic: str) -> tuple[subprocess.Popen[str], Output]:
+    """A probe whose close() never returns, spinning (its timer ticks: the signal handler is in)."""
+    ticks = Recorder()
+    node.create_subscription(String, topic, ticks)
+    p = bus_probe_node.start(procs, "--param", "stuck_close=true", "--remap", f"/probe/tick:={topic}")
+    out = Output(p)
+    assert wait_for(lambda: len(ticks) >= 1, 60), "".join(out.lines)
+    return p, out
+
+
 @pytest.mark.slow
-def test_stuck_shutdown_is_bounded_and_says_where(procs: Procs) -> None:
-    p = bus_probe_node.start(procs, "--param", "stuck_close=true")
-    time.sleep(2.0)  # running: the signal handler is installed
+def test_stuck_shutdown_is_bounded_and_says_where(procs: Procs, node: Listener) -> None:
+    p, output = _stuck_probe(procs, node, "/stuck/tick")
     p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=30)
+    out = output.finish(timeout=60)
     assert p.returncode == 1 and "Timeout" in out, out  # faulthandler's watchdog ended it
     assert "in close" in out and "bus_probe_node.py" in out, out  # the stuck frame is named
 
 
 @pytest.mark.slow
-def test_second_signal_exits_at_once(procs: Procs) -> None:
-    p = bus_probe_node.start(procs, "--param", "stuck_close=true")
-    time.sleep(2.0)
+def test_second_signal_exits_at_once(procs: Procs, node: Listener) -> None:
+    p, output = _stuck_probe(procs, node, "/second/tick")
     p.send_signal(signal.SIGINT)
-    time.sleep(0.5)
+    assert output.wait_line("close: stuck"), "".join(output.lines)  # the shutdown is under way and stuck
     p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=30)
+    out = output.finish(timeout=60)
     assert p.returncode == 128 + signal.SIGINT, out  # not the grace watchdog's exit code 1
     assert "second signal" in out and "in close" in out
 
@@ -256,25 +264,28 @@ def test_cli_tools_stop_cleanly(procs: Procs, node: Listener, sig: int) -> None:
     node.create_subscription(String, "/wire/tool_stop", rec)
     pub = procs.start("topic", "pub", "/wire/tool_stop", "std_msgs/msg/String", "{data: x}", "--rate", "50")
     echo = procs.start("topic", "echo", "/wire/tool_stop", "std_msgs/msg/String")
-    assert wait_for(lambda: len(rec) >= 3, 15)
-    time.sleep(0.5)
+    outputs = {p.pid: Output(p) for p in (echo, pub)}
+    assert wait_for(lambda: len(rec) >= 3, 30)
+    assert outputs[echo.pid].wait_line("data: x")  # both are running, past start-up
     for p in (echo, pub):
         p.send_signal(sig)
-        out, _ = p.communicate(timeout=5)
+        out = outputs[p.pid].finish(timeout=30)
         assert p.returncode == 128 + sig, out  # the signal convention: 130 SIGINT, 143 SIGTERM
         assert "Traceback" not in out
 
 
-def test_ctrl_c_stops_a_tool_started_with_sigint_ignored(procs: Procs) -> None:
+def test_ctrl_c_stops_a_tool_started_with_sigint_ignored(procs: Procs, node: Listener) -> None:
     """`nohup go2vlm topic echo ... &` inherits SIGINT ignored; Ctrl-C must still stop it."""
     echo = procs.start(
         "topic", "echo", "/wire/nohup", "std_msgs/msg/String",
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )  # fmt: skip
-    assert wait_for(lambda: echo.poll() is None, 2)
-    time.sleep(1.0)  # past start-up: the tool is waiting for messages
+    output = Output(echo)
+    pub = node.create_publisher(String, "/wire/nohup")
+    node.create_timer(0.2, lambda: pub.publish(String(data="are you there")))
+    assert output.wait_line("are you there"), "".join(output.lines)  # past start-up: it echoes
     echo.send_signal(signal.SIGINT)
-    out, _ = echo.communicate(timeout=10)  # before the fix: no exit at all
+    out = output.finish(timeout=30)  # before the fix: no exit at all
     assert echo.returncode in (0, 130), out
     assert "Traceback" not in out
 
