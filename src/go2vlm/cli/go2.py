@@ -147,7 +147,7 @@ class _Session:
             return 1
         if last["result"] != "ok":
             print(f"go2vlm go2: {posture}: {last['result']}", file=sys.stderr)
-            return 3 if last["result"].startswith("refused") else 1
+            return 1
         print(f"{posture}: ok (through the go2 driver)")
         return 0
 
@@ -164,7 +164,7 @@ def cmd_posture(args: argparse.Namespace) -> int:
         if s.estop and args.posture not in s.p.ESTOP_ALLOWED:
             msg = f"go2vlm go2: refused {args.posture!r}: /emergency_stop is latched; release it first"
             print(msg, file=sys.stderr)
-            return 3
+            return 1
         if s.driver is not None:
             return s.through_driver(args.posture)
         for api in s.p.COMMANDS[args.posture]:

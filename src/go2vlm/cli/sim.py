@@ -12,6 +12,7 @@ import time
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
+from go2vlm.errors import UsageError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import os
+
+    if args.duration is not None and not args.duration > 0:
+        raise UsageError("--duration must be positive")
 
     if args.viewer:
         if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):

@@ -19,8 +19,8 @@ import yaml
 
 from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile, exit_code, interrupt_on_signals, signal_of
 from go2vlm.bus.graph import compatible_reader_qos, discover
-from go2vlm.msgs import get_type as lookup_type
-from go2vlm.msgs import ros_name
+from go2vlm.errors import UsageError
+from go2vlm.msgs import get_type, ros_name
 from go2vlm.msgs.convert import from_dict, to_dict, to_yaml_text
 
 
@@ -64,6 +64,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.set_defaults(func=cmd_pub)
 
 
+def lookup_type(name: str) -> type:
+    """The message class named on the command line; an unknown name is a usage error (exit 2)."""
+    try:
+        return get_type(name)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -> tuple[type, QosProfile]:
     """The message class and a compatible reader QoS, from the arguments or from discovery."""
     profile = PROFILES.get(qos, QOS_DEFAULT)
@@ -81,7 +89,7 @@ def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -
     elif info and info.types:
         cls = lookup_type(sorted(info.types)[0])
     else:
-        raise SystemExit(f"go2vlm: topic {name} has no publisher yet; give its type to wait for it")
+        raise UsageError(f"topic {name} has no publisher yet; give its type to wait for it")
     if qos == "auto":
         profile = compatible_reader_qos(info.publishers if info else [], QOS_DEFAULT)
     return cls, profile
@@ -99,7 +107,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def _known(dds_type: str) -> bool:
     try:
-        lookup_type(dds_type)
+        get_type(dds_type)
         return True
     except ValueError:
         return False
@@ -110,6 +118,8 @@ class _Collector(Node):
 
 
 def cmd_echo(args: argparse.Namespace) -> int:
+    if args.count < 0 or (args.timeout is not None and not args.timeout > 0):
+        raise UsageError("--count must not be negative and --timeout must be positive")
     interrupt_on_signals()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     done = threading.Event()
@@ -189,11 +199,11 @@ def parse_message(cls: type, text: str) -> Any:
     try:
         data = yaml.safe_load(text) if text.strip() else {}
     except yaml.YAMLError as exc:
-        raise SystemExit(f"go2vlm: message is not valid YAML/JSON: {exc}") from None
+        raise UsageError(f"message is not valid YAML/JSON: {exc}") from None
     try:
         return from_dict(cls, data)
     except ValueError as exc:
-        raise SystemExit(f"go2vlm: {exc}") from None
+        raise UsageError(str(exc)) from None
 
 
 def cmd_pub(args: argparse.Namespace) -> int:
@@ -201,7 +211,7 @@ def cmd_pub(args: argparse.Namespace) -> int:
     cls = lookup_type(args.type)
     msg = parse_message(cls, args.values)
     if not args.rate > 0 or not math.isfinite(args.rate):
-        raise SystemExit("go2vlm: --rate must be a positive number")
+        raise UsageError("--rate must be a positive number")
     node = _Collector(node_name="go2vlm_topic_pub", parameter_services=False)
     pub = node.create_publisher(cls, args.topic, PROFILES[args.qos])
     deadline = time.monotonic() + args.wait

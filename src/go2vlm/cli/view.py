@@ -6,6 +6,8 @@ import argparse
 import sys
 from typing import Any
 
+from go2vlm.errors import ConfigError
+
 DEFAULT_PORT = 8765
 LAYOUT = "docs/foxglove/go2vlm_layout.json"
 
@@ -53,18 +55,13 @@ def foxglove_params(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def make_view(params: dict[str, Any], **kwargs: Any) -> Any:
-    """The view node; SystemExit with one line when foxglove-sdk is missing (a taken port is a ParamError)."""
+    """The view node; a ConfigError when foxglove-sdk is missing (a taken port is a ParamError)."""
     from go2vlm.launch.registry import make_node
 
     try:
         return make_node("view", params=params, **kwargs)
     except ImportError as exc:
-        raise SystemExit(
-            f"go2vlm: the Foxglove view needs the `view` extra (pip install 'go2vlm[view]'): {exc}"
-        ) from None
-    except RuntimeError as exc:
-        print(f"go2vlm: {exc}", file=sys.stderr)
-        raise SystemExit(1) from None
+        raise ConfigError(f"the Foxglove view needs the `view` extra (pip install 'go2vlm[view]'): {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:

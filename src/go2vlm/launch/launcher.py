@@ -40,6 +40,7 @@ import yaml
 
 from go2vlm.bus import Node, ShutdownRequested, build_node_config, exit_code
 from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
+from go2vlm.errors import ConfigError
 from go2vlm.launch.registry import NODES, make_node, node_class
 
 __all__ = [
@@ -57,7 +58,7 @@ __all__ = [
 LAUNCH_DIR = Path(__file__).resolve().parent
 
 
-class LaunchError(ValueError):
+class LaunchError(ConfigError):
     """A launch file that cannot be found or read, or an entry in it that is wrong."""
 
 
