@@ -34,6 +34,7 @@ COMMANDS = {
     "play": "go2vlm.cli.play",
     "view": "go2vlm.cli.view",
     "estop": "go2vlm.cli.estop",
+    "teleop": "go2vlm.cli.teleop",
     "doctor": "go2vlm.cli.doctor",
 }
 
