@@ -31,6 +31,7 @@ MISUSES = [
     (["run", "safety", "--interface", "nope0"], USAGE, "does not exist"),
     (["run", "vlm", "--param", "model=/nope"], USAGE, "no such directory, and not a hub id"),
     (["run", "vlm"], USAGE, "'model' is required"),
+    (["run", "vlm", "--param", "model={tmp}"], USAGE, "cannot load the model"),  # a directory, but no checkpoint
     (["launch", "/nope.yaml"], USAGE, "not found"),
     (["sim", "--duration", "-1"], USAGE, "--duration must be positive"),
     (["sim", "--param", "nope=1"], USAGE, "unknown parameter(s) nope"),

@@ -189,11 +189,14 @@ def run_in_process(entries: list[LaunchEntry], duration_s: float | None = None) 
             node.start()
             _say(f"up: {e.name} ({e.kind})")
         _say(f"{len(nodes)} node(s) running in process {os.getpid()}; Ctrl-C stops")
-        _wait(stop, duration_s)
+        _wait(stop, duration_s, lambda: all(n.failure is None for n in nodes))
     finally:
         for node in reversed(nodes):
             node.shutdown()
     _say("all nodes stopped")
+    failure = next((n.failure for n in nodes if n.failure is not None), None)
+    if failure is not None and stop.signal is None:
+        raise failure  # a node that cannot go on (cli/main.py: one line, exit 2 or 1)
     return exit_code(stop.signal)
 
 
