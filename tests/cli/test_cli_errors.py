@@ -19,7 +19,7 @@ MISUSES = [
     (["topic", "pub", "/x", "std_msgs/msg/Bool", '{"nope": 1}'], USAGE, "unknown field(s) nope"),
     (["topic", "pub", "/x", "std_msgs/msg/Bool", "--rate", "0", "-1"], USAGE, "--rate"),
     (["topic", "echo", "/x", "nope"], USAGE, "is not a message type"),
-    (["topic", "echo", "/x", "std_msgs/msg/Bool", "--count", "-1"], USAGE, "--count"),
+    (["topic", "echo", "/x", "std_msgs/msg/Bool", "--count", "-1"], USAGE, "--count must not be negative"),
     (["topic", "hz", "/x", "a/b/c/d"], USAGE, "is not a message type"),
     (["run", "nope"], USAGE, "unknown node 'nope'"),
     (["run", "safety", "--param", "nope=1", "--duration", "0.1"], USAGE, "unknown parameter(s) nope"),
@@ -45,7 +45,6 @@ MISUSES = [
     (["doctor", "--wait", "-1"], USAGE, "--wait must not be negative"),
     (["estop", "--timeout", "-1"], USAGE, "--timeout must be positive"),
     (["go2", "move", "nan", "0", "0"], USAGE, "must be finite"),
-    (["teleop", "--speed", "-1"], USAGE, "--speed must be a positive number"),
     (["teleop", "--topic", "/cmd_vel"], USAGE, "never /cmd_vel"),
     (["teleop"], USAGE, "not a TTY"),
     (["param", "set", "/nope", "a"], USAGE, "expected NAME VALUE pairs"),
@@ -61,6 +60,12 @@ ARGPARSE = [
     ["go2", "move", "1", "2"],
     ["sim", "--params-file", "x"],
     ["run", "safety", "--duration", "soon"],
+    ["run", "safety", "--duration", "nan"],
+    ["node", "list", "--wait", "nan"],
+    ["topic", "hz", "/x", "std_msgs/msg/Bool", "--duration", "-1"],
+    ["param", "get", "/x", "y", "--timeout", "0"],
+    ["teleop", "--speed", "-1"],
+    ["teleop", "--key-timeout", "inf"],
 ]
 
 

@@ -29,6 +29,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from go2vlm.cli.args import non_negative, positive
 from go2vlm.errors import UsageError
 
 # key -> (x, y, yaw) direction, as teleop_twist_keyboard's moveBindings (z is not a walking robot's)
@@ -60,10 +61,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--speed", type=float, default=0.2, help="linear speed, m/s (default 0.2)")
-    p.add_argument("--turn", type=float, default=0.5, help="yaw rate, rad/s (default 0.5)")
-    p.add_argument("--rate", type=float, default=10.0, help="publish rate, Hz (default 10)")
-    p.add_argument("--key-timeout", type=float, default=0.6, help="zero after S s without a key; 0 = never")
+    p.add_argument("--speed", type=positive, default=0.2, help="linear speed, m/s (default 0.2)")
+    p.add_argument("--turn", type=positive, default=0.5, help="yaw rate, rad/s (default 0.5)")
+    p.add_argument("--rate", type=positive, default=10.0, help="publish rate, Hz (default 10)")
+    p.add_argument("--key-timeout", type=non_negative, default=0.6, help="zero after S s without a key; 0 = never")
     p.add_argument("--topic", default="/teleop/cmd_vel", help="the gate input to publish (never /cmd_vel)")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
@@ -116,11 +117,6 @@ def keyboard(fd: int) -> Iterator[None]:
 
 
 def run(args: argparse.Namespace) -> int:
-    for name in ("speed", "turn", "rate"):
-        if not (math.isfinite(getattr(args, name)) and getattr(args, name) > 0):
-            raise UsageError(f"--{name} must be a positive number")
-    if not (math.isfinite(args.key_timeout) and args.key_timeout >= 0):
-        raise UsageError("--key-timeout must not be negative")
     topic = args.topic if args.topic.startswith("/") else "/" + args.topic
     if topic == "/cmd_vel":
         raise UsageError("teleop publishes a gate input, never /cmd_vel: only the safety gate drives the robot")

@@ -19,6 +19,7 @@ import yaml
 
 from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile, exit_code, interrupt_on_signals, signal_of
 from go2vlm.bus.graph import compatible_reader_qos, discover
+from go2vlm.cli.args import non_negative, positive
 from go2vlm.errors import UsageError
 from go2vlm.msgs import get_type, ros_name
 from go2vlm.msgs.convert import from_dict, to_dict, to_yaml_text
@@ -30,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     ls = verbs.add_parser("list", help="topics seen on the bus")
     ls.add_argument("-t", "--show-types", action="store_true")
-    ls.add_argument("--wait", type=float, default=1.5, help="discovery time in seconds")
+    ls.add_argument("--wait", type=non_negative, default=1.5, help="discovery time in seconds")
     ls.set_defaults(func=cmd_list)
 
     ec = verbs.add_parser("echo", help="print messages")
@@ -38,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ec.add_argument("type", nargs="?", default=None, help="message type, e.g. geometry_msgs/msg/Twist")
     ec.add_argument("--json", action="store_true", help="one JSON object per line")
     ec.add_argument("--count", "-n", type=int, default=0, help="exit after N messages")
-    ec.add_argument("--timeout", type=float, default=None, help="fail if the count is not reached in S seconds")
+    ec.add_argument("--timeout", type=positive, default=None, help="fail if the count is not reached in S seconds")
     ec.add_argument("--qos", choices=["auto", *PROFILES], default="auto")
     ec.add_argument("--bytes", choices=["summary", "base64", "list"], default="summary", dest="bytes_mode")
     ec.set_defaults(func=cmd_echo)
@@ -47,7 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     hz.add_argument("topic")
     hz.add_argument("type", nargs="?", default=None)
     hz.add_argument("--window", type=int, default=100)
-    hz.add_argument("--duration", type=float, default=None, help="stop after S seconds")
+    hz.add_argument("--duration", type=positive, default=None, help="stop after S seconds")
     hz.add_argument("--qos", choices=["auto", *PROFILES], default="auto")
     hz.set_defaults(func=cmd_hz)
 
@@ -59,7 +60,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.add_argument("--count", "-t", type=int, default=0, help="publish N times then exit (0: forever)")
     pb.add_argument("--once", "-1", action="store_true", help="publish once then exit")
     pb.add_argument("--qos", choices=list(PROFILES), default="default")
-    pb.add_argument("--wait", type=float, default=2.0, help="wait up to S seconds for a subscriber first")
+    pb.add_argument("--wait", type=non_negative, default=2.0, help="wait up to S seconds for a subscriber first")
     pb.add_argument("--stamp", action="store_true", help="set header.stamp to now on every message")
     pb.set_defaults(func=cmd_pub)
 
@@ -118,8 +119,8 @@ class _Collector(Node):
 
 
 def cmd_echo(args: argparse.Namespace) -> int:
-    if args.count < 0 or (args.timeout is not None and not args.timeout > 0):
-        raise UsageError("--count must not be negative and --timeout must be positive")
+    if args.count < 0:
+        raise UsageError("--count must not be negative")
     interrupt_on_signals()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     done = threading.Event()
