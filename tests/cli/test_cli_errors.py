@@ -26,6 +26,7 @@ MISUSES = [
     (["run", "safety", "--param", "garbage"], USAGE, "expected name=value"),
     (["run", "safety", "--param", "rate_hz=fast"], USAGE, "parameter error"),
     (["run", "safety", "--remap", "x"], USAGE, "expected /from:=/to"),
+    (["run", "safety", "--param", "health_tilt_deg=[50, 40, 30, 20]"], USAGE, "must increase strictly"),
     (["run", "safety", "--params-file", "/nope.yaml"], USAGE, "does not exist"),
     (["run", "safety", "--domain", "999"], USAGE, "outside 0..232"),
     (["run", "safety", "--interface", "nope0"], USAGE, "does not exist"),
