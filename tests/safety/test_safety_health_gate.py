@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
 import threading
 
-from busutil import Recorder, wait_for
+from busutil import GO2VLM, Recorder, env, wait_for
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
 from go2vlm.launch.registry import make_node
@@ -56,7 +57,6 @@ def test_health_caps_stops_and_downs_through_the_gate() -> None:
     io.create_subscription(String, "/safety/status", status, QOS_LATCHED)
     io.create_subscription(Bool, "/emergency_stop", estops, QOS_DEFAULT)
     teleop = io.create_publisher(Twist, "/teleop/cmd_vel", QOS_DEFAULT)
-    release = io.create_publisher(String, "/emergency_stop/release", QOS_DEFAULT)
 
     def vx() -> float | None:
         msgs = cmd.msgs()
@@ -97,8 +97,18 @@ def test_health_caps_stops_and_downs_through_the_gate() -> None:
             robot.tilt_deg = 60.0  # tipping over: down = the e-stop latches, and the robot ends hear it
             assert drive_until(lambda: gate.core.estopped and health().get("level") == "down")
             assert wait_for(lambda: any(m.data for m in estops.msgs()), 5.0)
+            out = estop_release()  # while still tipped over: the gate latches again, and says why
+            assert out.returncode == 1 and "health is at 'down'" in out.stderr and "tilt 60.0 deg" in out.stderr
+            assert gate.core.estopped
             robot.tilt_deg = 0.0
             assert drive_until(lambda: health().get("level") == "ok")
             assert gate.core.estopped and vx() == 0.0  # leaving the stop takes the deliberate release
-            release.publish(String(data="RELEASE"))
+            out = estop_release()
+            assert out.returncode == 0, out.stderr
             assert drive_until(lambda: not gate.core.estopped and vx() == 0.4)
+
+
+def estop_release() -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*GO2VLM, "estop", "--release", "--timeout", "3"], capture_output=True, text=True, timeout=60, env=env()
+    )
