@@ -166,3 +166,31 @@ def test_ladders_must_be_ordered() -> None:
         Ladder(10, 20, 30, math.nan, 1)
     with pytest.raises(ValueError, match="cap_scale"):
         HealthPolicy(cap_scale=1.5)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    scale=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.floats(0.0, 1.0)),
+    hold=st.one_of(st.none(), st.just("health: motor 110 C (stop)")),
+    commands=st.lists(st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-5, 5)), min_size=1, max_size=20),
+)
+def test_the_gate_core_applies_the_verdict_and_never_exceeds_its_limits(
+    scale: float, hold: str | None, commands: list[tuple[float, float, float]]
+) -> None:
+    """Whatever the verdict carries (a scale above 1, negative, NaN), the output stays within the
+    configured limits times a factor in [0, 1], and a hold is exactly zero."""
+    from go2vlm.safety.limits import Limits, Velocity
+    from go2vlm.safety.mux import SafetyCore
+
+    core = SafetyCore(limits=Limits(accel_linear=1e6, accel_angular=1e6))
+    core.health(scale, hold)
+    factor = min(1.0, max(0.0, scale)) if math.isfinite(scale) else 0.0
+    bound = core.limits.scaled(factor)
+    t = 0.0
+    for vx, vy, wz in commands:
+        t += 0.02
+        core.command("teleop", Velocity(vx, vy, wz), t)
+        out = core.step(t)
+        assert bound.within(out) and core.limits.within(out)
+        if hold:
+            assert out.is_zero and core.reason == hold
