@@ -50,7 +50,7 @@ Publishes:
                                                     score 1.0, the box of the visible part; specks
                                                     under 16 pixels or 2 pixels a side left out): the
                                                     perfect detector
-  /lowstate                   unitree_go/LowState   = rt/lowstate, as a Go2 publishes it, at state_rate_hz:
+  /lowstate                   unitree_go/LowState   = rt/lowstate, as a Go2 publishes it, at lowstate_rate_hz:
                                                     motor_state[0..11] (q, dq, tau_est, temperature from
                                                     the thermal model), bms_state.soc and power_v from the
                                                     battery model (sim/thermal.py), imu_state (rpy ...);
@@ -172,6 +172,9 @@ class SimNodeConfig(SimConfig):
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
+    )
+    lowstate_rate_hz: float = param(
+        20.0, help="rate of /lowstate (sim time; a Go2's rt/lf/lowstate is ~20 Hz)", min=1.0, max=500.0
     )
     battery_pct: float = param(100.0, help="the battery's state of charge at start (percent)", min=0.0, max=100.0)
     fault_motor_temp_c: float = param(
@@ -684,6 +687,8 @@ class SimNode(Node):
 
     def _publish_lowstate(self, s: Any) -> None:
         """Advance the motor and battery models to this state's time, then publish /lowstate."""
+        if s.time - self._health_t < 1.0 / self.config.lowstate_rate_hz - 1e-9:
+            return
         dt, self._health_t = s.time - self._health_t, s.time
         temps = self.thermal.step(dt, s.joint_torque)
         soc = self.battery.step(dt, s.joint_torque, s.joint_vel)
