@@ -127,3 +127,19 @@ def test_each_fault_gets_its_response(procs: Procs, probe: Probe, tmp_path: Path
     assert probe.gate["estop"] is True and probe.vx() == 0.0, "leaving the stop takes the deliberate release"
     probe.release.publish(String(data="RELEASE"))
     assert wait_for(lambda: probe.vx() == 0.3 and probe.sim.get("estop") is False, 20), (probe.gate, probe.sim)
+
+
+def test_a_real_tip_over_latches_the_estop(procs: Procs, probe: Probe) -> None:
+    """No injected fault: a hard kick (/sim/push) rolls the trotting sim over; the tilt it reports on
+    /lowstate takes the gate to "down", which latches the e-stop, and the sim Damps."""
+    procs.start("run", "sim", "--param", "camera=false", "--param", "world_camera=false", stdout=subprocess.DEVNULL)
+    procs.start(*GATE, stdout=subprocess.DEVNULL)
+    push = probe.create_publisher(Twist, "/sim/push", QOS_DEFAULT)
+    assert wait_for(lambda: probe.vx() == 0.3 and probe.sim.get("mode") == "walking" and push.matched > 0, 60)
+    for _ in range(6):  # airborne and rolling fast; again if the first sample met a reader not yet matched
+        push.publish(Twist(linear=Vector3(0.0, 5.0, 2.0), angular=Vector3(25.0, 0.0, 0.0)))
+        if wait_for(lambda: probe.level() == "down", 3.0):
+            break
+    assert probe.level() == "down" and any("tilt" in r for r in probe.gate["health"]["reasons"]), probe.gate
+    assert wait_for(lambda: probe.gate["estop"] is True and probe.vx() == 0.0, 10), probe.gate
+    assert wait_for(lambda: probe.sim.get("estop") is True and probe.sim.get("mode") == "damped", 20), probe.sim
