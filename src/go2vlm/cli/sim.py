@@ -21,9 +21,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="run the simulated Go2 (MuJoCo) on ROS 2 topics",
         description=(
             "Run the `sim` node: a MuJoCo Go2 publishing /camera/image_raw, /odom, /imu, /joint_states, /lowstate, "
-            "/tf, "
-            "/clock, /sim/ground_truth and /sim/status, driven by /cmd_vel. Headless by default (EGL, OSMesa "
-            "fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
+            "/tf, /clock, /sim/ground_truth and /sim/status, driven by /cmd_vel. Headless by default (EGL, "
+            "OSMesa fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
         ),
     )
     p.add_argument("--world", default="follow_ball", help="vision_test, follow_ball, obstacles or an .xml path")
