@@ -49,6 +49,22 @@ EXTRA_MSGS = {
         "float32[3] velocity\nfloat32 yaw_speed\nfloat32[4] range_obstacle\nint16[4] foot_force\n"
         "float32[12] foot_position_body\nfloat32[12] foot_speed_body\nunitree_go/PathPoint[10] path_point\n"
     ),
+    "unitree_go/msg/MotorState": (
+        "uint8 mode\nfloat32 q\nfloat32 dq\nfloat32 ddq\nfloat32 tau_est\nfloat32 q_raw\n"
+        "float32 dq_raw\nfloat32 ddq_raw\nint8 temperature\nuint32 lost\nuint32[2] reserve\n"
+    ),
+    "unitree_go/msg/BmsState": (
+        "uint8 version_high\nuint8 version_low\nuint8 status\nuint8 soc\nint32 current\nuint16 cycle\n"
+        "int8[2] bq_ntc\nint8[2] mcu_ntc\nuint16[15] cell_vol\n"
+    ),
+    "unitree_go/msg/LowState": (
+        "uint8[2] head\nuint8 level_flag\nuint8 frame_reserve\nuint32[2] sn\nuint32[2] version\n"
+        "uint16 bandwidth\nunitree_go/IMUState imu_state\nunitree_go/MotorState[20] motor_state\n"
+        "unitree_go/BmsState bms_state\nint16[4] foot_force\nint16[4] foot_force_est\nuint32 tick\n"
+        "uint8[40] wireless_remote\nuint8 bit_flag\nfloat32 adc_reel\nint8 temperature_ntc1\n"
+        "int8 temperature_ntc2\nfloat32 power_v\nfloat32 power_a\nuint16[4] fan_frequency\n"
+        "uint32 reserve\nuint32 crc\n"
+    ),
 }
 
 

@@ -44,6 +44,22 @@ UNITREE_MSGS = {
         "float32[3] velocity\nfloat32 yaw_speed\nfloat32[4] range_obstacle\nint16[4] foot_force\n"
         "float32[12] foot_position_body\nfloat32[12] foot_speed_body\nunitree_go/PathPoint[10] path_point\n"
     ),
+    "unitree_go/msg/MotorState": (
+        "uint8 mode\nfloat32 q\nfloat32 dq\nfloat32 ddq\nfloat32 tau_est\nfloat32 q_raw\n"
+        "float32 dq_raw\nfloat32 ddq_raw\nuint8 temperature\nuint32 lost\nuint32[2] reserve\n"
+    ),
+    "unitree_go/msg/BmsState": (
+        "uint8 version_high\nuint8 version_low\nuint8 status\nuint8 soc\nint32 current\nuint16 cycle\n"
+        "uint8[2] bq_ntc\nuint8[2] mcu_ntc\nuint16[15] cell_vol\n"
+    ),
+    "unitree_go/msg/LowState": (
+        "uint8[2] head\nuint8 level_flag\nuint8 frame_reserve\nuint32[2] sn\nuint32[2] version\n"
+        "uint16 bandwidth\nunitree_go/IMUState imu_state\nunitree_go/MotorState[20] motor_state\n"
+        "unitree_go/BmsState bms_state\nint16[4] foot_force\nint16[4] foot_force_est\nuint32 tick\n"
+        "uint8[40] wireless_remote\nuint8 bit_flag\nfloat32 adc_reel\nuint8 temperature_ntc1\n"
+        "uint8 temperature_ntc2\nfloat32 power_v\nfloat32 power_a\nuint16[4] fan_frequency\n"
+        "uint32 reserve\nuint32 crc\n"
+    ),
 }
 
 
@@ -78,8 +94,10 @@ def _value(tp: Any, rng: np.random.Generator) -> Any:
         return bool(rng.integers(0, 2))
     holder = typing.get_args(tp)[1] if typing.get_origin(tp) is typing.Annotated else tp
     if isinstance(holder, types.array):
-        return [_value(holder.subtype, rng) for _ in range(holder.length)]
-    ranges = {"byte": (0, 255), "int16": (-32768, 32767), "uint32": (0, 2**32 - 1), "int32": (-(2**31), 2**31 - 1)}
+        items = [_value(holder.subtype, rng) for _ in range(holder.length)]
+        return bytes(items) if holder.subtype == types.byte else items  # a byte array decodes as bytes
+    ranges = {"byte": (0, 255), "int16": (-32768, 32767), "uint16": (0, 65535), "uint32": (0, 2**32 - 1)}
+    ranges["int32"] = (-(2**31), 2**31 - 1)
     ranges["int64"] = (-(2**63), 2**63 - 1)
     if isinstance(holder, str) and holder in ranges:
         lo, hi = ranges[holder]
@@ -92,11 +110,11 @@ def _value(tp: Any, rng: np.random.Generator) -> Any:
 def _to_rosbags(msg: Any, typename: str) -> Any:
     ts = typestore()
     cls = ts.types[typename]
-    kwargs = {name: _to_rosbags_value(getattr(msg, name)) for name, _ in ts.fielddefs[typename][1]}
+    kwargs = {name: _to_rosbags_value(getattr(msg, name), fdef) for name, fdef in ts.fielddefs[typename][1]}
     return cls(**kwargs)
 
 
-def _to_rosbags_value(value: Any) -> Any:
+def _to_rosbags_value(value: Any, fdef: Any) -> Any:
     if isinstance(value, IdlStruct):
         return _to_rosbags(value, ros_name(type(value)))
     if isinstance(value, bytes):
@@ -104,8 +122,8 @@ def _to_rosbags_value(value: Any) -> Any:
     if isinstance(value, list):
         if value and isinstance(value[0], IdlStruct):
             return [_to_rosbags(v, ros_name(type(v))) for v in value]
-        is_int = isinstance(value[0], int)
-        return np.array(value, dtype=np.int16 if is_int else np.float32)  # the only array kinds here
+        (_, (element, _)), _ = fdef[1]  # an array's element type in the .msg, e.g. 'uint16'
+        return np.array(value, dtype=np.dtype(element))
     return value
 
 

@@ -13,6 +13,8 @@ import re
 import unicodedata
 from dataclasses import dataclass
 
+from go2vlm.errors import UsageError
+
 __all__ = [
     "COLORS",
     "GOAL_KINDS",
@@ -99,7 +101,7 @@ _ZH_OBJ_FILLER = ("那个", "这个", "一个", "颜色", "色的", "色", "的"
 MAX_GOAL_CHARS = 200
 
 
-class GoalParseError(ValueError):
+class GoalParseError(UsageError):
     """The goal text was not understood; the message is the reply for /commander/status."""
 
 

@@ -315,6 +315,7 @@ class Node:
         self.domain_id = domain.domain_id_from_env() if domain_id is None else domain_id
         self.participant = domain.participant(domain_id, interface)
         self.counters: dict[str, int] = {}
+        self.failure: BaseException | None = None  # set by fail(): the node cannot go on
         self.publishers: list[Publisher[Any]] = []
         self.subscriptions: list[Subscription[Any]] = []
         self.services: list[Service[Any, Any]] = []
@@ -537,6 +538,14 @@ class Node:
             self.log.throttled(
                 "error", 2.0, f"callback for {where} failed: {type(exc).__name__}: {exc}", key=f"cb:{where}"
             )
+
+    def fail(self, exc: BaseException) -> None:
+        """The node cannot do its job at all (e.g. a model that cannot load at start): from any
+        thread, ask whoever runs it to stop. `spin` (go2vlm run) then shuts every node down and
+        raises `exc`, which cli/main.py turns into one line and the exit code (2 for a ConfigError)."""
+        if self.failure is None:
+            self.failure = exc
+            self._wake()
 
     def start(self) -> Node:
         """Run the executor on a background thread."""

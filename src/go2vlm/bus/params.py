@@ -21,6 +21,8 @@ from typing import Any
 
 import yaml
 
+from go2vlm.errors import ConfigError
+
 __all__ = [
     "BASE_PARAMS",
     "NodeParams",
@@ -34,7 +36,7 @@ __all__ = [
 ]
 
 
-class ParamError(ValueError):
+class ParamError(ConfigError):
     """A parameter value that is missing, of the wrong type or out of range."""
 
 

@@ -122,7 +122,8 @@ def spin(
     shutdown: ShutdownRequested | None = None,
 ) -> int | None:
     """Run `nodes` until SIGINT/SIGTERM, `until()` is true or `duration_s` passes, then shut all down.
-    Returns the signal that stopped them, or None (`exit_code()` turns it into the exit code)."""
+    Returns the signal that stopped them, or None (`exit_code()` turns it into the exit code). A node
+    that called `fail(exc)` stops them all too, and `exc` is raised after the shutdown."""
     stop = shutdown or ShutdownRequested()
     if shutdown is None:
         stop.install()
@@ -135,6 +136,8 @@ def spin(
                 break
             if duration_s is not None and elapsed >= duration_s:
                 break
+            if any(n.failure is not None for n in nodes):
+                break
             stop.event.wait(0.05)
             elapsed += 0.05
     finally:
@@ -145,6 +148,9 @@ def spin(
                 node.shutdown()
         finally:
             faulthandler.cancel_dump_traceback_later()
+    failure = next((n.failure for n in nodes if n.failure is not None), None)
+    if failure is not None and stop.signal is None:
+        raise failure
     return stop.signal
 
 

@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     except RuntimeError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)
-        return 3
+        return 1
     if args.goal is None:
         print(summary(result), flush=True)
         if result.metrics["fell"]:

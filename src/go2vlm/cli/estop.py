@@ -69,6 +69,7 @@ class Report:
     node: str
     estop: bool
     at: float  # wall time it arrived
+    health: str = ""  # a gate's health verdict at level down: why it latches again after a release
 
 
 class Reports:
@@ -85,14 +86,17 @@ class Reports:
 
     def _on(self, topic: str, msg: String, sender: Endpoint | None) -> None:
         try:
-            estop = json.loads(msg.data).get("estop")
-        except (ValueError, AttributeError):
+            status = json.loads(msg.data)
+            estop = status.get("estop")
+            health = status.get("health") or {}
+            down = "; ".join(health.get("reasons") or []) if health.get("level") == "down" else ""
+        except (ValueError, AttributeError, TypeError):
             return
         if not isinstance(estop, bool) or sender is None:
             return
         name = self._names.node_of(sender.guid) or sender.participant
         with self._lock:
-            self.by_writer[sender.guid] = Report(topic, name, estop, time.monotonic())
+            self.by_writer[sender.guid] = Report(topic, name, estop, time.monotonic(), down)
 
     def snapshot(self) -> dict[str, Report]:
         with self._lock:
@@ -203,6 +207,14 @@ def release(node: Node, token: str, args: argparse.Namespace) -> int:
         print(
             "go2vlm estop: no gate or robot end reported (/safety/status, /go2/status, /sim/status): the release "
             "was sent, but nobody confirmed it. Check --interface and the domain.",
+            file=sys.stderr,
+        )
+        return 1
+    unhealthy = sorted(f"{label(r)}: {r.health}" for g, r in after.items() if g in latched and r.estop and r.health)
+    if unhealthy:
+        print(
+            f"go2vlm estop: still latched: the robot's health is at 'down' ({'; '.join(unhealthy)}); "
+            "the gate latches again until the reading is healthy (docs/safety.md, Health)",
             file=sys.stderr,
         )
         return 1

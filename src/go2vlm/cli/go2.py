@@ -22,6 +22,7 @@ import time
 from typing import Any
 
 from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
+from go2vlm.cli.args import positive
 
 POSTURES = ("stand", "balance", "sit", "rise", "standdown", "damp", "recover", "hello", "stop")
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
@@ -37,7 +38,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--interface", default=None, help="network interface to the robot, e.g. enp3s0 (lo for a sim)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (the Go2 uses 0; default ROS_DOMAIN_ID or 0)")
-    p.add_argument("--timeout", type=float, default=3.0, help="seconds to find the robot and for each answer")
+    p.add_argument("--timeout", type=positive, default=3.0, help="seconds to find the robot and for each answer")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     for name in POSTURES:
         v = verbs.add_parser(name, help=f"sport: {name}")
@@ -147,7 +148,7 @@ class _Session:
             return 1
         if last["result"] != "ok":
             print(f"go2vlm go2: {posture}: {last['result']}", file=sys.stderr)
-            return 3 if last["result"].startswith("refused") else 1
+            return 1
         print(f"{posture}: ok (through the go2 driver)")
         return 0
 
@@ -164,7 +165,7 @@ def cmd_posture(args: argparse.Namespace) -> int:
         if s.estop and args.posture not in s.p.ESTOP_ALLOWED:
             msg = f"go2vlm go2: refused {args.posture!r}: /emergency_stop is latched; release it first"
             print(msg, file=sys.stderr)
-            return 3
+            return 1
         if s.driver is not None:
             return s.through_driver(args.posture)
         for api in s.p.COMMANDS[args.posture]:

@@ -6,6 +6,7 @@ import argparse
 import os
 import sys
 
+from go2vlm.cli.args import positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -21,7 +22,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("file", nargs="?", help="launch file path or packaged name")
     p.add_argument("--processes", action="store_true", help="one child process per node")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
     p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
     p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")

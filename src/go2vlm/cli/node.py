@@ -12,12 +12,14 @@ from __future__ import annotations
 import argparse
 import time
 
+from go2vlm.cli.args import non_negative
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("node", help="list nodes (like `ros2 node list`)")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     ls = verbs.add_parser("list", help="nodes seen on the bus")
-    ls.add_argument("--wait", type=float, default=1.5, help="discovery time in seconds")
+    ls.add_argument("--wait", type=non_negative, default=1.5, help="discovery time in seconds")
     ls.add_argument("-v", "--verbose", action="store_true", help="also show each node's topics")
     ls.set_defaults(func=cmd_list)
 

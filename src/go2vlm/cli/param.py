@@ -22,6 +22,8 @@ from typing import Any
 
 import yaml
 
+from go2vlm.cli.args import positive
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("param", help="get and set a running node's parameters (like `ros2 param`)")
@@ -30,7 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     def verb(name: str, help_text: str) -> argparse.ArgumentParser:
         v = verbs.add_parser(name, help=help_text)
         v.add_argument("node", help="node name, e.g. follower or /follower")
-        v.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the node (default 5)")
+        v.add_argument("--timeout", type=positive, default=5.0, help="seconds to wait for the node (default 5)")
         v.add_argument("--interface", default=None, help="network interface, e.g. lo or eth0 (env GO2VLM_IFACE)")
         v.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
         return v

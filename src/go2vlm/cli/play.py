@@ -7,6 +7,7 @@ import sys
 import time
 
 from go2vlm.bus import ParamError, ShutdownRequested
+from go2vlm.cli.args import non_negative, positive
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -32,8 +33,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="TOPIC",
         help="wait (up to --wait-timeout) until these topics have a subscriber before playing",
     )
-    p.add_argument("--wait-timeout", type=float, default=10.0, help="seconds (default 10)")
-    p.add_argument("--delay", type=float, default=0.0, help="sleep S seconds before playing")
+    p.add_argument("--wait-timeout", type=positive, default=10.0, help="seconds (default 10)")
+    p.add_argument("--delay", type=non_negative, default=0.0, help="sleep S seconds before playing")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
     p.set_defaults(func=run)

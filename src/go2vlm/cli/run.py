@@ -7,7 +7,9 @@ import sys
 import textwrap
 
 from go2vlm.bus import describe_params, exit_code, parse_overrides, spin
+from go2vlm.cli.args import positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
+from go2vlm.errors import ConfigError, UsageError
 from go2vlm.launch.registry import NODES, make_node, node_class
 
 
@@ -16,7 +18,7 @@ def parse_remaps(items: list[str]) -> dict[str, str]:
     for item in items:
         src, sep, dst = item.partition(":=")
         if not sep or not src or not dst:
-            raise SystemExit(f"go2vlm: --remap {item!r}: expected /from:=/to")
+            raise UsageError(f"--remap {item!r}: expected /from:=/to")
         out[src if src.startswith("/") else "/" + src] = dst if dst.startswith("/") else "/" + dst
     return out
 
@@ -67,16 +69,16 @@ def add_node_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--name", default=None, help="node name (default: the node kind)")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo or eth0 (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
-    p.add_argument("--duration", type=float, default=None, help="stop after this many seconds")
+    p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
 
 
 def run(args: argparse.Namespace) -> int:
     try:
         node_class(args.node)
     except ValueError as exc:  # unknown node name: a message, not a traceback
-        raise SystemExit(f"go2vlm: {exc}") from None
+        raise UsageError(str(exc)) from None
     except ImportError as exc:
-        raise SystemExit(f"go2vlm: node {args.node!r} cannot be loaded: {exc}") from None
+        raise ConfigError(f"node {args.node!r} cannot be loaded: {exc}") from None
     node = make_node(
         args.node,
         params=parse_overrides(args.param),

@@ -12,6 +12,7 @@ import time
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
+from go2vlm.errors import UsageError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -19,9 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "sim",
         help="run the simulated Go2 (MuJoCo) on ROS 2 topics",
         description=(
-            "Run the `sim` node: a MuJoCo Go2 publishing /camera/image_raw, /odom, /imu, /joint_states, /tf, "
-            "/clock, /sim/ground_truth and /sim/status, driven by /cmd_vel. Headless by default (EGL, OSMesa "
-            "fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
+            "Run the `sim` node: a MuJoCo Go2 publishing /camera/image_raw, /odom, /imu, /joint_states, /lowstate, "
+            "/tf, /clock, /sim/ground_truth and /sim/status, driven by /cmd_vel. Headless by default (EGL, "
+            "OSMesa fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
         ),
     )
     p.add_argument("--world", default="follow_ball", help="vision_test, follow_ball, obstacles or an .xml path")
@@ -41,6 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import os
+
+    if args.duration is not None and not args.duration > 0:
+        raise UsageError("--duration must be positive")
 
     if args.viewer:
         if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):

@@ -19,8 +19,9 @@ import yaml
 
 from go2vlm.bus import PROFILES, QOS_DEFAULT, Node, QosProfile, exit_code, interrupt_on_signals, signal_of
 from go2vlm.bus.graph import compatible_reader_qos, discover
-from go2vlm.msgs import get_type as lookup_type
-from go2vlm.msgs import ros_name
+from go2vlm.cli.args import non_negative, positive
+from go2vlm.errors import UsageError
+from go2vlm.msgs import get_type, ros_name
 from go2vlm.msgs.convert import from_dict, to_dict, to_yaml_text
 
 
@@ -30,7 +31,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     ls = verbs.add_parser("list", help="topics seen on the bus")
     ls.add_argument("-t", "--show-types", action="store_true")
-    ls.add_argument("--wait", type=float, default=1.5, help="discovery time in seconds")
+    ls.add_argument("--wait", type=non_negative, default=1.5, help="discovery time in seconds")
     ls.set_defaults(func=cmd_list)
 
     ec = verbs.add_parser("echo", help="print messages")
@@ -38,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ec.add_argument("type", nargs="?", default=None, help="message type, e.g. geometry_msgs/msg/Twist")
     ec.add_argument("--json", action="store_true", help="one JSON object per line")
     ec.add_argument("--count", "-n", type=int, default=0, help="exit after N messages")
-    ec.add_argument("--timeout", type=float, default=None, help="fail if the count is not reached in S seconds")
+    ec.add_argument("--timeout", type=positive, default=None, help="fail if the count is not reached in S seconds")
     ec.add_argument("--qos", choices=["auto", *PROFILES], default="auto")
     ec.add_argument("--bytes", choices=["summary", "base64", "list"], default="summary", dest="bytes_mode")
     ec.set_defaults(func=cmd_echo)
@@ -47,7 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     hz.add_argument("topic")
     hz.add_argument("type", nargs="?", default=None)
     hz.add_argument("--window", type=int, default=100)
-    hz.add_argument("--duration", type=float, default=None, help="stop after S seconds")
+    hz.add_argument("--duration", type=positive, default=None, help="stop after S seconds")
     hz.add_argument("--qos", choices=["auto", *PROFILES], default="auto")
     hz.set_defaults(func=cmd_hz)
 
@@ -59,9 +60,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.add_argument("--count", "-t", type=int, default=0, help="publish N times then exit (0: forever)")
     pb.add_argument("--once", "-1", action="store_true", help="publish once then exit")
     pb.add_argument("--qos", choices=list(PROFILES), default="default")
-    pb.add_argument("--wait", type=float, default=2.0, help="wait up to S seconds for a subscriber first")
+    pb.add_argument("--wait", type=non_negative, default=2.0, help="wait up to S seconds for a subscriber first")
     pb.add_argument("--stamp", action="store_true", help="set header.stamp to now on every message")
     pb.set_defaults(func=cmd_pub)
+
+
+def lookup_type(name: str) -> type:
+    """The message class named on the command line; an unknown name is a usage error (exit 2)."""
+    try:
+        return get_type(name)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -> tuple[type, QosProfile]:
@@ -81,7 +90,7 @@ def _resolve(topic: str, type_name: str | None, qos: str, wait_s: float = 3.0) -
     elif info and info.types:
         cls = lookup_type(sorted(info.types)[0])
     else:
-        raise SystemExit(f"go2vlm: topic {name} has no publisher yet; give its type to wait for it")
+        raise UsageError(f"topic {name} has no publisher yet; give its type to wait for it")
     if qos == "auto":
         profile = compatible_reader_qos(info.publishers if info else [], QOS_DEFAULT)
     return cls, profile
@@ -99,7 +108,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def _known(dds_type: str) -> bool:
     try:
-        lookup_type(dds_type)
+        get_type(dds_type)
         return True
     except ValueError:
         return False
@@ -110,6 +119,8 @@ class _Collector(Node):
 
 
 def cmd_echo(args: argparse.Namespace) -> int:
+    if args.count < 0:
+        raise UsageError("--count must not be negative")
     interrupt_on_signals()
     cls, profile = _resolve(args.topic, args.type, args.qos)
     done = threading.Event()
@@ -189,11 +200,11 @@ def parse_message(cls: type, text: str) -> Any:
     try:
         data = yaml.safe_load(text) if text.strip() else {}
     except yaml.YAMLError as exc:
-        raise SystemExit(f"go2vlm: message is not valid YAML/JSON: {exc}") from None
+        raise UsageError(f"message is not valid YAML/JSON: {exc}") from None
     try:
         return from_dict(cls, data)
     except ValueError as exc:
-        raise SystemExit(f"go2vlm: {exc}") from None
+        raise UsageError(str(exc)) from None
 
 
 def cmd_pub(args: argparse.Namespace) -> int:
@@ -201,7 +212,7 @@ def cmd_pub(args: argparse.Namespace) -> int:
     cls = lookup_type(args.type)
     msg = parse_message(cls, args.values)
     if not args.rate > 0 or not math.isfinite(args.rate):
-        raise SystemExit("go2vlm: --rate must be a positive number")
+        raise UsageError("--rate must be a positive number")
     node = _Collector(node_name="go2vlm_topic_pub", parameter_services=False)
     pub = node.create_publisher(cls, args.topic, PROFILES[args.qos])
     deadline = time.monotonic() + args.wait

@@ -6,6 +6,9 @@ import argparse
 import sys
 from typing import Any
 
+from go2vlm.cli.args import positive
+from go2vlm.errors import ConfigError
+
 DEFAULT_PORT = 8765
 LAYOUT = "docs/foxglove/go2vlm_layout.json"
 
@@ -23,7 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; 0: any free)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="a view parameter")
-    p.add_argument("--duration", type=float, default=None, help="stop after S seconds")
+    p.add_argument("--duration", type=positive, default=None, help="stop after S seconds")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
     p.set_defaults(func=run)
@@ -53,18 +56,13 @@ def foxglove_params(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def make_view(params: dict[str, Any], **kwargs: Any) -> Any:
-    """The view node; SystemExit with one line when foxglove-sdk is missing (a taken port is a ParamError)."""
+    """The view node; a ConfigError when foxglove-sdk is missing (a taken port is a ParamError)."""
     from go2vlm.launch.registry import make_node
 
     try:
         return make_node("view", params=params, **kwargs)
     except ImportError as exc:
-        raise SystemExit(
-            f"go2vlm: the Foxglove view needs the `view` extra (pip install 'go2vlm[view]'): {exc}"
-        ) from None
-    except RuntimeError as exc:
-        print(f"go2vlm: {exc}", file=sys.stderr)
-        raise SystemExit(1) from None
+        raise ConfigError(f"the Foxglove view needs the `view` extra (pip install 'go2vlm[view]'): {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -40,6 +40,7 @@ import yaml
 
 from go2vlm.bus import Node, ShutdownRequested, build_node_config, exit_code
 from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
+from go2vlm.errors import ConfigError
 from go2vlm.launch.registry import NODES, make_node, node_class
 
 __all__ = [
@@ -57,7 +58,7 @@ __all__ = [
 LAUNCH_DIR = Path(__file__).resolve().parent
 
 
-class LaunchError(ValueError):
+class LaunchError(ConfigError):
     """A launch file that cannot be found or read, or an entry in it that is wrong."""
 
 
@@ -188,11 +189,14 @@ def run_in_process(entries: list[LaunchEntry], duration_s: float | None = None) 
             node.start()
             _say(f"up: {e.name} ({e.kind})")
         _say(f"{len(nodes)} node(s) running in process {os.getpid()}; Ctrl-C stops")
-        _wait(stop, duration_s)
+        _wait(stop, duration_s, lambda: all(n.failure is None for n in nodes))
     finally:
         for node in reversed(nodes):
             node.shutdown()
     _say("all nodes stopped")
+    failure = next((n.failure for n in nodes if n.failure is not None), None)
+    if failure is not None and stop.signal is None:
+        raise failure  # a node that cannot go on (cli/main.py: one line, exit 2 or 1)
     return exit_code(stop.signal)
 
 

@@ -50,6 +50,8 @@ def get_type(name: str) -> type[IdlStruct]:
         parts = name.split("/")
         if len(parts) == 2:
             parts = [parts[0], "msg", parts[1]]
+        if len(parts) != 3 or not all(p.isidentifier() for p in parts):
+            raise ValueError(f"{name!r} is not a message type; give one like std_msgs/msg/Bool")
         name = ros_typename("/".join(parts))
     try:
         return REGISTRY[name]

@@ -30,6 +30,11 @@ __all__ = ["FIELD_OVERRIDES", "FieldType", "fields", "msgdef", "ros_type", "rihs
 FIELD_OVERRIDES: dict[tuple[str, str], str] = {
     ("rmw_dds_common/msg/Gid", "data"): "char",  # char[16] data
     ("unitree_go/msg/IMUState", "temperature"): "int8",  # unitree_ros2's IMUState.msg
+    ("unitree_go/msg/MotorState", "temperature"): "int8",  # ... MotorState.msg
+    ("unitree_go/msg/BmsState", "bq_ntc"): "int8",  # ... BmsState.msg
+    ("unitree_go/msg/BmsState", "mcu_ntc"): "int8",
+    ("unitree_go/msg/LowState", "temperature_ntc1"): "int8",  # ... LowState.msg
+    ("unitree_go/msg/LowState", "temperature_ntc2"): "int8",
     ("rcl_interfaces/msg/ParameterValue", "byte_array_value"): "byte",  # byte[] byte_array_value
 }
 

@@ -128,6 +128,70 @@ class SportModeState(IdlStruct, typename="unitree_go::msg::dds_::SportModeState_
     path_point: types.array[PathPoint, 10] = default(lambda: [PathPoint() for _ in range(10)])
 
 
+# -- unitree_go/msg: low-level state (rt/lowstate, ~500 Hz on a Go2): motors, battery, IMU -----------
+# Field for field as unitree_sdk2's LowState_/MotorState_/BmsState_ IDL; unitree_ros2's .msg files
+# write some of these uint8s as int8 (temperatures), see msgs/msgdef.py FIELD_OVERRIDES.
+
+GO2_MOTORS = 20  # motor_state slots; a Go2 uses the first 12 (FR, FL, RR, RL x hip, thigh, calf)
+
+
+@register
+@dataclass
+class MotorState(IdlStruct, typename="unitree_go::msg::dds_::MotorState_"):
+    mode: types.byte = 0
+    q: types.float32 = 0.0
+    dq: types.float32 = 0.0
+    ddq: types.float32 = 0.0
+    tau_est: types.float32 = 0.0
+    q_raw: types.float32 = 0.0
+    dq_raw: types.float32 = 0.0
+    ddq_raw: types.float32 = 0.0
+    temperature: types.byte = 0  # deg C
+    lost: types.uint32 = 0
+    reserve: types.array[types.uint32, 2] = default(lambda: [0, 0])
+
+
+@register
+@dataclass
+class BmsState(IdlStruct, typename="unitree_go::msg::dds_::BmsState_"):
+    version_high: types.byte = 0
+    version_low: types.byte = 0
+    status: types.byte = 0
+    soc: types.byte = 0  # state of charge, percent
+    current: types.int32 = 0  # mA, negative while discharging
+    cycle: types.uint16 = 0
+    bq_ntc: types.array[types.byte, 2] = bytes(2)  # deg C
+    mcu_ntc: types.array[types.byte, 2] = bytes(2)  # deg C
+    cell_vol: types.array[types.uint16, 15] = default(lambda: [0] * 15)  # mV
+
+
+@register
+@dataclass
+class LowState(IdlStruct, typename="unitree_go::msg::dds_::LowState_"):
+    head: types.array[types.byte, 2] = b"\xfe\xef"
+    level_flag: types.byte = 0
+    frame_reserve: types.byte = 0
+    sn: types.array[types.uint32, 2] = default(lambda: [0, 0])
+    version: types.array[types.uint32, 2] = default(lambda: [0, 0])
+    bandwidth: types.uint16 = 0
+    imu_state: IMUState = default(IMUState)
+    motor_state: types.array[MotorState, 20] = default(lambda: [MotorState() for _ in range(GO2_MOTORS)])
+    bms_state: BmsState = default(BmsState)
+    foot_force: types.array[types.int16, 4] = default(lambda: [0] * 4)
+    foot_force_est: types.array[types.int16, 4] = default(lambda: [0] * 4)
+    tick: types.uint32 = 0  # ms
+    wireless_remote: types.array[types.byte, 40] = bytes(40)
+    bit_flag: types.byte = 0
+    adc_reel: types.float32 = 0.0
+    temperature_ntc1: types.byte = 0
+    temperature_ntc2: types.byte = 0
+    power_v: types.float32 = 0.0  # battery voltage
+    power_a: types.float32 = 0.0
+    fan_frequency: types.array[types.uint16, 4] = default(lambda: [0] * 4)
+    reserve: types.uint32 = 0
+    crc: types.uint32 = 0
+
+
 ALL_TYPES: tuple[type[IdlStruct], ...] = (
     RequestIdentity,
     RequestLease,
@@ -141,4 +205,7 @@ ALL_TYPES: tuple[type[IdlStruct], ...] = (
     IMUState,
     PathPoint,
     SportModeState,
+    MotorState,
+    BmsState,
+    LowState,
 )

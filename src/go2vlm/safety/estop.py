@@ -188,6 +188,21 @@ class EstopInput:
             self.node.count("estop_false_ignored")
             log.throttled("warning", 2.0, f"{ESTOP_TOPIC} false does not release the e-stop; use {RELEASE_TOPIC}")
 
+    def engage(self, why: str, *, notify: bool = True) -> None:
+        """Latch from inside the node (the gate's health monitor), logged, counted and persisted as
+        if `true` had arrived on /emergency_stop; `notify` False skips the on_engage callback (a
+        caller that is already applying it)."""
+        if self.latch.engaged:
+            return
+        self.node.log.warning(
+            f"EMERGENCY STOP ({why}): {self.held} until {self.latch.token!r} is published on {RELEASE_TOPIC}"
+        )
+        self.latch.engage()
+        self.node.count("estops")
+        self.persist()
+        if notify:
+            self._on_engage()
+
     def _release(self, msg: Any) -> None:
         if not self.latch.engaged:
             return  # nothing to release, or a duplicate read through the other QoS

@@ -9,6 +9,8 @@ Topics
               /emergency_stop/release  std_msgs/String  data == release_token ("RELEASE"), exactly, releases
               /cmd_vel           geometry_msgs/Twist  best-effort, only to see who else writes it
               /safety/heartbeat  std_msgs/String      the other gates' heartbeats (latched)
+              /lowstate          unitree_go/LowState  best-effort: the robot's health (tilt from imu_state.rpy,
+                                 motor_state[].temperature, bms_state.soc) and stream loss; `health`
   publishes   /cmd_vel           geometry_msgs/Twist  at rate_hz (50 Hz), exactly zero when no input is
                                  live, the e-stop is latched or another writer is on /cmd_vel; a stop
                                  goes out at once
@@ -17,6 +19,8 @@ Topics
                                  and every status_period_s
               /safety/heartbeat  std_msgs/String (latched) JSON {node, participant, cmd_vel_writer, topic}:
                                  this gate's /cmd_vel writer, every status_period_s (safety/commander.py)
+              /emergency_stop    std_msgs/Bool (reliable, volatile) true, only at health level "down"
+                                 (repeated every status_period_s while it lasts): the robot ends Damp
 
 E-stop from a shell (cli/estop.py; it holds the latched e-stop until the release):
   go2vlm estop              # latch, and keep it latched for nodes that start later
@@ -33,6 +37,13 @@ while its last valid command is younger than its timeout_s. A command with NaN/i
 The winner is clamped to the limits (configurable, never above the Go2 sport-mode ceilings vx
 -2.5..3.8 m/s, vy +-1.0 m/s, vyaw +-4.0 rad/s) and ramped within the acceleration limits; slowing
 down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
+Health (safety/health.py, docs/safety.md): with `health` on, every /lowstate sample feeds a monitor
+whose verdict escalates warn -> cap speed (limits x health_cap_scale) -> stop (/cmd_vel zero) ->
+down (the e-stop latches: Damp; the release is a deliberate act) on tilt, the hottest motor, the
+battery, or a /lowstate stream that went silent for health_stale_s (armed by its first sample, or
+from the start with health_require_state). Thresholds: health_tilt_deg, health_motor_temp_c,
+health_battery_pct = [warn, cap, stop, down]; a lower level only after health_clear_s. Every level
+and its reasons are on /safety/status "health".
 Parameters at runtime: the speed and acceleration limits may be LOWERED while the gate runs (it
 clamps from the next tick; slowing down is never ramped); raising one is refused, even below the Go2
 ceiling: raising takes a restart, a deliberate act. status_period_s is live too; inputs, rate_hz,
@@ -56,12 +67,24 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
-from go2vlm.msgs.std_msgs import String
+from go2vlm.msgs.std_msgs import Bool, String
+from go2vlm.msgs.unitree import LowState
 from go2vlm.safety.commander import GateWatch
-from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, LatchFile, check_token, default_state_file
+from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, EstopInput, LatchFile, check_token, default_state_file
+from go2vlm.safety.health import (
+    BATTERY_PCT,
+    MOTOR_TEMP_C,
+    TILT_DEG,
+    HealthMonitor,
+    HealthPolicy,
+    HealthSample,
+    HealthVerdict,
+    Ladder,
+    Level,
+)
 from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
 from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec, SafetyCore
 
@@ -135,9 +158,47 @@ class SafetyGateConfig:
         max=60.0,
     )
 
+    health: bool = param(True, help="watch the robot's health on health_topic (tilt, motors, battery, stream)")
+    health_topic: str = param("/lowstate", help="unitree_go/msg/LowState topic of the robot's state")
+    health_require_state: bool = param(False, help="stop until the first state sample (else armed by it)")
+    health_stale_s: float = param(0.5, help="state stream silent this long: stop", min=0.05, max=10.0)
+    health_clear_s: float = param(2.0, help="a lower health level is taken after it held this long", min=0.0)
+    health_cap_scale: float = param(0.5, help="speed limits factor at health level cap", min=0.0, max=1.0)
+    health_tilt_deg: list[float] = param(
+        list(TILT_DEG.steps), help="max(|roll|, |pitch|) thresholds [warn, cap, stop, down], degrees"
+    )
+    health_motor_temp_c: list[float] = param(
+        list(MOTOR_TEMP_C.steps), help="hottest motor thresholds [warn, cap, stop, down], deg C"
+    )
+    health_battery_pct: list[float] = param(
+        list(BATTERY_PCT.steps), help="battery state-of-charge thresholds [warn, cap, stop, down], percent"
+    )
+
     def validate(self) -> None:
         parse_inputs(self.inputs)
         check_token(self.release_token)
+        dds_topic_name(self.health_topic)
+        health_policy(self)
+
+
+def health_policy(c: SafetyGateConfig) -> HealthPolicy:
+    """The monitor's policy from the parameters (hysteresis per reading as in safety/health.py)."""
+    ladders = {}
+    for name, base in (("tilt_deg", TILT_DEG), ("motor_temp_c", MOTOR_TEMP_C), ("battery_pct", BATTERY_PCT)):
+        steps = getattr(c, f"health_{name}")
+        if len(steps) != 4:
+            raise ValueError(f"health_{name}: expected [warn, cap, stop, down], got {steps}")
+        try:
+            ladders[name] = Ladder(*map(float, steps), hysteresis=base.hysteresis, rising=base.rising)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"health_{name}: {exc}") from None
+    return HealthPolicy(
+        **ladders,
+        stale_s=c.health_stale_s,
+        clear_s=max(c.health_clear_s, 1e-3),
+        cap_scale=c.health_cap_scale,
+        require_state=c.health_require_state,
+    )
 
 
 LIMIT_PARAMS = ("max_vx_forward", "max_vx_backward", "max_vy", "max_vyaw", "accel_linear", "accel_angular")
@@ -181,6 +242,12 @@ class SafetyGateNode(Node):
         for spec in self.core.specs:
             self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
         self.commander = GateWatch(self, str(self.cmd_pub.guid), self.cmd_pub.topic, self._commander_changed)
+        self.health = HealthMonitor(health_policy(c)) if c.health else None
+        self.verdict = HealthVerdict(Level.OK, 1.0, ())
+        self._down_sent = -math.inf
+        if self.health is not None:
+            self.estop_pub = self.create_publisher(Bool, ESTOP_TOPIC, QOS_DEFAULT)
+            self.create_subscription(LowState, c.health_topic, self.on_lowstate, QOS_SENSOR)
         if was_engaged:
             self.log.warning(f"the e-stop was latched when this gate went down: {note}")
         if self.core.estopped:
@@ -239,12 +306,47 @@ class SafetyGateNode(Node):
         if was_active and (why is not None or v.is_zero) and not self.core.output.is_zero:
             self.tick()  # a stop goes out now, not at the next tick
 
+    # -- health ------------------------------------------------------------------------------
+    def on_lowstate(self, msg: LowState) -> None:
+        if self.health is None:
+            return
+        rpy = msg.imu_state.rpy
+        bms = msg.bms_state
+        # soc 0 with no pack voltage is a robot that reports no battery, not an empty one
+        battery = None if bms.soc == 0 and msg.power_v == 0.0 else float(bms.soc)
+        temps = tuple(float(m.temperature) for m in msg.motor_state)
+        sample = HealthSample(math.degrees(rpy[0]), math.degrees(rpy[1]), temps, battery)
+        now = self.clock.monotonic()
+        before = self.verdict.level
+        self.health.observe(sample, now)
+        if self.health.verdict(now).level > before:
+            self.tick()  # an escalation goes out now
+
+    def _apply_health(self, now: float) -> None:
+        if self.health is None:
+            return
+        v = self.health.verdict(now)
+        if v.level != self.verdict.level:
+            log = self.log.warning if v.level > self.verdict.level else self.log.info
+            why = "; ".join(v.reasons) or "all readings healthy"
+            log(f"health {self.verdict.level.name.lower()} -> {v.level.name.lower()} ({v.level.action}): {why}")
+            self.count(f"health_{v.level.name.lower()}")
+        self.verdict = v
+        self.core.health(v.speed_scale, v.hold)
+        if v.level >= Level.DOWN:
+            if not self.core.estopped:
+                self.estop.engage(f"health: {'; '.join(v.reasons)}", notify=False)  # this tick applies it
+            if now - self._down_sent >= self.config.status_period_s:
+                self._down_sent = now
+                self.estop_pub.publish(Bool(data=True))  # the robot ends latch too and Damp
+
     # -- output ------------------------------------------------------------------------------
     def tick(self) -> None:
         now, wall = self._times()
+        self._apply_health(now)
         out = self.core.step(now, wall)
         self.cmd_pub.publish(Twist(linear=Vector3(x=out.vx, y=out.vy), angular=Vector3(z=out.wz)))
-        state = (self.core.active, self.core.estopped, self.core.reason)
+        state = (self.core.active, self.core.estopped, self.core.reason, self.verdict.level)
         if state != self._last_state or now - self._last_status >= self.config.status_period_s:
             if state != self._last_state and self._last_state is not None:
                 self._state_changes += 1
@@ -283,4 +385,17 @@ class SafetyGateNode(Node):
             "commander": self.commander.status(),
             "estop_state_file": str(self.store.path),
             "counters": {**self.core.counters, **self.counters},
+            "health": self.health_status(),
+        }
+
+    def health_status(self) -> dict[str, Any] | None:
+        if self.health is None:
+            return None
+        v = self.verdict
+        return {
+            "level": v.level.name.lower(),
+            "action": v.level.action,
+            "speed_scale": v.speed_scale,
+            "reasons": list(v.reasons),
+            **self.health.status(),
         }

@@ -67,6 +67,15 @@ class Limits:
         object.__setattr__(self, "accel_linear", _limit(self.accel_linear, 1e6))
         object.__setattr__(self, "accel_angular", _limit(self.accel_angular, 1e6))
 
+    def scaled(self, factor: float) -> Limits:
+        """The speed limits times `factor` in [0, 1] (degraded control); acceleration limits unchanged."""
+        if factor >= 1.0:
+            return self
+        f = max(0.0, factor) if math.isfinite(factor) else 0.0
+        return Limits(
+            self.vx_forward * f, self.vx_backward * f, self.vy * f, self.wz * f, self.accel_linear, self.accel_angular
+        )
+
     def clamp(self, v: Velocity) -> Velocity:
         return Velocity(
             vx=max(-self.vx_backward, min(self.vx_forward, v.vx)),

@@ -20,6 +20,8 @@ Rules
   release it; only `release(token)` with the configured token does.
 - Block: `block(reason)` holds the output at zero (another writer drives /cmd_vel, see
   safety/commander.py) until `block(None)`; then the output ramps up again from zero.
+- Health (safety/health.py): `health(scale, hold)` scales the speed limits by `scale` (never above
+  1: an input never raises a limit) and, with a `hold` reason, holds the output at zero like a block.
 - The output is the winner clamped to the limits, then ramped within the acceleration limits; zero
   (no live input, e-stop, block) is output immediately.
 """
@@ -91,6 +93,8 @@ class SafetyCore:
         self.active: str | None = None
         self.reason = "estop" if self.engaged else "no live input"
         self.blocked: str | None = None
+        self.health_scale = 1.0  # the health verdict's factor on the speed limits
+        self.health_hold: str | None = None  # the health verdict's reason to hold zero
         self._held = self.engaged  # the last step held zero for the e-stop, a block or a stalled clock
         self.counters: dict[str, int] = {}
         self._t_out: float | None = None
@@ -136,6 +140,13 @@ class SafetyCore:
             self._count("blocks")
         self.blocked = reason or None
 
+    def health(self, scale: float, hold: str | None) -> None:
+        """Apply the health verdict: speed limits times `scale` (clamped to [0, 1]), zero while `hold`."""
+        self.health_scale = min(1.0, max(0.0, scale)) if math.isfinite(scale) else 0.0
+        if hold and hold != self.health_hold:
+            self._count("health_stops")
+        self.health_hold = hold or None
+
     def release(self, token: str) -> bool:
         ok = self.latch.release(token)
         self._count("releases" if ok else "release_refused")
@@ -160,7 +171,7 @@ class SafetyCore:
         dt = 0.0 if self._t_out is None else min(max(now - self._t_out, 0.0), MAX_DT)
         self._t_out = now
         prev_active = self.active
-        held = "estop" if self.latch.engaged else self.blocked
+        held = "estop" if self.latch.engaged else self.blocked or self.health_hold
         if not held and self.clock_stalled(wall):
             if self.reason != "clock stalled":
                 self._count("clock_stalls")
@@ -179,7 +190,7 @@ class SafetyCore:
                 self.reason = (gone.why_absent or f"{gone.spec.name} timed out") if gone else "no live input"
             self.output = ZERO
             return ZERO
-        target = self.limits.clamp(self._inputs[self.active].last)
+        target = self.limits.scaled(self.health_scale).clamp(self._inputs[self.active].last)
         out = ramp(self.output, target, self.limits, dt)
         if out.is_zero and not self.output.is_zero:
             self.reason = f"{self.active} commands zero"

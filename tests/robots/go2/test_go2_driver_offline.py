@@ -37,3 +37,22 @@ def test_driver_without_robot_keeps_running() -> None:
         assert 1 <= driver.damps_sent <= 10
         assert driver.moves_sent == 0
         assert driver.frames == 0 and driver.video.sent == 0  # no camera polling while nothing answers
+
+
+def test_driver_relays_lowstate_for_the_gate() -> None:
+    """The robot's rt/lowstate (/lowstate) reaches the safety gate as /go2/lowstate."""
+    from go2vlm.bus import QOS_SENSOR
+    from go2vlm.msgs.unitree import LowState
+
+    driver = make_node("go2", params={"camera_rate_hz": 0.0, "rpc_timeout_s": 0.2})
+    probe = Node(node_name="go2_lowstate_probe")
+    relayed = Recorder()
+    probe.create_subscription(LowState, "/go2/lowstate", relayed, QOS_SENSOR)
+    robot = probe.create_publisher(LowState, "/lowstate", QOS_SENSOR)
+    msg = LowState(power_v=29.5)
+    msg.motor_state[2].temperature = 77
+    msg.bms_state.soc = 63
+    with running(driver, probe):
+        assert wait_for(lambda: (robot.publish(msg), len(relayed) > 0)[1], 10.0, 0.01)
+    got = relayed.msgs()[-1]
+    assert got.motor_state[2].temperature == 77 and got.bms_state.soc == 63 and got.power_v == 29.5

@@ -26,6 +26,7 @@ from typing import Any, BinaryIO
 import yaml
 
 from go2vlm.bus import QosProfile
+from go2vlm.errors import ConfigError
 
 __all__ = [
     "BagError",
@@ -45,7 +46,7 @@ ROS_DISTRO = "jazzy"
 _INFINITE = {"sec": 9223372036, "nsec": 854775807}
 
 
-class BagError(ValueError):
+class BagError(ConfigError):
     """A bag that cannot be written or read (exists already, missing, not rosbag2/MCAP)."""
 
 

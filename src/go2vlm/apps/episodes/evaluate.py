@@ -38,13 +38,14 @@ from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
 from go2vlm.bus import ShutdownRequested
+from go2vlm.errors import UsageError
 
 __all__ = ["EvalError", "EvalOptions", "EvalOutcome", "run_eval"]
 
 EVAL_DOMAINS = (102, 232)  # claimed per worker; test sessions claim 1..101, a robot speaks on 0
 
 
-class EvalError(ValueError):
+class EvalError(UsageError):
     """An eval that cannot start as asked (a usage or configuration error)."""
 
 

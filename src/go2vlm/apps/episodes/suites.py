@@ -39,6 +39,7 @@ import numpy as np
 import yaml
 
 from go2vlm.apps.episodes.episode import Episode, task_kind
+from go2vlm.errors import ConfigError
 
 __all__ = ["SUITES_DIR", "Suite", "SuiteError", "available_suites", "load_suite"]
 
@@ -50,7 +51,7 @@ _EPISODE_FIELDS = {f.name for f in fields(Episode)} - {"id", "perception", "spaw
 _MAX_TRIES = 2000
 
 
-class SuiteError(ValueError):
+class SuiteError(ConfigError):
     """A suite file that cannot be found or read, or a task in it that is wrong."""
 
 

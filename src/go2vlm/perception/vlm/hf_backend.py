@@ -11,15 +11,17 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import time
 from typing import Any
 
 import numpy as np
 
+from go2vlm.errors import ConfigError
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory
 from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for
 
-__all__ = ["TransformersBackend", "configure_cuda_allocator", "resolve_device", "resolve_dtype"]
+__all__ = ["TransformersBackend", "check_model_ref", "configure_cuda_allocator", "resolve_device", "resolve_dtype"]
 
 _DTYPES = {"fp16": "float16", "float16": "float16", "bf16": "bfloat16", "bfloat16": "bfloat16", "fp32": "float32"}
 
@@ -115,10 +117,29 @@ class _FirstTokenClock:
         return scores
 
 
+# A Hugging Face hub id: `name` or `org/name` of letters, digits, '-', '_' and '.' (no '--' or '..').
+_HUB_ID = re.compile(r"^(?!.*(--|\.\.))[A-Za-z0-9][\w.-]*(/[A-Za-z0-9][\w.-]*)?$")
+
+
+def check_model_ref(model: str) -> None:
+    """A `model` that can never load is a configuration error now, not a node without a model:
+    it must be an existing checkpoint directory or have the form of a hub id."""
+    if not model:
+        raise ConfigError("parameter model is empty: give a local checkpoint directory or a hub id")
+    path = os.path.expanduser(model)
+    if os.path.isdir(path):
+        return
+    if os.path.exists(path):
+        raise ConfigError(f"model {model!r} is a file; give the checkpoint directory")
+    if model.startswith(("/", ".", "~")) or not _HUB_ID.match(model):
+        raise ConfigError(f"model {model!r}: no such directory, and not a hub id")
+
+
 class TransformersBackend:
     name = "transformers"
 
     def __init__(self, settings: BackendSettings) -> None:
+        check_model_ref(settings.model)
         self.settings = settings
         self.model: Any = None
         self.processor: Any = None

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.errors import ConfigError
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.sensor_msgs import Image
@@ -246,6 +247,10 @@ class VlmNode(Node):
                 self.last_error = f"load failed: {type(exc).__name__}: {exc}"
                 self.errors["load_errors"] += 1
             self.log.error(f"cannot load the model: {type(exc).__name__}: {exc}")
+            # At start a model that cannot load never will: end the node, not idle without one (a
+            # wrong model, device or dtype is a configuration error, exit 2; out of memory exit 1).
+            oom = isinstance(exc, VlmOutOfMemory)
+            self.fail(exc if oom else ConfigError(f"cannot load the model {self.config.model!r}: {exc}"))
             return
         with self._stats:
             self.state = "ready"

@@ -17,6 +17,7 @@ Subscribes:
                                                 recover | hello | stop (`go2vlm go2 <posture>` sends
                                                 here while a driver runs: one commander per robot)
   rt/sportmodestate        unitree_go/SportModeState_  (as /sportmodestate) the robot's state
+  rt/lowstate              unitree_go/LowState_  (as /lowstate, `lowstate_topic`) motors, battery, IMU
   rt/api/sport/request     unitree_api/Request_ other clients' sport requests: a foreign controller
                                                 (any writer but ours asking for a motion or posture)
                                                 triggers `foreign_sport` (see below)
@@ -26,6 +27,8 @@ Publishes:
   /odom                    nav_msgs/Odometry    odom -> base_link, twist in base_link (`state_rate_hz`)
   /imu                     sensor_msgs/Imu      frame base_link
   /tf                      tf2_msgs/TFMessage   odom -> base_link
+  /go2/lowstate            unitree_go/LowState  the robot's rt/lowstate relayed at most at `state_rate_hz`
+                                                (a Go2 sends ~500 Hz): the safety gate's health input
   /camera/image_raw/compressed  sensor_msgs/CompressedImage  front camera JPEG (videohub GetImageSample)
   /camera/image_raw        sensor_msgs/Image    the same frame decoded, bgr8, frame camera_optical_frame
   /camera/camera_info      sensor_msgs/CameraInfo  pinhole from `camera_hfov_deg`
@@ -62,7 +65,17 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_READER, Endpoint, Node, discovery_info, param
+from go2vlm.bus import (
+    QOS_DEFAULT,
+    QOS_IMAGE,
+    QOS_LATCHED,
+    QOS_SENSOR,
+    QOS_UNITREE_READER,
+    Endpoint,
+    Node,
+    discovery_info,
+    param,
+)
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.msgs.base_state import base_state_messages
@@ -72,7 +85,7 @@ from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.msgs.unitree import Request, SportModeState
+from go2vlm.msgs.unitree import LowState, Request, SportModeState
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.client import RpcClient
@@ -102,6 +115,9 @@ class Go2DriverConfig:
     state_rate_hz: float = param(50.0, help="max rate of /odom, /imu, /tf from rt/sportmodestate", min=1.0, max=500.0)
     state_topic: str = param(
         p.SPORT_STATE_TOPIC, help="the robot's state topic (ROS form of rt/sportmodestate; e.g. /lf/sportmodestate)"
+    )
+    lowstate_topic: str = param(
+        "/lowstate", help="the robot's low-level state (ROS form of rt/lowstate; e.g. /lf/lowstate); '' = none"
     )
     stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
     odom_frame: str = param(spec.ODOM_FRAME, help="odometry frame")
@@ -185,6 +201,10 @@ class Go2DriverNode(Node):
         self._names = discovery_info.directory(self.participant)
         self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
         self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
+        self._last_lowstate_pub = -math.inf
+        if cfg.lowstate_topic:
+            self.pub_lowstate = self.create_publisher(LowState, "/go2/lowstate", QOS_SENSOR)
+            self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self._status_tick)
 
@@ -317,6 +337,13 @@ class Go2DriverNode(Node):
             return
         self._last_state_pub = now
         self._publish_state(msg)
+
+    def _on_lowstate(self, msg: LowState) -> None:
+        now = self.clock.monotonic()
+        if now - self._last_lowstate_pub < 1.0 / self.config.state_rate_hz - 1e-4:
+            return
+        self._last_lowstate_pub = now
+        self.pub_lowstate.publish(msg)
 
     # -- motion ------------------------------------------------------------------------------
     def current_command(self) -> tuple[float, float, float]:

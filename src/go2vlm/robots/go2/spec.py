@@ -12,6 +12,8 @@ from go2vlm.geometry.camera import fovy_to_hfov
 
 __all__ = [
     "BASE_FRAME",
+    "BATTERY_CELLS",
+    "BATTERY_WH",
     "CAMERA_FRAME",
     "FOOTPRINT_LENGTH",
     "FOOTPRINT_WIDTH",
@@ -44,6 +46,10 @@ FOOTPRINT_WIDTH = 0.31
 HEAD_CAMERA_POS = (0.32715, 0.0, 0.04297)
 HEAD_CAMERA_FOVY_DEG = 58.0
 HEAD_CAMERA_HEIGHT = STAND_HEIGHT + HEAD_CAMERA_POS[2]  # above the floor, standing
+
+# Battery: a Go2's standard pack, 8 Li-ion cells in series (28.8 V nominal) and 8000 mAh.
+BATTERY_CELLS = 8
+BATTERY_WH = 28.8 * 8.0
 
 # Frame names on /tf, /odom and the camera topics.
 ODOM_FRAME = "odom"

@@ -50,12 +50,22 @@ Publishes:
                                                     score 1.0, the box of the visible part; specks
                                                     under 16 pixels or 2 pixels a side left out): the
                                                     perfect detector
+  /lowstate                   unitree_go/LowState   = rt/lowstate, as a Go2 publishes it, at lowstate_rate_hz:
+                                                    motor_state[0..11] (q, dq, tau_est, temperature from
+                                                    the thermal model), bms_state.soc and power_v from the
+                                                    battery model (sim/thermal.py), imu_state (rpy ...);
+                                                    with the fault_* parameters applied (tests, drills)
   /sim/status                 std_msgs/String       latched JSON, 2 Hz (wall): sim_time, wall_time, rtf
                                                     (achieved, last ~2 s), rtf_target, fast, mode
                                                     (standing, walking, fallen ...), physics, fell, world,
                                                     command, cmd_timed_out, frames, frames_dropped,
                                                     overruns, render_error, use_sim_time, estop,
                                                     commander (who may drive /cmd_vel, and why not)
+
+Faults (live parameters, `go2vlm param set /sim NAME VALUE`, for the health monitor's tests and
+drills; robots/go2_sim/lowstate.py): fault_motor_temp_c (> 0: the FR calf motor reports it),
+fault_battery_pct (>= 0: the battery reports it), fault_tilt_deg (added to the reported roll),
+fault_lowstate_silent (true: /lowstate stops, a lost state stream). A real tilt: /sim/push.
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
@@ -98,7 +108,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, Node, ParamError, param
+from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_WRITER, Node, ParamError, param
 from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.msgs.base_state import base_state_messages, transform_stamped
 from go2vlm.msgs.builtin_interfaces import Time
@@ -109,8 +119,10 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.unitree import LowState
 from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array
 from go2vlm.robots.go2 import protocol, spec
+from go2vlm.robots.go2_sim.lowstate import Faults, low_state
 from go2vlm.safety.commander import CmdVelInput
 from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch, check_token
 from go2vlm.sim import Go2Sim, SimConfig
@@ -122,6 +134,7 @@ from go2vlm.sim.render import (
     render_segmentation,
     segmentation_boxes,
 )
+from go2vlm.sim.thermal import Battery, MotorThermal
 
 # A real-time run that falls behind by less than this catches up (briefly faster than real time),
 # so that a short stall (another process, a GC pause) does not lower the real-time factor for good.
@@ -160,6 +173,24 @@ class SimNodeConfig(SimConfig):
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
     )
+    lowstate_rate_hz: float = param(
+        20.0, help="rate of /lowstate (sim time; a Go2's rt/lf/lowstate is ~20 Hz)", min=1.0, max=500.0
+    )
+    battery_pct: float = param(100.0, help="the battery's state of charge at start (percent)", min=0.0, max=100.0)
+    fault_motor_temp_c: float = param(
+        0.0,
+        help="fault: the FR calf motor reports this temperature on /lowstate (0 = none)",
+        min=0.0,
+        max=255.0,
+        live=True,
+    )
+    fault_battery_pct: float = param(
+        -1.0, help="fault: the battery reports this charge on /lowstate (< 0 = none)", min=-1.0, max=100.0, live=True
+    )
+    fault_tilt_deg: float = param(
+        0.0, help="fault: added to the roll /lowstate reports (degrees)", min=-180.0, max=180.0, live=True
+    )
+    fault_lowstate_silent: bool = param(False, help="fault: stop publishing /lowstate", live=True)
 
     def validate(self) -> None:
         super().validate()
@@ -355,6 +386,10 @@ class SimNode(Node):
         self.pub_clock = self.create_publisher(Clock, "/clock", QOS_DEFAULT)
         self.pub_gt = self.create_publisher(TFMessage, "/sim/ground_truth", QOS_DEFAULT)
         self.pub_status = self.create_publisher(String, "/sim/status", QOS_LATCHED)
+        self.pub_lowstate = self.create_publisher(LowState, "/lowstate", QOS_UNITREE_WRITER)
+        self.thermal = MotorThermal()
+        self.battery = Battery(cfg.battery_pct)
+        self._health_t = self.sim.time
         if cfg.detections:
             self.pub_dets = self.create_publisher(Detection2DArray, "/sim/detections", QOS_DEFAULT)
 
@@ -648,6 +683,20 @@ class SimNode(Node):
             )
         )
         self.pub_tf.publish(tf)
+        self._publish_lowstate(s)
+
+    def _publish_lowstate(self, s: Any) -> None:
+        """Advance the motor and battery models to this state's time, then publish /lowstate."""
+        if s.time - self._health_t < 1.0 / self.config.lowstate_rate_hz - 1e-9:
+            return
+        dt, self._health_t = s.time - self._health_t, s.time
+        temps = self.thermal.step(dt, s.joint_torque)
+        soc = self.battery.step(dt, s.joint_torque, s.joint_vel)
+        cfg: SimNodeConfig = self.config
+        if cfg.fault_lowstate_silent:
+            return
+        faults = Faults(cfg.fault_motor_temp_c, cfg.fault_battery_pct, cfg.fault_tilt_deg)
+        self.pub_lowstate.publish(low_state(s, temps, soc, self.battery.voltage, faults))
 
     def _publish_ground_truth(self, t: float) -> None:
         header = Header(stamp=self.stamp(t), frame_id="world")
@@ -677,6 +726,8 @@ class SimNode(Node):
             "overruns": self.counters.get("physics_overruns", 0),
             "render_error": self._renderer.error,
             "estop": self.estop.engaged,
+            "motor_temp_max_c": round(float(self.thermal.temps.max()), 1),
+            "battery_pct": round(self.battery.soc_pct, 2),
             "commander": self.cmd_vel.status(),
             "counters": dict(self.counters),
         }

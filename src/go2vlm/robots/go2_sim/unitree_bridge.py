@@ -6,6 +6,8 @@ Serves (DDS topic names as on the robot):
       Move 1008 {"x","y","z"} (noreply), Sit 1009, RiseSit 1010, Hello 1016; api 1 = API version
   rt/api/videohub/request -> rt/api/videohub/response  GetImageSample 1001: head camera JPEG in `binary`
   rt/sportmodestate                                    unitree_go/SportModeState_ at `state_rate_hz`
+  rt/lowstate                                          unitree_go/LowState_: the SimNode's own /lowstate,
+                                                       which is this DDS topic (motors, battery, IMU)
 
 Like the robot's sport service:
 - Move is obeyed only in balance stand (after BalanceStand, RecoveryStand, or StandUp+BalanceStand;
