@@ -130,7 +130,7 @@ def test_teleop_drives_through_the_gate_and_stops(procs: Procs, term: Terminal) 
         assert probe.gate["estop"] is False
         term.type("  ")  # two stops within 1 s: the e-stop latches
         assert wait_for(lambda: probe.gate.get("estop") is True, 10), probe.gate
-        assert b"E-STOP latched" in term.output
+        assert wait_for(lambda: b"E-STOP latched" in term.output, 10), term.output[-300:]
         probe.release.publish(String(data="RELEASE"))
         assert wait_for(lambda: probe.gate.get("estop") is False, 10)
 

@@ -171,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
                         if pad.key(k, now) == "estop":
                             estop.publish(Bool(data=True))
                             note = "E-STOP latched (go2vlm estop --release)"
-                        elif k in STOP_KEYS:
+                        elif k in STOP_KEYS and not note.startswith("E-STOP"):  # a latch stays on the line
                             note = "stopped (again within 1 s: e-stop)"
                         elif k in MOVES or k in SPEEDS:
                             note = ""
