@@ -58,6 +58,7 @@ class Episode:
     follow_success_m: float = 2.5  # follow: within this of the ball's surface
     params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node name -> more parameters
     id: str = ""  # a name in a suite (e.g. goals/007)
+    graph: str | None = None  # a launch file (name or path) instead of the perception's packaged graph
 
     def __post_init__(self) -> None:
         if self.perception not in PERCEPTIONS:
@@ -99,7 +100,9 @@ def task_kind(goal: str) -> str:
 
 
 def graph_name(ep: Episode) -> str:
-    """The packaged launch graph that runs this episode."""
+    """The launch graph that runs this episode: its own `graph`, else the packaged one for its task and perception."""
+    if ep.graph is not None:
+        return ep.graph
     if ep.goal is None:
         return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
     return f"episode_{ep.perception}"
