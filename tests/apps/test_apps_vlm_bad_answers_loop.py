@@ -20,11 +20,11 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from perception.vlm.test_vlm_bad_answers import _FailingServer  # noqa: E402
+
 from go2vlm.apps.episodes import Episode, RunOptions, run_episode  # noqa: E402
 from go2vlm.bus import QOS_DEFAULT, Node, ShutdownRequested, running  # noqa: E402
 from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array, detection_boxes  # noqa: E402
-
-from perception.vlm.test_vlm_bad_answers import _FailingServer  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
