@@ -105,14 +105,9 @@ def grounder_settings(path: str | os.PathLike[str], backend: str = "transformers
 
 def grounder_node_params() -> dict[str, Any]:
     """The vlm node's parameters for the grounder (as `grounder_settings`), e.g. for an episode's `params["vlm"]`
-    or `go2vlm demo -p vlm.NAME=VALUE`: CPU, its own pixel budget, room for a few boxes, every frame it can."""
-    return {
-        "device": "cpu",
-        "max_pixels": GROUNDER_MAX_PIXELS,
-        "min_pixels": GROUNDER_MIN_PIXELS,
-        "max_new_tokens": 160,
-        "period_s": 0.0,
-    }
+    or `go2vlm demo -p vlm.NAME=VALUE`: CPU, the pixel budget of its own processor config (max_pixels=0:
+    GROUNDER_MIN_PIXELS..GROUNDER_MAX_PIXELS), room for a few boxes, every frame it can."""
+    return {"device": "cpu", "max_pixels": 0, "max_new_tokens": 160, "period_s": 0.0}
 
 
 def label_sets() -> list[tuple[str, ...]]:

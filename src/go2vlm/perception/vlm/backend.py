@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -25,6 +25,8 @@ __all__ = [
     "Generation",
     "Secret",
     "VlmOutOfMemory",
+    "checkpoint_pixel_limits",
+    "pixel_limits_of",
     "resolve_api_key",
 ]
 
@@ -50,6 +52,38 @@ class Secret(str):
 
     def reveal(self) -> str:
         return str.__str__(self)
+
+
+def checkpoint_pixel_limits(model: str) -> tuple[int, int] | None:
+    """(min_pixels, max_pixels) of a local checkpoint's image processor (processor_config.json or
+    preprocessor_config.json: `size` shortest_edge/longest_edge, or min_pixels/max_pixels); None when
+    `model` is not a local directory that says."""
+    import json
+    from pathlib import Path
+
+    root = Path(model).expanduser()
+    for name in ("preprocessor_config.json", "processor_config.json"):
+        try:
+            cfg = json.loads((root / name).read_text())
+        except (OSError, ValueError):
+            continue
+        limits = pixel_limits_of(cfg.get("image_processor", cfg))
+        if limits is not None:
+            return limits
+    return None
+
+
+def pixel_limits_of(image_processor: Any) -> tuple[int, int] | None:
+    """(min_pixels, max_pixels) from a Qwen image processor or its config dict; None if it does not say."""
+    def get(obj: Any, key: str) -> Any:  # a config dict, or the processor / its SizeDict (attributes)
+        return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
+
+    size = get(image_processor, "size") or {}
+    lo = get(size, "shortest_edge") or get(image_processor, "min_pixels")
+    hi = get(size, "longest_edge") or get(image_processor, "max_pixels")
+    if isinstance(lo, int) and isinstance(hi, int) and 0 < lo <= hi:
+        return lo, hi
+    return None
 
 
 def resolve_api_key(param_value: str | None) -> Secret:
@@ -82,7 +116,7 @@ class BackendSettings:
     dtype: str = "auto"  # auto|fp16|bf16|fp32
     device: str = "auto"  # auto|cuda|cpu|cuda:N
     quantization: str = "none"  # none|nf4|int8
-    max_pixels: int = DEFAULT_MAX_PIXELS
+    max_pixels: int = DEFAULT_MAX_PIXELS  # 0: the checkpoint's own processor limits (min_pixels too)
     min_pixels: int = DEFAULT_MIN_PIXELS
     max_new_tokens: int = 256
     min_new_tokens: int = 0  # benchmarks: force a fixed number of generated tokens (random weights)

@@ -23,8 +23,21 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, resolve_api_key
-from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for, smart_resize, visual_tokens
+from go2vlm.perception.vlm.backend import (
+    BackendError,
+    BackendSettings,
+    Generation,
+    checkpoint_pixel_limits,
+    resolve_api_key,
+)
+from go2vlm.perception.vlm.geometry import (
+    DEFAULT_MAX_PIXELS,
+    DEFAULT_MIN_PIXELS,
+    CoordSystem,
+    coord_system_for,
+    smart_resize,
+    visual_tokens,
+)
 
 __all__ = ["OpenAIBackend", "coords_from_model_name", "encode_jpeg_data_url"]
 
@@ -69,6 +82,8 @@ class OpenAIBackend:
         s = self.settings
         if not s.model:
             raise BackendError("parameter model is empty: give the model name the server serves")
+        if s.max_pixels == 0:  # the checkpoint's own limits, where the served model's name is a local dir
+            s.min_pixels, s.max_pixels = checkpoint_pixel_limits(s.model) or (DEFAULT_MIN_PIXELS, DEFAULT_MAX_PIXELS)
         key = resolve_api_key(s.api_key)
         # Our own retry loop (below) so that retries are counted and backoff is bounded by us.
         self.client = openai.OpenAI(
