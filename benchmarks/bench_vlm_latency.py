@@ -40,6 +40,7 @@ os.environ.setdefault("GO2VLM_IFACE", "lo")
 from go2vlm.apps.episodes import Episode, RunOptions, run_episode  # noqa: E402
 from go2vlm.apps.episodes.suites import load_suite  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
+from go2vlm.cli.demo import node_params  # noqa: E402
 
 LATENCIES = (0.1, 0.5, 1.0, 2.5, 5.0)
 GRAPH = """# episode_vlm.yaml with the answer_delay node in the vlm node's place (benchmarks/bench_vlm_latency.py)
@@ -71,8 +72,11 @@ def episodes(follow_s: float, n_goto: int) -> list[Episode]:
     return out
 
 
-def run_one(ep: Episode, latency: float, graph: Path, rtf: float, fast: bool) -> dict[str, Any]:
-    params = {**ep.params, "answer_delay": {"latency_s": latency}}
+def run_one(
+    ep: Episode, latency: float, graph: Path, rtf: float, fast: bool, extra: dict[str, dict[str, Any]] | None = None
+) -> dict[str, Any]:
+    params = {**ep.params, **(extra or {})}
+    params["answer_delay"] = {**params.get("answer_delay", {}), "latency_s": latency}
     ep = dataclasses.replace(ep, graph=str(graph), params=params)
     m = run_episode(ep, RunOptions(rtf=rtf, fast=fast, video=False), ShutdownRequested()).metrics
     keep = ("episode", "kind", "goal", "success", "time_to_goal_s", "target_in_view_fraction", "collisions",
@@ -141,6 +145,10 @@ def main() -> int:
     ap.add_argument("--goto", type=int, default=3, help="go-to episodes per latency (the goals suite's first)")
     ap.add_argument("--rtf", type=float, default=2.0, help="target real-time factor (sim time is what counts)")
     ap.add_argument("--fast", action="store_true")
+    ap.add_argument(
+        "--param", "-p", action="append", default=[], metavar="NODE.NAME=VALUE",
+        help="a node parameter for every episode, e.g. target_tracker.max_answer_age_s=8",
+    )  # fmt: skip
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--plot", type=Path, default=None)
     args = ap.parse_args()
@@ -151,7 +159,7 @@ def main() -> int:
         graph.write_text(GRAPH)
         for lat in args.latencies:
             for ep in episodes(args.follow_s, args.goto):
-                row = run_one(ep, lat, graph, args.rtf, args.fast)
+                row = run_one(ep, lat, graph, args.rtf, args.fast, node_params(args.param))
                 rows.append(row)
                 print(json.dumps({k: row[k] for k in ("latency_s", "episode", "goal", "success",
                                                        "target_in_view_fraction", "time_to_goal_s")}),
