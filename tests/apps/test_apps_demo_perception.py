@@ -56,3 +56,13 @@ def test_vlm_demo_with_the_tiny_grounder_reports_what_the_vlm_did(tmp_path: Path
     assert m["vlm"]["inferences"] >= 1 and m["vlm"]["latency_ms_p50"] is not None
     assert m["grounding"]["answers"] >= 1 and m["grounding"]["scored"] == m["grounding"]["answers"]
     assert m["tracker"]["forward_unconfirmed"] == 0 and m["collisions"] == 0
+
+
+@pytest.mark.slow
+def test_a_model_that_cannot_load_is_a_clear_error_before_the_sim_runs(tmp_path: Path) -> None:
+    pytest.importorskip("transformers")
+    proc = _demo("--perception", "vlm", "--model", str(tmp_path / "no_such_model"), "--goal", "go to the red ball",
+                 "--out", str(tmp_path / "run"), timeout=120)  # fmt: skip
+    assert proc.returncode not in (0, 1) and "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert "go2vlm demo: the vlm node cannot run: load failed" in proc.stderr
+    assert not (tmp_path / "run" / "metrics.json").exists()  # no episode ran: the model loads first

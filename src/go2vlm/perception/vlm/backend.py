@@ -75,6 +75,7 @@ def checkpoint_pixel_limits(model: str) -> tuple[int, int] | None:
 
 def pixel_limits_of(image_processor: Any) -> tuple[int, int] | None:
     """(min_pixels, max_pixels) from a Qwen image processor or its config dict; None if it does not say."""
+
     def get(obj: Any, key: str) -> Any:  # a config dict, or the processor / its SizeDict (attributes)
         return obj.get(key) if isinstance(obj, dict) else getattr(obj, key, None)
 
