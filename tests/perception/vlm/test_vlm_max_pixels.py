@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from testing.conftest import grounder_ckpt, grounder_server  # noqa: F401
 
 from go2vlm.perception.vlm.backend import BackendSettings, checkpoint_pixel_limits, pixel_limits_of
 from go2vlm.perception.vlm.vlm_node import VlmConfig
@@ -58,3 +59,28 @@ def test_transformers_backend_sees_the_grounders_48_tokens() -> None:
     finally:
         b.close()
     assert gen.resized_hw == (168, 224) and gen.visual_tokens == 48
+
+
+@pytest.mark.slow
+def test_openai_backend_notices_a_server_that_resized_the_image(grounder_server: str) -> None:  # noqa: F811
+    """Through a real `transformers serve` of the grounder (its processor caps images at 37632 pixels):
+    with max_pixels=0 the client sends what the server keeps, and the token counts agree; with the node's
+    default (401408) the server shrinks the image again, its prompt has ~350 fewer tokens, and that is
+    reported instead of boxes silently mapped from the wrong size."""
+    pytest.importorskip("openai")
+    from go2vlm.perception.vlm.backend import visual_token_mismatch
+    from go2vlm.perception.vlm.openai_backend import OpenAIBackend
+
+    frame = np.zeros((480, 640, 3), np.uint8)
+    for max_pixels, agrees in ((0, True), (401408, False)):
+        b = OpenAIBackend(BackendSettings(model=str(GROUNDER), backend="openai", base_url=grounder_server,
+                                          max_pixels=max_pixels, max_new_tokens=8))  # fmt: skip
+        b.load()
+        try:
+            gen = b.generate(frame, "Locate the blue cylinder.")
+        finally:
+            b.close()
+        assert gen.prompt_tokens > 0 and gen.expected_prompt_tokens > 0, gen
+        why = visual_token_mismatch(gen)
+        assert (why is None) == agrees, (max_pixels, gen.prompt_tokens, gen.expected_prompt_tokens, why)
+    assert why is not None and "max_pixels" in why

@@ -28,6 +28,7 @@ __all__ = [
     "checkpoint_pixel_limits",
     "pixel_limits_of",
     "resolve_api_key",
+    "visual_token_mismatch",
 ]
 
 API_KEY_ENV = ("GO2VLM_API_KEY", "OPENAI_API_KEY")
@@ -87,6 +88,25 @@ def pixel_limits_of(image_processor: Any) -> tuple[int, int] | None:
     return None
 
 
+TOKEN_TOLERANCE = 4  # chat templates differ by a token or two; a different resize differs by tens
+
+
+def visual_token_mismatch(gen: Generation) -> str | None:
+    """Why the server's token count says it saw another image size than the one whose pixels the boxes
+    are mapped from (its own smart resize with a smaller max_pixels, ...), or None when it agrees or
+    cannot tell. Boxes are then silently wrong: the caller counts and warns."""
+    if not gen.prompt_tokens or not gen.expected_prompt_tokens:
+        return None
+    if abs(gen.prompt_tokens - gen.expected_prompt_tokens) <= TOKEN_TOLERANCE:
+        return None
+    h, w = gen.resized_hw
+    return (
+        f"the server counted {gen.prompt_tokens} prompt tokens, expected {gen.expected_prompt_tokens} for a {w}x{h} "
+        f"image ({gen.visual_tokens} visual tokens): it resized the image itself, so boxes are mapped from the wrong "
+        "size; set max_pixels to the server's (or max_pixels=0 for a local checkpoint it serves)"
+    )
+
+
 def resolve_api_key(param_value: str | None) -> Secret:
     """The API key: the parameter if set, else ``$GO2VLM_API_KEY``, else ``$OPENAI_API_KEY``."""
     if param_value:
@@ -140,6 +160,9 @@ class Generation:
     visual_tokens: int = 0
     prompt_tokens: int = 0
     new_tokens: int = 0
+    # openai: the prompt tokens the server should count for this prompt and an image of resized_hw (its
+    # text-only count + visual tokens + vision start/end); 0 = unknown. See visual_token_mismatch().
+    expected_prompt_tokens: int = 0
     # milliseconds: preprocess, prefill (to first token), decode (the rest), total
     timings_ms: dict[str, float] = field(default_factory=dict)
 

@@ -64,6 +64,7 @@ from go2vlm.perception.vlm.backend import (
     Generation,
     Secret,
     VlmOutOfMemory,
+    visual_token_mismatch,
 )
 from go2vlm.perception.vlm.factory import make_backend
 from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
@@ -328,6 +329,10 @@ class VlmNode(Node):
             self.pub_text.publish(String(data=text))
         if cfg.mode == "detect":
             self.pub_dets.publish(detections_msg(boxes, header))
+        mismatch = visual_token_mismatch(gen)
+        if mismatch is not None:
+            counters["visual_token_mismatch"] += 1
+            self.log.throttled("warning", 10.0, mismatch, key="visual_tokens")
         post_ms = (time.perf_counter() - t0) * 1e3
         src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_stamp
         age_ms = (self.now() - src_t) * 1e3
