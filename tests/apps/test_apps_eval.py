@@ -1,6 +1,6 @@
 """`go2vlm eval` as a real process: the smoke suite for the color and oracle variants (what CI runs),
 in two worker processes on DDS domains of their own; an interrupted run resumes without redoing
-finished episodes; the vlm variant (pending)."""
+finished episodes; the vlm variant with the shipped tiny grounder behind a real `transformers serve`."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from typing import Any
 import pytest
 from busutil import GO2VLM, Procs, env, wait_for
 
-# The vlm test's tiny checkpoint and `transformers serve` in front of it (built once per session).
-from perception.vlm.conftest import tiny_ckpt, tiny_server  # noqa: F401
+# The shipped tiny grounder and `transformers serve` in front of it (started once per session).
+from testing.conftest import grounder_ckpt, grounder_server  # noqa: F401
 
 from go2vlm.apps.episodes.outputs import read_jsonl
 
@@ -111,16 +111,24 @@ def test_bad_eval_options_are_clear_errors(tmp_path: Path) -> None:
         assert words in proc.stderr and "Traceback" not in proc.stderr
 
 
-@pytest.mark.skip(
-    reason="pending: the vlm variant waits for the target_tracker (issue 12: the commander's grounding moves to a "
-    "tracker node fed by /vlm/detections); launch/episode_vlm.yaml is ready for it"
-)
-def test_vlm_variant_scores_every_answer(tmp_path: Path, tiny_server: str) -> None:  # noqa: F811
-    """One smoke episode with a real tiny Qwen2.5-VL behind a real `transformers serve`: every answer
-    is scored against the ground truth of its frame, and the latency is recorded."""
-    proc = _eval(tmp_path, "--suite", "smoke", "--perception", "vlm", "--episodes", "2", "--base-url", tiny_server,
-                 "--model", "tiny")  # fmt: skip
+def test_vlm_variant_scores_every_answer(tmp_path: Path, grounder_ckpt: Path, grounder_server: str) -> None:  # noqa: F811
+    """Two smoke episodes with the tiny sim-trained Qwen2.5-VL behind a real `transformers serve`: every
+    answer is scored against the ground truth of its frame, and the latency and tracking are recorded."""
+    from go2vlm.testing.tiny_grounder import grounder_node_params
+
+    params = [a for k, v in grounder_node_params().items() for a in ("--param", f"vlm.{k}={v}")]
+    proc = _eval(tmp_path, "--suite", "smoke", "--perception", "vlm", "--episodes", "2", "--base-url", grounder_server,
+                 "--model", str(grounder_ckpt), *params)  # fmt: skip
     _ok(proc)
-    m: dict[str, Any] = read_jsonl(tmp_path / "results.jsonl")[0]["metrics"]
-    assert m["grounding"]["answers"] >= 1 and m["grounding"]["scored"] >= 1
-    assert m["vlm"]["latency_ms_mean"] is not None
+    lines = read_jsonl(tmp_path / "results.jsonl")
+    assert len(lines) == 2 and {line["config"]["perception"] for line in lines} == {"vlm"}
+    for line in lines:
+        m: dict[str, Any] = line["metrics"]
+        g = m["grounding"]
+        assert g["answers"] >= 1 and g["scored"] == g["answers"], g  # every answer against its frame's truth
+        assert g["hits"] + g["misses"] + g["wrong_object"] + g["false_positives"] <= g["answers"]
+        assert m["vlm"]["backend"] == "openai" and m["vlm"]["latency_ms_p50"] is not None
+        assert m["tracker"]["frames"] > 0 and m["tracker"]["forward_unconfirmed"] == 0
+        assert m["collisions"] == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert any(g["perception"] == "vlm" for g in summary["groups"])

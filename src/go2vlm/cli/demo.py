@@ -46,6 +46,24 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="run a language goal instead, e.g. 'go to the blue cylinder', 'look for the green box', '跟着红球'",
     )
+    p.add_argument(
+        "--perception",
+        choices=("color", "oracle", "vlm"),
+        default="color",
+        help=(
+            "what grounds the target: color (default, no weights), oracle (the sim's ground-truth boxes) or vlm "
+            "(Qwen2.5-VL: --model, and --base-url for a server); oracle and vlm run the ball follow demo as the "
+            "goal 'follow the red ball' through the target_tracker"
+        ),
+    )
+    p.add_argument(
+        "--model", default=None, help="vlm: a checkpoint dir or hub id; with --base-url, the served model's name"
+    )
+    p.add_argument(
+        "--base-url",
+        default=None,
+        help="vlm: an OpenAI-compatible server (vLLM, transformers serve), e.g. http://gpu-box:8000/v1",
+    )
     p.add_argument("--ball-speed", type=float, default=0.3, help="ball speed, m/s (default 0.3)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     p.add_argument(
@@ -77,6 +95,7 @@ def node_params(items: list[str]) -> dict[str, dict]:
 def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes import Episode, RunOptions
     from go2vlm.apps.episodes.demo import default_out_dir, demo_world, goal_summary, run_with_progress, summary
+    from go2vlm.apps.episodes.episode import FOLLOW_BALL_GOAL, vlm_node_params
     from go2vlm.behavior.goals import GoalParseError, parse_goal
     from go2vlm.bus import ShutdownRequested
     from go2vlm.launch.launcher import LaunchError
@@ -87,21 +106,25 @@ def run(args: argparse.Namespace) -> int:
     if not args.fast and args.rtf <= 0:
         print("go2vlm demo: --rtf must be positive", file=sys.stderr)
         return 2
-    if args.goal is not None:
+    goal = args.goal
+    if goal is None and args.perception != "color":
+        goal = FOLLOW_BALL_GOAL  # the ball follow demo through the tracker: the article's detector has no VLM
+    if goal is not None:
         try:
-            parse_goal(args.goal)
+            parse_goal(goal)
         except GoalParseError as exc:
             print(f"go2vlm demo: {exc}", file=sys.stderr)
             return 2
     try:
         ep = Episode(
-            world=args.world or demo_world(args.goal),
-            goal=args.goal,
+            world=args.world or demo_world(goal),
+            goal=goal,
+            perception=args.perception,
             mode=args.mode,
             ball_speed=args.ball_speed,
             duration_s=args.duration,
             robot=args.robot,
-            params=node_params(args.param),
+            params=vlm_node_params(args.perception, args.model, args.base_url, node_params(args.param)),
         )
     except ValueError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)
@@ -109,11 +132,11 @@ def run(args: argparse.Namespace) -> int:
     opts = RunOptions(
         rtf=args.rtf,
         fast=args.fast,
-        out=args.out or default_out_dir(args.goal),
+        out=args.out or default_out_dir(goal),
         video=args.video,
         interface=args.interface,
         domain_id=args.domain,
-        cpu=args.goal is None,
+        cpu=goal is None,
         bag=args.bag,
         foxglove=foxglove_params(args),
     )
@@ -127,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     except RuntimeError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)
         return 1
-    if args.goal is None:
+    if goal is None:
         print(summary(result), flush=True)
         if result.metrics["fell"]:
             print("go2vlm demo: FAILED: the robot fell", file=sys.stderr)
@@ -136,4 +159,4 @@ def run(args: argparse.Namespace) -> int:
         print(goal_summary(result), flush=True)
     if result.interrupted:
         return stop.exit_code or 130
-    return 0 if args.goal is None or result.metrics["goal_reached"] else 1
+    return 0 if goal is None or result.metrics["goal_reached"] else 1

@@ -24,6 +24,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--processes", action="store_true", help="one child process per node")
     p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
+    p.add_argument(
+        "--param",
+        "-p",
+        action="append",
+        default=[],
+        metavar="NODE.NAME=VALUE",
+        help="override a node's parameter, e.g. -p vlm.base_url=http://gpu-box:8000/v1 (repeatable)",
+    )
     p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
     p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")
     add_foxglove_args(p)
@@ -45,9 +53,15 @@ def run(args: argparse.Namespace) -> int:
     if not args.file:
         print(f"go2vlm launch: give a launch file; packaged: {', '.join(available())}", file=sys.stderr)
         return 2
+    from go2vlm.bus import ParamError
+    from go2vlm.cli.demo import node_params
+    from go2vlm.launch.launcher import with_overrides
+
     try:
         path, entries = load_launch(args.file)
-    except LaunchError as exc:
+        if args.param:
+            entries = with_overrides(entries, node_params(args.param))
+    except (LaunchError, ParamError) as exc:
         print(f"go2vlm launch: {exc}", file=sys.stderr)
         return 2
     view = foxglove_params(args)

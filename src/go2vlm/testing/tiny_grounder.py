@@ -55,6 +55,7 @@ __all__ = [
     "build_untrained_grounder",
     "evaluate",
     "grounder_checkpoint",
+    "grounder_node_params",
     "grounder_settings",
     "label_sets",
     "render_dataset",
@@ -100,6 +101,13 @@ def grounder_settings(path: str | os.PathLike[str], backend: str = "transformers
     for key, value in overrides.items():
         setattr(settings, key, value)
     return settings
+
+
+def grounder_node_params() -> dict[str, Any]:
+    """The vlm node's parameters for the grounder (as `grounder_settings`), e.g. for an episode's `params["vlm"]`
+    or `go2vlm demo -p vlm.NAME=VALUE`: CPU, the pixel budget of its own processor config (max_pixels=0:
+    GROUNDER_MIN_PIXELS..GROUNDER_MAX_PIXELS), room for a few boxes, every frame it can."""
+    return {"device": "cpu", "max_pixels": 0, "max_new_tokens": 160, "period_s": 0.0}
 
 
 def label_sets() -> list[tuple[str, ...]]:

@@ -2,6 +2,9 @@
 
     go2vlm demo                                   the follow article's loop: the Go2 follows the red ball
     go2vlm demo --goal "go to the blue cylinder"  a language goal through the commander
+    go2vlm demo --perception vlm --model PATH_OR_HUB_ID [--base-url URL] [--goal TEXT]
+                                                  the same, grounded by a Qwen2.5-VL (local or served);
+                                                  without --goal: "follow the red ball" through the tracker
 
 Both are thin users of the episode runner (runner.py): the same graph files, recorder, metrics and
 run folder as `go2vlm eval`.
@@ -18,7 +21,15 @@ from go2vlm.apps.episodes.episode import Episode
 from go2vlm.apps.episodes.runner import EpisodeResult, RunOptions, run_episode
 from go2vlm.bus import ShutdownRequested
 
-__all__ = ["default_out_dir", "demo_world", "goal_episode", "goal_summary", "run_with_progress", "summary"]
+__all__ = [
+    "default_out_dir",
+    "demo_world",
+    "goal_episode",
+    "goal_summary",
+    "perception_lines",
+    "run_with_progress",
+    "summary",
+]
 
 
 def demo_world(goal: str | None) -> str:
@@ -121,11 +132,46 @@ def goal_summary(result: EpisodeResult) -> str:
         )
     if m["kind"] == "go_to":
         lines.append(f"  SPL:             {_fmt(m['spl'])} (path {_fmt(m['path_length_m'], ' m')})")
+    lines += perception_lines(m)
     if m.get("interrupted"):
         lines.insert(1, "  (interrupted: partial run)")
     if result.files:
         lines.append(f"  wrote:           {', '.join(result.files.values())}")
     return "\n".join(lines)
+
+
+def _pct(v: float | None) -> str:
+    return "n/a" if v is None else f"{100 * v:.0f} %"
+
+
+def perception_lines(m: dict[str, Any]) -> list[str]:
+    """What the perception did: the VLM's answers (count, hits against the sim's ground truth,
+    latency, result age) and how the target_tracker carried the target between answers."""
+    lines = [f"  perception:      {m['perception']}"]
+    v, g, tr = m.get("vlm"), m.get("grounding"), m.get("tracker")
+    if v is not None:
+        lines[0] += f" ({v.get('backend')}, model {v.get('model')})"
+        lines.append(
+            f"  VLM latency:     p50 {_fmt(v['latency_ms_p50'], ' ms')}, p95 {_fmt(v['latency_ms_p95'], ' ms')} "
+            f"over {v.get('inferences') or 0} inferences, errors {v.get('errors') or {}}"
+        )
+    if g is not None and m["perception"] == "vlm":
+        lines.append(
+            f"  VLM answers:     {g['answers']} ({g['answers_with_box']} with a box for the target; "
+            f"hits {g['hits']} of {g['answers_target_visible']} while it was visible, "
+            f"wrong object {g['wrong_object']}, false positives {g['false_positives']}; mean IoU {_fmt(g['mean_iou'])})"
+        )
+        lines.append(
+            f"  result age:      mean {_fmt(g['result_age_s_mean'], ' s')}, p95 {_fmt(g['result_age_s_p95'], ' s')} "
+            "(frame stamp -> answer, sim time)"
+        )
+    if tr is not None:
+        lines.append(
+            f"  tracker:         confirmed the target on {_pct(tr['tracking_fraction'])} of {tr['frames']} frames; "
+            f"carried it from an older answer on {_pct(tr['carried_fraction'])} of those "
+            f"(grounding age p50 {_fmt(tr['grounding_age_s_p50'], ' s')}, p95 {_fmt(tr['grounding_age_s_p95'], ' s')})"
+        )
+    return lines
 
 
 def goal_episode(goal: str, world: str | None = None, **kw: Any) -> Episode:

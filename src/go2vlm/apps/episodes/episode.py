@@ -20,6 +20,7 @@ from typing import Any
 from go2vlm.behavior.goals import GoalParseError, Target, parse_goal, parse_target
 
 __all__ = [
+    "FOLLOW_BALL_GOAL",
     "PERCEPTIONS",
     "Episode",
     "graph_name",
@@ -27,7 +28,10 @@ __all__ = [
     "node_overrides",
     "target_body",
     "task_kind",
+    "vlm_node_params",
 ]
+
+FOLLOW_BALL_GOAL = "follow the red ball"  # the ball follow demo through the tracker (perception oracle/vlm)
 
 PERCEPTIONS = ("oracle", "color", "vlm")
 
@@ -54,6 +58,7 @@ class Episode:
     follow_success_m: float = 2.5  # follow: within this of the ball's surface
     params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node name -> more parameters
     id: str = ""  # a name in a suite (e.g. goals/007)
+    graph: str | None = None  # a launch file (name or path) instead of the perception's packaged graph
 
     def __post_init__(self) -> None:
         if self.perception not in PERCEPTIONS:
@@ -95,7 +100,9 @@ def task_kind(goal: str) -> str:
 
 
 def graph_name(ep: Episode) -> str:
-    """The packaged launch graph that runs this episode."""
+    """The launch graph that runs this episode: its own `graph`, else the packaged one for its task and perception."""
+    if ep.graph is not None:
+        return ep.graph
     if ep.goal is None:
         return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
     return f"episode_{ep.perception}"
@@ -130,6 +137,25 @@ def target_body(goal: str | None, names: list[str]) -> str | None:
         return None
     fits = sorted(n for n in names if label_matches(target, n))
     return fits[0] if fits else None
+
+
+def vlm_node_params(
+    perception: str, model: str | None, base_url: str | None, params: dict[str, dict[str, Any]] | None = None
+) -> dict[str, dict[str, Any]]:
+    """`params` (node name -> parameters) with the vlm node's model and backend from --model / --base-url:
+    transformers for a local checkpoint or hub id, openai when a server URL is given. The user's own
+    `vlm.*` parameters win. ValueError for a vlm variant without a model, or a model for another variant."""
+    out = {name: dict(p) for name, p in (params or {}).items()}
+    if perception == "vlm":
+        if not model:
+            raise ValueError("--perception vlm needs --model (a checkpoint dir, a hub id, or the served model's name)")
+        vlm: dict[str, Any] = {"model": model, "backend": "openai" if base_url else "transformers"}
+        if base_url:
+            vlm["base_url"] = base_url
+        out["vlm"] = {**vlm, **out.get("vlm", {})}
+    elif model or base_url:
+        raise ValueError(f"--model and --base-url are for --perception vlm, not {perception}")
+    return out
 
 
 def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, Any]]:

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides
+from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides, vlm_node_params
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
 from go2vlm.bus import ShutdownRequested
@@ -253,17 +253,10 @@ def _check(episodes: list[Episode], opts: EvalOptions) -> None:
 
 
 def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
-    params = {name: dict(p) for name, p in opts.params.items()}
-    if opts.perception == "vlm":
-        if not opts.model:
-            raise EvalError("--perception vlm needs --model (a checkpoint dir, a hub id, or the served model's name)")
-        vlm = {"model": opts.model, "backend": "openai" if opts.base_url else "transformers"}
-        if opts.base_url:
-            vlm["base_url"] = opts.base_url
-        params["vlm"] = {**vlm, **params.get("vlm", {})}
-    elif opts.model or opts.base_url:
-        raise EvalError(f"--model and --base-url are for --perception vlm, not {opts.perception}")
-    return params
+    try:
+        return vlm_node_params(opts.perception, opts.model, opts.base_url, opts.params)
+    except ValueError as exc:
+        raise EvalError(str(exc)) from None
 
 
 def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:

@@ -33,6 +33,14 @@ ground-truth boxes of the frame it describes (same stamp):
                    precision = hits / answers with a box; recall = hits / answers while visible.
   vlm latency      latency_ms (total) of each inference from /vlm/status (wall time: how long the
                    model took); result age: sim seconds from the frame's stamp to the answer.
+Tracking (/target/tracked, goal episodes):
+  tracking_fraction  frames on which the target_tracker reported the target confirmed (`tracking`);
+  carried_fraction   of those, the frames whose box the tracker carried from an answer about an older
+                     frame (grounding_age_s > 0) rather than from a fresh answer about this very frame;
+  grounding_age_s    p50/p95 of grounding_age_s over the tracking frames;
+  forward_unconfirmed  /cmd_vel samples with forward speed > 0.05 m/s although no `tracking` message came
+                     in the UNCONFIRMED_GRACE_S before (the commander's lost_timeout_s 1.0 s + the
+                     gate's ramp-down): motion toward a target the tracker did not confirm.
 """
 
 from __future__ import annotations
@@ -50,13 +58,15 @@ from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
 from go2vlm.robots.go2 import spec
 
-__all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics"]
+__all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics", "tracker_metrics"]
 
 SUCCESS_STATES = {"go_to": "reached", "look_for": "found"}
 END_STATES = ("reached", "found", "not_found", "done", "stopped", "rejected", "sat")
 IOU_HIT = 0.5
 TRACKED_MIN = 0.7  # follow: tracked at least this fraction of the time after first contact
 NEAR_MIN = 0.7  # follow: within follow_success_m at least this fraction of that time
+UNCONFIRMED_GRACE_S = 1.5  # commander lost_timeout_s (1.0) + the gate's ramp from 0.4 m/s to 0 (< 0.5 s)
+FORWARD_MPS = 0.05  # forward speed that counts as driving toward something
 
 
 @dataclass
@@ -165,6 +175,35 @@ def vlm_latency(status: list[dict[str, Any]]) -> dict[str, Any] | None:
         "latency_ms_p50": _r(float(np.percentile(lat, 50)), 1) if lat else None,
         "latency_ms_p95": _r(float(np.percentile(lat, 95)), 1) if lat else None,
         "errors": last.get("errors"),
+    }
+
+
+def tracker_metrics(
+    tracked: list[tuple[float, float, str, float]], cmds: list[tuple[float, float, float, float]]
+) -> dict[str, Any] | None:
+    """How the target_tracker carried the target (see the module docstring); None without /target/tracked."""
+    if not tracked:
+        return None
+    tracking = [(t, age) for t, _, state, age in tracked if state == "tracking"]
+    ages = [age for _, age in tracking if math.isfinite(age)]
+    carried = sum(1 for a in ages if a > 1e-6)
+    confirmed_at = [t for t, _ in tracking]
+    unconfirmed = 0
+    j = 0  # confirmed_at and cmds are both in receive order (sim time)
+    for t, vx, _, _ in cmds:
+        while j < len(confirmed_at) and confirmed_at[j] <= t:
+            j += 1
+        if vx > FORWARD_MPS and (j == 0 or t - confirmed_at[j - 1] > UNCONFIRMED_GRACE_S):
+            unconfirmed += 1
+    return {
+        "frames": len(tracked),
+        "tracking_frames": len(tracking),
+        "tracking_fraction": _r(len(tracking) / len(tracked), 4),
+        "carried_fraction": _r(carried / len(ages), 4) if ages else None,
+        "grounding_age_s_p50": _r(float(np.percentile(ages, 50)), 3) if ages else None,
+        "grounding_age_s_p95": _r(float(np.percentile(ages, 95)), 3) if ages else None,
+        "forward_cmds": sum(1 for c in cmds if c[1] > FORWARD_MPS),
+        "forward_unconfirmed": unconfirmed,
     }
 
 
@@ -307,6 +346,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             ep.goal,
         ),
         "vlm": vlm_latency(rec.vlm_status),
+        "tracker": tracker_metrics(rec.tracked, rec.cmds),
     }
     cmds = rec.cmds
     if ep.goal is None:  # the follow article's loop: `go2vlm demo`'s figures

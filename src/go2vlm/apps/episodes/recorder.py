@@ -4,7 +4,7 @@ the sim time at which a message arrived).
 
 Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
 /detected_target, /commander/status, /camera/camera_info, /sim/detections, /vlm/detections,
-/vlm/status and, for the video, /camera/image_raw (kept as small JPEGs).
+/vlm/status, /target/tracked and, for the video, /camera/image_raw (kept as small JPEGs).
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from typing import Any
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
+from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
@@ -50,6 +51,8 @@ class Recording:
     truth: dict[float, list[PixelBox]] = field(default_factory=dict)  # /sim/detections by frame stamp
     answers: list[tuple[float, float, list[PixelBox]]] = field(default_factory=list)  # sim t, stamp, boxes
     vlm_status: list[dict[str, Any]] = field(default_factory=list)
+    # /target/tracked: sim t received, frame stamp, state name, grounding_age_s (NaN before any answer)
+    tracked: list[tuple[float, float, str, float]] = field(default_factory=list)
 
 
 class EpisodeRecorder(Node):
@@ -76,6 +79,7 @@ class EpisodeRecorder(Node):
         self.create_subscription(Detection2DArray, "/sim/detections", self._on_truth, QOS_DEFAULT)
         self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
         self.create_subscription(String, "/vlm/status", self._on_vlm_status, QOS_DEFAULT)
+        self.create_subscription(TrackedTarget, "/target/tracked", self._on_tracked, QOS_DEFAULT)
         if video:
             self.create_subscription(JointState, "/joint_states", self._on_joints, QOS_DEFAULT)
             self.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_SENSOR)
@@ -106,6 +110,7 @@ class EpisodeRecorder(Node):
                 dict(r.truth),
                 list(r.answers),
                 list(r.vlm_status),
+                list(r.tracked),
             )
 
     def latest_state(self) -> str | None:
@@ -193,6 +198,11 @@ class EpisodeRecorder(Node):
         if st is not None:
             with self.lock:
                 self.rec.vlm_status.append(st)
+
+    def _on_tracked(self, msg: TrackedTarget) -> None:
+        state = STATE_NAMES.get(int(msg.state), "unknown")
+        with self.lock:
+            self.rec.tracked.append((self.now(), msg.header.stamp.to_sec(), state, float(msg.grounding_age_s)))
 
     def _on_image(self, msg: Image) -> None:
         import cv2

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from go2vlm.errors import ConfigError
-from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory
-from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for
+from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory, pixel_limits_of
+from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem, coord_system_for
 
 __all__ = ["TransformersBackend", "check_model_ref", "configure_cuda_allocator", "resolve_device", "resolve_dtype"]
 
@@ -177,6 +177,9 @@ class TransformersBackend:
             kwargs["device_map"] = {"": self.device}
         try:
             self.processor = AutoProcessor.from_pretrained(s.model)
+            if s.max_pixels == 0:  # the checkpoint's own limits (a hub id's too: its processor is loaded)
+                limits = pixel_limits_of(self.processor.image_processor)
+                s.min_pixels, s.max_pixels = limits or (DEFAULT_MIN_PIXELS, DEFAULT_MAX_PIXELS)
             self.model = model_cls.from_pretrained(s.model, **kwargs)
         except Exception as exc:
             if _is_oom(exc):

@@ -23,8 +23,21 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, resolve_api_key
-from go2vlm.perception.vlm.geometry import CoordSystem, coord_system_for, smart_resize, visual_tokens
+from go2vlm.perception.vlm.backend import (
+    BackendError,
+    BackendSettings,
+    Generation,
+    checkpoint_pixel_limits,
+    resolve_api_key,
+)
+from go2vlm.perception.vlm.geometry import (
+    DEFAULT_MAX_PIXELS,
+    DEFAULT_MIN_PIXELS,
+    CoordSystem,
+    coord_system_for,
+    smart_resize,
+    visual_tokens,
+)
 
 __all__ = ["OpenAIBackend", "coords_from_model_name", "encode_jpeg_data_url"]
 
@@ -62,6 +75,7 @@ class OpenAIBackend:
         )
         self.description = f"openai:{settings.model} @ {settings.base_url}"
         self.retries_used = 0
+        self._text_tokens: dict[str, int] = {}  # prompt -> the server's count without the image (0: unknown)
 
     def load(self) -> None:
         import openai
@@ -69,6 +83,8 @@ class OpenAIBackend:
         s = self.settings
         if not s.model:
             raise BackendError("parameter model is empty: give the model name the server serves")
+        if s.max_pixels == 0:  # the checkpoint's own limits, where the served model's name is a local dir
+            s.min_pixels, s.max_pixels = checkpoint_pixel_limits(s.model) or (DEFAULT_MIN_PIXELS, DEFAULT_MAX_PIXELS)
         key = resolve_api_key(s.api_key)
         # Our own retry loop (below) so that retries are counted and backoff is bounded by us.
         self.client = openai.OpenAI(
@@ -77,6 +93,22 @@ class OpenAIBackend:
             timeout=s.timeout_s,
             max_retries=0,
         )
+
+    def _text_only_tokens(self, prompt: str) -> int:
+        """The server's prompt-token count for `prompt` without an image (one 1-token request per distinct
+        prompt, cached); 0 when the server does not say or the request fails (the check is then off)."""
+        if prompt not in self._text_tokens:
+            try:
+                r = self.client.chat.completions.create(
+                    model=self.settings.model,
+                    messages=[{"role": "user", "content": [{"type": "text", "text": prompt}]}],
+                    max_tokens=1,
+                    temperature=0.0,
+                )
+                self._text_tokens[prompt] = int(getattr(r.usage, "prompt_tokens", 0) or 0)
+            except Exception:  # noqa: BLE001 - a calibration, never a reason to lose the answer
+                self._text_tokens[prompt] = 0
+        return self._text_tokens[prompt]
 
     def _request(self, data_url: str, prompt: str) -> tuple[str, float | None, int, int]:
         """One streamed request: (text, time of first content token, prompt tokens, completion tokens)."""
@@ -145,13 +177,17 @@ class OpenAIBackend:
             time.sleep(min(2.0, 0.25 * 2 ** (attempt - 1)) * (0.5 + random.random()))
         t2 = time.perf_counter()
         first_t = first if first is not None else t2
+        n_visual = visual_tokens(resized)
+        base = self._text_only_tokens(prompt) if prompt_tokens else 0
+        expected = base + n_visual + 2 if base else 0  # + <|vision_start|> and <|vision_end|>
         return Generation(
             text=text,
             original_hw=(oh, ow),
             resized_hw=resized,
             coords=self.coords,
-            visual_tokens=visual_tokens(resized),
+            visual_tokens=n_visual,
             prompt_tokens=prompt_tokens,
+            expected_prompt_tokens=expected,
             new_tokens=completion_tokens,
             timings_ms={
                 "preprocess": (t1 - t0) * 1e3,

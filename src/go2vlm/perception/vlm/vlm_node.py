@@ -65,6 +65,7 @@ from go2vlm.perception.vlm.backend import (
     Generation,
     Secret,
     VlmOutOfMemory,
+    visual_token_mismatch,
 )
 from go2vlm.perception.vlm.factory import make_backend
 from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
@@ -96,7 +97,11 @@ class VlmConfig:
     labels: list[str] = param(
         list, help="detect: object categories to ground while /target/query is empty (empty: all objects)", live=True
     )
-    max_pixels: int = param(DEFAULT_MAX_PIXELS, help="max H'*W' after smart resize; visual tokens = /784", min=784)
+    max_pixels: int = param(
+        DEFAULT_MAX_PIXELS,
+        help="max H'*W' after smart resize (visual tokens = /784); 0 = the checkpoint's processor limits, min too",
+        min=0,
+    )
     min_pixels: int = param(DEFAULT_MIN_PIXELS, help="min H'*W' after smart resize", min=784)
     max_new_tokens: int = param(256, help="generation budget per frame", min=1, max=8192)
     dtype: str = param("auto", choices=("auto", "fp16", "bf16", "fp32"))
@@ -122,7 +127,9 @@ class VlmConfig:
     def validate(self) -> None:
         if not self.model.strip():
             raise ValueError("parameter 'model' is required (checkpoint dir, hub id or served model name)")
-        if self.min_pixels > self.max_pixels:
+        if 0 < self.max_pixels < 784:
+            raise ValueError(f"max_pixels ({self.max_pixels}) must be 0 (the checkpoint's limits) or >= 784")
+        if self.max_pixels and self.min_pixels > self.max_pixels:
             raise ValueError(f"min_pixels ({self.min_pixels}) must not exceed max_pixels ({self.max_pixels})")
         dev = self.device
         if not (dev in ("auto", "cpu", "cuda") or (dev.startswith("cuda:") and dev[5:].isdigit())):
@@ -201,7 +208,8 @@ class VlmNode(Node):
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.log.info(
             f"{self.backend.name} backend, model {cfg.model}, mode {cfg.mode}, "
-            f"max_pixels {cfg.max_pixels} (<= {cfg.max_pixels // (QWEN_FACTOR * QWEN_FACTOR)} visual tokens), "
+            f"max_pixels {cfg.max_pixels or 'from the checkpoint'} "
+            f"(<= {cfg.max_pixels // (QWEN_FACTOR * QWEN_FACTOR) or '?'} visual tokens), "
             f"listening on {self.resolve(cfg.image_topic)}"
         )
         self._halt = threading.Event()
@@ -254,7 +262,9 @@ class VlmNode(Node):
             return
         with self._stats:
             self.state = "ready"
-        self.log.info(f"model ready: {self.backend.description}")
+        limits = getattr(self.backend, "settings", None)
+        pixels = f", pixels {limits.min_pixels}..{limits.max_pixels}" if limits is not None else ""
+        self.log.info(f"model ready: {self.backend.description}{pixels}")
         next_start = 0.0
         while not self._halt.is_set():
             if self.clock.monotonic() < next_start:
@@ -324,6 +334,10 @@ class VlmNode(Node):
             self.pub_text.publish(String(data=text))
         if cfg.mode == "detect":
             self.pub_dets.publish(detections_msg(boxes, header))
+        mismatch = visual_token_mismatch(gen)
+        if mismatch is not None:
+            counters["visual_token_mismatch"] += 1
+            self.log.throttled("warning", 10.0, mismatch, key="visual_tokens")
         post_ms = (time.perf_counter() - t0) * 1e3
         src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_stamp
         age_ms = (self.now() - src_t) * 1e3

@@ -1,0 +1,61 @@
+"""answer_delay: grounding answers delivered as a slow VLM would deliver them, for latency experiments.
+
+Topics
+  subscribes  <input_topic>    vision_msgs/Detection2DArray (reliable; default /sim/detections): a perfect
+                               answer about every frame (the sim's ground-truth boxes), stamped with it
+  publishes   <output_topic>   vision_msgs/Detection2DArray (reliable; default /vlm/detections): one frame
+                               at a time, the newest when free, re-published `latency_s` after its frame's
+                               stamp with that stamp (perception/answer_delay.py); the others are dropped
+              /answer_delay/status  std_msgs/String, JSON every 1 s: latency_s, counters
+
+Parameters
+  latency_s     2.5   seconds from a frame's stamp to its answer (sim seconds with use_sim_time)
+  input_topic   /sim/detections
+  output_topic  /vlm/detections
+
+It isolates latency from accuracy: the answers are right, only late, and they reach the target_tracker
+exactly where the vlm node's would (benchmarks/bench_vlm_latency.py). Time is the frames' stamps only.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+from go2vlm.bus import QOS_DEFAULT, Node, param
+from go2vlm.msgs.std_msgs import String
+from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.perception.answer_delay import AnswerDelay
+
+__all__ = ["AnswerDelayConfig", "AnswerDelayNode"]
+
+
+@dataclass
+class AnswerDelayConfig:
+    latency_s: float = param(2.5, help="seconds from a frame's stamp to its answer", min=0.0, max=60.0)
+    input_topic: str = param("/sim/detections", help="perfect answers, one per frame (vision_msgs/Detection2DArray)")
+    output_topic: str = param("/vlm/detections", help="where the delayed answers go")
+
+
+class AnswerDelayNode(Node):
+    name = "answer_delay"
+    Config = AnswerDelayConfig
+
+    def __init__(self, config: AnswerDelayConfig | None = None, **kwargs: Any) -> None:
+        super().__init__(config, **kwargs)
+        cfg: AnswerDelayConfig = self.config
+        self.delay: AnswerDelay[Detection2DArray] = AnswerDelay(cfg.latency_s)
+        self.pub = self.create_publisher(Detection2DArray, cfg.output_topic, QOS_DEFAULT)
+        self.pub_status = self.create_publisher(String, "/answer_delay/status", QOS_DEFAULT)
+        self.create_subscription(Detection2DArray, cfg.input_topic, self.on_answer, QOS_DEFAULT)
+        self.create_timer(1.0, self.publish_status)
+        self.log.info(f"{cfg.input_topic} -> {cfg.output_topic}, {cfg.latency_s:g} s after each frame")
+
+    def on_answer(self, msg: Detection2DArray) -> None:
+        for _, held in self.delay.offer(msg.header.stamp.to_sec(), msg):
+            self.pub.publish(held)
+
+    def publish_status(self) -> None:
+        st = {"latency_s": self.delay.latency_s, "counters": dict(self.delay.counters)}
+        self.pub_status.publish(String(data=json.dumps(st)))
