@@ -285,7 +285,7 @@ class SafetyGateNode(Node):
     def tick(self) -> None:
         now, wall = self._times()
         out = self.core.step(now, wall)
-        if out.is_zero:  # keep the guard's state (blind or not) current for /safety/status while idle
+        if self.core.active is None:  # keep the guard's state (blind or not) current for /safety/status while idle
             self.core.guard.limit(ZERO, now, self.core.limits)
         self.cmd_pub.publish(Twist(linear=Vector3(x=out.vx, y=out.vy), angular=Vector3(z=out.wz)))
         state = (self.core.active, self.core.estopped, self.core.reason, self.core.guard.state.mode)
