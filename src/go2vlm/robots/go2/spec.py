@@ -55,9 +55,10 @@ HEAD_CAMERA_FOVY_DEG = 58.0
 HEAD_CAMERA_HEIGHT = STAND_HEIGHT + HEAD_CAMERA_POS[2]  # above the floor, standing
 
 # L1 lidar (under the chin): the robot publishes its cloud on its DDS bus as sensor_msgs/PointCloud2
-# in the lidar's frame; the mount pose in base_link (m, rad about y: the sensor looks forward and
-# down, tilted ~165 deg) is the one public Go2 launch files use (docs/safety.md#range-sensing).
-LIDAR_TOPIC = "rt/utlidar/cloud"
+# on rt/utlidar/cloud, which is the ROS 2 topic /utlidar/cloud; in the lidar's frame. The mount pose
+# in base_link (m, rad about y: the sensor looks forward and down, tilted ~165 deg) is the one public
+# Go2 launch files use (docs/safety.md#range-sensing).
+LIDAR_TOPIC = "/utlidar/cloud"  # DDS rt/utlidar/cloud
 LIDAR_FRAME = "utlidar_lidar"
 LIDAR_MOUNT_POS = (0.28945, 0.0, -0.046825)
 LIDAR_MOUNT_PITCH = 2.8782

@@ -46,8 +46,8 @@ Publishes:
                                                     every named world body (gt/red_ball, ...)
   /utlidar/cloud              sensor_msgs/PointCloud2  sensor QoS, `lidar_rate_hz` (10 Hz sim time) while
                                                     `lidar` (live): the L1 lidar by MuJoCo ray casting
-                                                    (sim/lidar.py), frame utlidar_lidar, float32 x y z;
-                                                    with `unitree` also on rt/utlidar/cloud, as a real Go2
+                                                    (sim/lidar.py), frame utlidar_lidar, float32 x y z:
+                                                    on DDS that is rt/utlidar/cloud, the real Go2's topic
   /scan                       sensor_msgs/LaserScan  sensor QoS, with each cloud: 360 deg in 2 deg bins,
                                                     frame base_link, the nearest return in the obstacle
                                                     band (geometry/scan.py); no cloud, no scan
@@ -370,11 +370,8 @@ class SimNode(Node):
             self.pub_dets = self.create_publisher(Detection2DArray, "/sim/detections", QOS_DEFAULT)
         self.lidar = Lidar(self.sim.model, self.sim.model.body("base").id)
         self._scan_spec, self._lidar_tfs = spec.lidar_scan_spec(), spec.lidar_transforms()
-        self.pub_cloud = self.create_publisher(PointCloud2, "/utlidar/cloud", QOS_SENSOR)
+        self.pub_cloud = self.create_publisher(PointCloud2, spec.LIDAR_TOPIC, QOS_SENSOR)
         self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
-        self.pub_unitree_cloud = (
-            self.create_publisher(PointCloud2, spec.LIDAR_TOPIC, QOS_SENSOR) if cfg.unitree else None
-        )
 
         self._renderer = _Renderer(self, self.sim.model)
         self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
@@ -684,8 +681,6 @@ class SimNode(Node):
     def _publish_lidar(self, t: float, period: float) -> None:
         cloud = xyz_cloud(Header(stamp=self.stamp(t), frame_id=spec.LIDAR_FRAME), self.lidar.scan(self.sim.data))
         self.pub_cloud.publish(cloud)
-        if self.pub_unitree_cloud is not None:
-            self.pub_unitree_cloud.publish(cloud)
         scan = scan_from_cloud(cloud, self._scan_spec, self._lidar_tfs, spec.BASE_FRAME, period)
         if scan is not None:
             self.pub_scan.publish(scan)
