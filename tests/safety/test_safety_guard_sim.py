@@ -1,6 +1,7 @@
 """The collision guard with real processes: the MuJoCo sim (its ray-cast lidar on /scan) and the
 safety gate, over real DDS. A teleop stream straight at a wall stops the robot at or beyond the
-margin (sim ground truth), forward and sideways; a scan cut off mid-run caps the speed."""
+margin (sim ground truth), forward and sideways; a scan cut off mid-run caps the speed; a goal seen
+above a wall (the sim's ground-truth boxes) does not drive the robot into the wall."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import json
 import subprocess
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from busutil import GO2VLM, Procs, Recorder, env, wait_for
@@ -129,3 +131,42 @@ def test_scan_cut_off_mid_run_caps_the_speed(run: tuple[Procs, Probe]) -> None:
     drive(probe, Twist(linear=Vector3(x=0.5)), 0.5)
     assert probe.cmd.msgs()[-1].linear.x == pytest.approx(0.2)
     assert probe.guard()["mode"] == "blind" and "no /scan" in probe.guard()["reason"]
+
+
+WALL = Footprint.rect(2.0, 0.0, 0.0, 0.2, 3.0)  # sim/worlds/wall.xml
+
+
+def test_oracle_goal_behind_a_wall_does_not_drive_into_it(run: tuple[Procs, Probe], tmp_path: Path) -> None:
+    """The sim's ground-truth boxes ground "the blue cylinder" above a low wall; the commander drives
+    straight at it; the gate stops the robot at the wall's margin."""
+    procs, probe = run
+    graph = tmp_path / "oracle_wall.yaml"
+    graph.write_text(  # the oracle episode graph (launch/episode_oracle.yaml) in the wall world; JSON is YAML
+        json.dumps(
+            [
+                {
+                    "node": "sim",
+                    "params": {"use_sim_time": True, "world": "wall", "world_camera": False, "detections": True},
+                },
+                {
+                    "node": "target_tracker",
+                    "params": {"use_sim_time": True, "grounding": "vlm"},
+                    "remap": {"/vlm/detections": "/sim/detections"},
+                },
+                {"node": "commander", "params": {"use_sim_time": True}},
+                {"node": "safety", "params": {"use_sim_time": True, "margin": MARGIN}},
+            ]
+        )  # fmt: skip
+    )
+    procs.start("launch", str(graph))
+    goal = probe.create_publisher(String, "/goal", QOS_LATCHED)
+    assert wait_for(lambda: len(probe.gt) and len(probe.scan) and len(probe.status), 120), "graph not up"
+    gap0 = probe.gap(WALL)
+    goal.publish(String(data="go to the blue cylinder"))
+    least = gap0
+    end = time.monotonic() + 40.0
+    while time.monotonic() < end:  # sample the ground truth: the least gap over the whole run
+        least = min(least, probe.gap(WALL))
+        time.sleep(0.05)  # the sampling period, not synchronisation
+    assert least >= MARGIN - TOLERANCE, f"the robot came {least:.3f} m from the wall (margin {MARGIN})"
+    assert least <= gap0 - 0.5, f"the robot never went for the cylinder ({gap0:.2f} -> {least:.2f} m)"
