@@ -48,7 +48,7 @@ def test_latched_estop_reaches_a_gate_started_later_and_teleop_wins() -> None:
     follow = io.create_publisher(Twist, "/follower/cmd_vel", QOS_DEFAULT)
     estop.publish(Bool(data=True))  # before any gate exists
     with running(io):
-        gate = make_node("safety", params={"max_vx_forward": 0.4})
+        gate = make_node("safety", params={"max_vx_forward": 0.4, "guard": False})  # no scan here: not the test
         with running(gate):
             t_end = time.monotonic() + 1.5
             while time.monotonic() < t_end:

@@ -1,5 +1,6 @@
 """safety: the only node that publishes /cmd_vel. A priority mux with timeouts, velocity and
-acceleration limits and a latching emergency stop, output at a fixed rate.
+acceleration limits, a collision guard over the range scan and a latching emergency stop, output at a
+fixed rate.
 
 Topics
   subscribes  /teleop/cmd_vel    geometry_msgs/Twist  priority 100  } default `inputs`: any list of
@@ -7,6 +8,8 @@ Topics
               /behavior/cmd_vel  geometry_msgs/Twist  priority 10   }  timeout_s} (0.5 s default)
               /emergency_stop          std_msgs/Bool    true latches the e-stop; false does NOT release
               /emergency_stop/release  std_msgs/String  data == release_token ("RELEASE"), exactly, releases
+              /scan              sensor_msgs/LaserScan  best-effort (`scan_topic`): obstacles for the
+                                 collision guard, frame base_link (sim, go2 driver: geometry/scan.py)
               /cmd_vel           geometry_msgs/Twist  best-effort, only to see who else writes it
               /safety/heartbeat  std_msgs/String      the other gates' heartbeats (latched)
               /lowstate          unitree_go/LowState  best-effort: the robot's health (tilt from imu_state.rpy,
@@ -15,8 +18,9 @@ Topics
                                  live, the e-stop is latched or another writer is on /cmd_vel; a stop
                                  goes out at once
               /safety/status     std_msgs/String (latched) JSON {active, estop, last_zero_reason, output,
-                                 limits, inputs, commander, estop_state_file, counters}, on every change
-                                 and every status_period_s
+                                 limits, guard, inputs, commander, estop_state_file, counters}, on every
+                                 change and every status_period_s; guard = {mode: clear | limited |
+                                 blind | off, reason, scale, nearest_m, scan_age_s, margin_m}
               /safety/heartbeat  std_msgs/String (latched) JSON {node, participant, cmd_vel_writer, topic}:
                                  this gate's /cmd_vel writer, every status_period_s (safety/commander.py)
               /emergency_stop    std_msgs/Bool (reliable, volatile) true, only at health level "down"
@@ -44,10 +48,17 @@ battery, or a /lowstate stream that went silent for health_stale_s (armed by its
 from the start with health_require_state). Thresholds: health_tilt_deg, health_motor_temp_c,
 health_battery_pct = [warn, cap, stop, down]; a lower level only after health_clear_s. Every level
 and its reasons are on /safety/status "health".
+
+Collision guard (safety/guard.py, docs/safety.md#the-collision-guard; `guard: false` turns it off at
+start-up only): the output is scaled down, never up, so that the robot, braking at accel_linear and
+accel_angular after reaction_s, stops `margin` (0.3 m) short of every obstacle on the scan along the
+arc it is commanded (forward, sideways, turning: the footprint sweeps); with no scan, a scan older than
+scan_timeout_s (0.5 s) or a garbage one (NaN, -inf, no beams, another frame), no footprint point moves
+faster than blind_speed (0.2 m/s). A rejected scan is logged (rate-limited) and counted.
 Parameters at runtime: the speed and acceleration limits may be LOWERED while the gate runs (it
 clamps from the next tick; slowing down is never ramped); raising one is refused, even below the Go2
 ceiling: raising takes a restart, a deliberate act. status_period_s is live too; inputs, rate_hz,
-release_token, start_engaged and wall_timeout_s are read-only.
+release_token, start_engaged, wall_timeout_s and the guard's parameters are read-only.
 QoS: inputs are read best-effort (matches any publisher); /emergency_stop is read three ways (latched,
 reliable, best-effort) so every publisher QoS matches and a latched e-stop reaches a late gate.
 Time (use_sim_time, bus/clock.py): timeouts, ramps and the output rate are in the node's time, sim
@@ -70,10 +81,12 @@ from typing import Any
 from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
+from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.unitree import LowState
 from go2vlm.safety.commander import GateWatch
 from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, EstopInput, LatchFile, check_token, default_state_file
+from go2vlm.safety.guard import CollisionGuard, GuardConfig, Scan
 from go2vlm.safety.health import (
     BATTERY_PCT,
     MOTOR_TEMP_C,
@@ -85,7 +98,7 @@ from go2vlm.safety.health import (
     Ladder,
     Level,
 )
-from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, Limits, Velocity
+from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, ZERO, Limits, Velocity
 from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec, SafetyCore
 
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
@@ -173,8 +186,19 @@ class SafetyGateConfig:
     health_battery_pct: list[float] = param(
         list(BATTERY_PCT.steps), help="battery state-of-charge thresholds [warn, cap, stop, down], percent"
     )
+    guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
+    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the collision guard")
+    margin: float = param(0.3, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
+    blind_speed: float = param(
+        0.2, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
+    )
+    scan_timeout_s: float = param(0.5, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0)
+    reaction_s: float = param(
+        0.1, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)", min=0.0, max=2.0
+    )
 
     def validate(self) -> None:
+        dds_topic_name(self.scan_topic)
         parse_inputs(self.inputs)
         check_token(self.release_token)
         dds_topic_name(self.health_topic)
@@ -223,6 +247,15 @@ class SafetyGateNode(Node):
             c.release_token,
             c.start_engaged or bool(was_engaged),
             c.wall_timeout_s,
+            CollisionGuard(
+                GuardConfig(
+                    margin=c.margin,
+                    blind_speed=c.blind_speed,
+                    scan_timeout_s=c.scan_timeout_s,
+                    reaction_s=c.reaction_s,
+                ),
+                enabled=c.guard,
+            ),
         )
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
@@ -241,6 +274,8 @@ class SafetyGateNode(Node):
         )
         for spec in self.core.specs:
             self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
+        if c.guard:
+            self.create_subscription(LaserScan, c.scan_topic, self.on_scan, QOS_SENSOR)
         self.commander = GateWatch(self, str(self.cmd_pub.guid), self.cmd_pub.topic, self._commander_changed)
         self.health = HealthMonitor(health_policy(c)) if c.health else None
         self.verdict = HealthVerdict(Level.OK, 1.0, ())
@@ -340,13 +375,22 @@ class SafetyGateNode(Node):
                 self._down_sent = now
                 self.estop_pub.publish(Bool(data=True))  # the robot ends latch too and Damp
 
+    def on_scan(self, msg: LaserScan) -> None:
+        scan = Scan(msg.header.frame_id, msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+        why = self.core.guard.scan(scan, self.clock.monotonic())
+        if why is not None:
+            n = self.core.guard.counters.get("scans_rejected", 0)
+            self.log.throttled("error", 2.0, f"rejecting a scan on {self.config.scan_topic} ({n} so far): {why}")
+
     # -- output ------------------------------------------------------------------------------
     def tick(self) -> None:
         now, wall = self._times()
         self._apply_health(now)
         out = self.core.step(now, wall)
+        if self.core.active is None:  # keep the guard's state (blind or not) current for /safety/status while idle
+            self.core.guard.limit(ZERO, now, self.core.limits)
         self.cmd_pub.publish(Twist(linear=Vector3(x=out.vx, y=out.vy), angular=Vector3(z=out.wz)))
-        state = (self.core.active, self.core.estopped, self.core.reason, self.verdict.level)
+        state = (self.core.active, self.core.estopped, self.core.reason, self.verdict.level, self.core.guard.state.mode)
         if state != self._last_state or now - self._last_status >= self.config.status_period_s:
             if state != self._last_state and self._last_state is not None:
                 self._state_changes += 1
@@ -367,7 +411,9 @@ class SafetyGateNode(Node):
             return
         why = f" ({state[2]})" if state[0] is None else ""
         more = f" [{self._state_changes} changes since the last line]" if self._state_changes > 1 else ""
-        self.log.info(f"active={state[0]} estop={state[1]}{why}{more}")
+        g = self.core.guard.state
+        guard = f" guard={g.mode} ({g.reason})" if g.mode in ("blind", "limited") else f" guard={g.mode}"
+        self.log.info(f"active={state[0]} estop={state[1]}{why}{guard}{more}")
         self._last_state_log, self._state_changes = t, 0
 
     def status(self, now: float, wall: float | None = None) -> dict[str, Any]:
@@ -381,10 +427,11 @@ class SafetyGateNode(Node):
                 "vy": self.core.limits.vy,
                 "wz": self.core.limits.wz,
             },
+            "guard": {**self.core.guard.state.as_dict(), "margin_m": self.core.guard.config.margin},
             "inputs": self.core.inputs_status(now, wall),
             "commander": self.commander.status(),
             "estop_state_file": str(self.store.path),
-            "counters": {**self.core.counters, **self.counters},
+            "counters": {**self.core.counters, **self.core.guard.counters, **self.counters},
             "health": self.health_status(),
         }
 

@@ -22,8 +22,10 @@ Rules
   safety/commander.py) until `block(None)`; then the output ramps up again from zero.
 - Health (safety/health.py): `health(scale, hold)` scales the speed limits by `scale` (never above
   1: an input never raises a limit) and, with a `hold` reason, holds the output at zero like a block.
-- The output is the winner clamped to the limits, then ramped within the acceleration limits; zero
-  (no live input, e-stop, block) is output immediately.
+- The output is the winner clamped to the limits, then ramped within the acceleration limits, then
+  scaled down by the collision guard (`guard`, safety/guard.py: stop short of obstacles, a speed cap
+  without a fresh scan; off unless given one); zero (no live input, e-stop, block) is output
+  immediately.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import math
 from dataclasses import dataclass, field
 
 from go2vlm.safety.estop import RELEASE_TOKEN, EstopLatch
+from go2vlm.safety.guard import CollisionGuard
 from go2vlm.safety.limits import ZERO, Limits, Velocity, check, ramp
 
 __all__ = ["InputSpec", "SafetyCore", "DEFAULT_INPUTS"]
@@ -76,6 +79,7 @@ class SafetyCore:
     release_token: str = RELEASE_TOKEN
     engaged: bool = False  # start with the e-stop latched
     wall_timeout_s: float = DEFAULT_WALL_TIMEOUT_S  # used only when `wall` times are given
+    guard: CollisionGuard = field(default_factory=lambda: CollisionGuard(enabled=False))
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.wall_timeout_s) and self.wall_timeout_s > 0):
@@ -192,8 +196,12 @@ class SafetyCore:
             return ZERO
         target = self.limits.scaled(self.health_scale).clamp(self._inputs[self.active].last)
         out = ramp(self.output, target, self.limits, dt)
-        if out.is_zero and not self.output.is_zero:
-            self.reason = f"{self.active} commands zero"
+        guarded = self.guard.limit(out, now, self.limits)  # only ever smaller: see safety/guard.py
+        if guarded != out:
+            self._count("guard_limited")
+        if guarded.is_zero and not self.output.is_zero:
+            self.reason = f"guard: {self.guard.state.reason}" if not out.is_zero else f"{self.active} commands zero"
+        out = guarded
         self.output = out
         return out
 

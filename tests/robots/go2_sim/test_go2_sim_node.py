@@ -20,7 +20,7 @@ from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.rosgraph_msgs import Clock
-from go2vlm.msgs.sensor_msgs import CameraInfo, Image, Imu, JointState
+from go2vlm.msgs.sensor_msgs import CameraInfo, Image, Imu, JointState, LaserScan, PointCloud2
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 
@@ -42,6 +42,8 @@ TOPICS: dict[str, tuple[type, Any]] = {
     "/clock": (Clock, QOS_DEFAULT),
     "/sim/ground_truth": (TFMessage, QOS_DEFAULT),
     "/sim/status": (String, QOS_LATCHED),
+    "/utlidar/cloud": (PointCloud2, QOS_SENSOR),
+    "/scan": (LaserScan, QOS_SENSOR),
 }
 
 
@@ -113,7 +115,9 @@ def test_every_topic_has_sane_content(sim: tuple[Probe, dict[str, Recorder]]) ->
     assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
     static = {t.child_frame_id: t.header.frame_id for t in last(recs["/tf_static"]).transforms}
     assert static["camera_optical_frame"] == "base_link" and static["camera_link"] == "base_link"
-    assert static["odom"] == "world"
+    assert static["odom"] == "world" and static["utlidar_lidar"] == "base_link"
+    assert last(recs["/utlidar/cloud"]).header.frame_id == "utlidar_lidar" and last(recs["/utlidar/cloud"]).width > 0
+    assert last(recs["/scan"]).header.frame_id == "base_link" and len(last(recs["/scan"]).ranges) == 180
     gt = {t.child_frame_id: t for t in last(recs["/sim/ground_truth"]).transforms}
     assert {"gt/go2", "gt/red_ball"} <= set(gt) and all(t.header.frame_id == "world" for t in gt.values())
     assert abs(gt["gt/go2"].transform.translation.x - odom.pose.pose.position.x) < 0.1

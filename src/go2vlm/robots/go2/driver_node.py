@@ -21,6 +21,7 @@ Subscribes:
   rt/api/sport/request     unitree_api/Request_ other clients' sport requests: a foreign controller
                                                 (any writer but ours asking for a motion or posture)
                                                 triggers `foreign_sport` (see below)
+  rt/utlidar/cloud         sensor_msgs/PointCloud2  (= /utlidar/cloud, sensor QoS) the L1 lidar, with `lidar`
   rt/api/sport/response, rt/api/videohub/response  unitree_api/Response_
 Publishes:
   rt/api/sport/request, rt/api/videohub/request    unitree_api/Request_
@@ -32,6 +33,10 @@ Publishes:
   /camera/image_raw/compressed  sensor_msgs/CompressedImage  front camera JPEG (videohub GetImageSample)
   /camera/image_raw        sensor_msgs/Image    the same frame decoded, bgr8, frame camera_optical_frame
   /camera/camera_info      sensor_msgs/CameraInfo  pinhole from `camera_hfov_deg`
+  /scan                    sensor_msgs/LaserScan  sensor QoS, from each rt/utlidar/cloud (`lidar`): frame
+                           base_link, 360 deg in 2 deg bins, the nearest return in the obstacle band
+                           (geometry/scan.py, the sim's code); a cloud in an unknown frame is dropped,
+                           logged and counted, an empty one gives no scan (the gate's guard goes blind)
   /go2/status              std_msgs/String      latched JSON, 1 Hz and after each /go2/command: connected,
                                                 estop, moving, mode, commander, foreign_sport,
                                                 last_command {seq, name, result}, ...
@@ -82,7 +87,8 @@ from go2vlm.msgs.base_state import base_state_messages
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.nav_msgs import Odometry
-from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu
+from go2vlm.msgs.pointcloud import scan_from_cloud
+from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu, LaserScan, PointCloud2
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.unitree import LowState, Request, SportModeState
@@ -119,6 +125,7 @@ class Go2DriverConfig:
     lowstate_topic: str = param(
         "/lowstate", help="the robot's low-level state (ROS form of rt/lowstate; e.g. /lf/lowstate); '' = none"
     )
+    lidar: bool = param(True, help="derive /scan from the robot's rt/utlidar/cloud (for the gate's collision guard)")
     stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
     odom_frame: str = param(spec.ODOM_FRAME, help="odometry frame")
     base_frame: str = param(spec.BASE_FRAME, help="robot base frame")
@@ -205,6 +212,10 @@ class Go2DriverNode(Node):
         if cfg.lowstate_topic:
             self.pub_lowstate = self.create_publisher(LowState, "/go2/lowstate", QOS_SENSOR)
             self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
+        if cfg.lidar:
+            self._scan_spec, self._lidar_tfs = spec.lidar_scan_spec(), spec.lidar_transforms()
+            self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
+            self.create_subscription(PointCloud2, spec.LIDAR_TOPIC, self._on_cloud, QOS_SENSOR)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self._status_tick)
 
@@ -324,6 +335,16 @@ class Go2DriverNode(Node):
             self._chain(name, api_ids[1:])
 
         self.sport.call_async(api).add_done_callback(done)
+
+    def _on_cloud(self, msg: PointCloud2) -> None:
+        try:
+            scan = scan_from_cloud(msg, self._scan_spec, self._lidar_tfs, self.config.base_frame)
+        except ValueError as exc:
+            self.count("bad_cloud")
+            self.log.throttled("error", 2.0, f"dropped a lidar cloud: {exc}")
+            return
+        if scan is not None:
+            self.pub_scan.publish(scan)
 
     def _on_state(self, msg: SportModeState) -> None:
         self.state = msg

@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from go2vlm.geometry.camera import fovy_to_hfov
+from go2vlm.geometry.scan import ScanSpec, mount_transform
 
 __all__ = [
     "BASE_FRAME",
@@ -20,6 +23,10 @@ __all__ = [
     "HEAD_CAMERA_FOVY_DEG",
     "HEAD_CAMERA_HEIGHT",
     "HEAD_CAMERA_POS",
+    "LIDAR_FRAME",
+    "LIDAR_MOUNT_PITCH",
+    "LIDAR_MOUNT_POS",
+    "LIDAR_TOPIC",
     "ODOM_FRAME",
     "STAND_HEIGHT",
     "VX_MAX_BACKWARD",
@@ -28,6 +35,8 @@ __all__ = [
     "VY_MAX",
     "clamp_velocity",
     "head_camera_hfov_deg",
+    "lidar_scan_spec",
+    "lidar_transforms",
 ]
 
 # Sport-mode Move() ranges (Unitree's documented limits): the hard ceiling of every speed limit.
@@ -51,10 +60,29 @@ HEAD_CAMERA_HEIGHT = STAND_HEIGHT + HEAD_CAMERA_POS[2]  # above the floor, stand
 BATTERY_CELLS = 8
 BATTERY_WH = 28.8 * 8.0
 
+# L1 lidar (under the chin): the robot publishes its cloud on its DDS bus as sensor_msgs/PointCloud2
+# on rt/utlidar/cloud, which is the ROS 2 topic /utlidar/cloud; in the lidar's frame. The mount pose
+# in base_link (m, rad about y: the sensor looks forward and down, tilted ~165 deg) is the one public
+# Go2 launch files use (docs/safety.md#range-sensing).
+LIDAR_TOPIC = "/utlidar/cloud"  # DDS rt/utlidar/cloud
+LIDAR_FRAME = "utlidar_lidar"
+LIDAR_MOUNT_POS = (0.28945, 0.0, -0.046825)
+LIDAR_MOUNT_PITCH = 2.8782
+
 # Frame names on /tf, /odom and the camera topics.
 ODOM_FRAME = "odom"
 BASE_FRAME = "base_link"
 CAMERA_FRAME = "camera_optical_frame"
+
+
+def lidar_transforms() -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Frame -> (R, t) into base_link, for every frame a lidar cloud may come in."""
+    return {LIDAR_FRAME: mount_transform(LIDAR_MOUNT_POS, LIDAR_MOUNT_PITCH), BASE_FRAME: (np.eye(3), np.zeros(3))}
+
+
+def lidar_scan_spec() -> ScanSpec:
+    """The /scan of a Go2: its own legs (the footprint, 2 cm padded) left out of the cloud."""
+    return ScanSpec(self_hx=FOOTPRINT_LENGTH / 2 + 0.02, self_hy=FOOTPRINT_WIDTH / 2 + 0.02)
 
 
 def clamp_velocity(vx: float, vy: float, vyaw: float) -> tuple[float, float, float]:

@@ -38,12 +38,19 @@ Publishes:
   /joint_states               sensor_msgs/JointState  the 12 joints in Unitree order (FR, FL, RR, RL)
   /tf                         tf2_msgs/TFMessage    odom -> base_link
   /tf_static                  tf2_msgs/TFMessage    latched: world -> odom (identity), base_link -> camera_link,
-                                                    base_link -> camera_optical_frame,
+                                                    base_link -> camera_optical_frame, base_link -> utlidar_lidar,
                                                     world -> world_camera_optical_frame
   /clock                      rosgraph_msgs/Clock   simulation time, after every physics chunk (clock_rate_hz,
                                                     100 Hz of sim time): the clock of nodes with use_sim_time
   /sim/ground_truth           tf2_msgs/TFMessage    world -> gt/go2 (the base) and world -> gt/<body> for
                                                     every named world body (gt/red_ball, ...)
+  /utlidar/cloud              sensor_msgs/PointCloud2  sensor QoS, `lidar_rate_hz` (10 Hz sim time) while
+                                                    `lidar` (live): the L1 lidar by MuJoCo ray casting
+                                                    (sim/lidar.py), frame utlidar_lidar, float32 x y z:
+                                                    on DDS that is rt/utlidar/cloud, the real Go2's topic
+  /scan                       sensor_msgs/LaserScan  sensor QoS, with each cloud: 360 deg in 2 deg bins,
+                                                    frame base_link, the nearest return in the obstacle
+                                                    band (geometry/scan.py); no cloud, no scan
   /sim/detections             vision_msgs/Detection2DArray  only with `detections`: ground-truth boxes
                                                     of the head camera frame with the same stamp, from
                                                     a segmentation render (class_id = the body name,
@@ -108,15 +115,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_UNITREE_WRITER, Node, ParamError, param
+from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_SENSOR, QOS_UNITREE_WRITER, Node, ParamError, param
 from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.msgs.base_state import base_state_messages, transform_stamped
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.pointcloud import scan_from_cloud, xyz_cloud
 from go2vlm.msgs.rosgraph_msgs import Clock
-from go2vlm.msgs.sensor_msgs import Image, Imu, JointState
+from go2vlm.msgs.sensor_msgs import Image, Imu, JointState, LaserScan, PointCloud2
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.unitree import LowState
@@ -126,6 +134,7 @@ from go2vlm.robots.go2_sim.lowstate import Faults, low_state
 from go2vlm.safety.commander import CmdVelInput
 from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch, check_token
 from go2vlm.sim import Go2Sim, SimConfig
+from go2vlm.sim.lidar import Lidar
 from go2vlm.sim.render import (
     NewestOnly,
     camera_scene_option,
@@ -167,6 +176,8 @@ class SimNodeConfig(SimConfig):
     cmd_timeout_s: float = param(
         0.5, help="zero the velocity after this long without /cmd_vel (sim s with use_sim_time)", min=0.05, max=10.0
     )
+    lidar: bool = param(True, help="publish the ray-cast L1 lidar on /utlidar/cloud and /scan", live=True)
+    lidar_rate_hz: float = param(10.0, help="lidar cloud and /scan rate (sim time)", min=1.0, max=50.0)
     detections: bool = param(False, help="publish ground-truth boxes of each head frame on /sim/detections")
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
@@ -392,6 +403,10 @@ class SimNode(Node):
         self._health_t = self.sim.time
         if cfg.detections:
             self.pub_dets = self.create_publisher(Detection2DArray, "/sim/detections", QOS_DEFAULT)
+        self.lidar = Lidar(self.sim.model, self.sim.model.body("base").id)
+        self._scan_spec, self._lidar_tfs = spec.lidar_scan_spec(), spec.lidar_transforms()
+        self.pub_cloud = self.create_publisher(PointCloud2, spec.LIDAR_TOPIC, QOS_SENSOR)
+        self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
 
         self._renderer = _Renderer(self, self.sim.model)
         self._cams: dict[str, tuple[Any, Any, Any]] = {}  # key -> (image pub, info pub, CameraInfo)
@@ -534,10 +549,12 @@ class SimNode(Node):
         cam_period = 1.0 / cfg.camera_rate_hz
         wcam_period = 1.0 / cfg.world_camera_rate_hz
         gt_period = 1.0 / cfg.ground_truth_rate_hz
+        lidar_period = 1.0 / cfg.lidar_rate_hz
         # Due times on a grid of their periods from the start (0.02, 0.04 ... for 50 Hz), so that
         # stamps are whole multiples of the period in sim time.
         next_state, next_cam = sim.time + state_period, sim.time + cam_period
         next_wcam, next_gt = sim.time + wcam_period, sim.time + gt_period
+        next_lidar = sim.time + lidar_period
         viewer = self._open_viewer() if cfg.viewer else None
         next_viewer = 0.0
         # Wall time from here on where it says so: start-up, pacing against the wall (rtf), the
@@ -583,6 +600,10 @@ class SimNode(Node):
             if t + 1e-9 >= next_gt:
                 next_gt += gt_period * max(1, math.floor((t - next_gt) / gt_period) + 1)
                 self._publish_ground_truth(stamp_t)
+            if t + 1e-9 >= next_lidar:
+                next_lidar += lidar_period * max(1, math.floor((t - next_lidar) / lidar_period) + 1)
+                if self.config.lidar:  # live: read each time
+                    self._publish_lidar(stamp_t, lidar_period)
             if state_due and state.fell and not self.fell_reported:
                 self.fell_reported = True
                 self.log.error(f"the robot fell at sim time {t:.2f} s")
@@ -706,6 +727,13 @@ class SimNode(Node):
         ]
         self.pub_gt.publish(TFMessage(transforms=tfs))
 
+    def _publish_lidar(self, t: float, period: float) -> None:
+        cloud = xyz_cloud(Header(stamp=self.stamp(t), frame_id=spec.LIDAR_FRAME), self.lidar.scan(self.sim.data))
+        self.pub_cloud.publish(cloud)
+        scan = scan_from_cloud(cloud, self._scan_spec, self._lidar_tfs, spec.BASE_FRAME, period)
+        if scan is not None:
+            self.pub_scan.publish(scan)
+
     def _publish_status(self, s: Any) -> None:
         cfg: SimNodeConfig = self.config
         status = {
@@ -728,6 +756,7 @@ class SimNode(Node):
             "estop": self.estop.engaged,
             "motor_temp_max_c": round(float(self.thermal.temps.max()), 1),
             "battery_pct": round(self.battery.soc_pct, 2),
+            "lidar": cfg.lidar,
             "commander": self.cmd_vel.status(),
             "counters": dict(self.counters),
         }
@@ -761,6 +790,7 @@ class SimNode(Node):
             ),
             transform_stamped(header, "camera_link", pos, _mat_quat(rel @ _MJ_TO_LINK)),
             transform_stamped(header, spec.CAMERA_FRAME, pos, _mat_quat(rel @ _MJ_TO_OPTICAL)),
+            transform_stamped(header, spec.LIDAR_FRAME, np.array(spec.LIDAR_MOUNT_POS), _mat_quat(self.lidar.mount_r)),
         ]
         if self._renderer.has_world_camera:
             wc = m.camera("world_camera").id

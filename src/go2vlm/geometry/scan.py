@@ -1,0 +1,94 @@
+"""Point cloud -> planar range scan, and scan -> points: the one conversion behind /scan.
+
+Pure numpy. The sim (its ray-cast L1 cloud) and the go2 driver (the robot's rt/utlidar/cloud) both
+turn their cloud into the /scan they publish with `cloud_to_ranges`; the safety gate and the
+commander read /scan back into obstacle points with `scan_points`.
+
+The scan is in the base frame (x forward, y left), 360 degrees from -pi, one bin per
+`angle_increment`. A bin holds the horizontal distance to the nearest point in the obstacle band:
+between `z_min` and `z_max` in the base frame (above what the legs step over, below what the body
+passes under), outside the robot's own footprint (its legs in the cloud), within [range_min,
+range_max]. A bin without such a point is +inf (REP 117: nothing within range_max).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ScanSpec", "cloud_to_ranges", "mount_transform", "scan_points", "to_base"]
+
+
+@dataclass(frozen=True)
+class ScanSpec:
+    bins: int = 180  # 2 degrees: the sim lidar's azimuth step
+    range_min: float = 0.05  # m
+    range_max: float = 10.0  # m
+    z_min: float = -0.25  # m in the base frame: ~7 cm above the floor for a standing Go2 ...
+    z_max: float = 0.35  # ... up to ~0.35 m above the back
+    self_hx: float = 0.0  # half length and width of the robot's own box, left out (0 = keep all)
+    self_hy: float = 0.0
+
+    @property
+    def angle_min(self) -> float:
+        return -math.pi
+
+    @property
+    def angle_increment(self) -> float:
+        return 2.0 * math.pi / self.bins
+
+    @property
+    def angle_max(self) -> float:
+        return self.angle_min + (self.bins - 1) * self.angle_increment
+
+
+def mount_transform(pos: tuple[float, float, float], pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) of a sensor mounted at `pos` pitched by `pitch` about y: p_base = R @ p_sensor + t."""
+    c, s = math.cos(pitch), math.sin(pitch)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]), np.asarray(pos, dtype=float)
+
+
+def to_base(points: np.ndarray, transform: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    r, t = transform
+    return np.asarray(points, dtype=float).reshape(-1, 3) @ r.T + t
+
+
+def cloud_to_ranges(points_base: np.ndarray, spec: ScanSpec) -> np.ndarray:
+    """(N, 3) points in the base frame -> `spec.bins` ranges (float32, +inf where nothing)."""
+    p = np.asarray(points_base, dtype=float).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    p = p[(p[:, 2] >= spec.z_min) & (p[:, 2] <= spec.z_max)]
+    if spec.self_hx > 0 and spec.self_hy > 0:
+        p = p[(np.abs(p[:, 0]) > spec.self_hx) | (np.abs(p[:, 1]) > spec.self_hy)]
+    r = np.hypot(p[:, 0], p[:, 1])
+    keep = (r >= spec.range_min) & (r <= spec.range_max)
+    p, r = p[keep], r[keep]
+    out = np.full(spec.bins, np.inf, dtype=np.float32)
+    if len(r):
+        idx = np.floor((np.arctan2(p[:, 1], p[:, 0]) - spec.angle_min) / spec.angle_increment + 0.5).astype(int)
+        np.minimum.at(out, idx % spec.bins, r.astype(np.float32))
+    return out
+
+
+def scan_points(
+    ranges: np.ndarray | list[float], angle_min: float, angle_increment: float, range_min: float, range_max: float
+) -> np.ndarray:
+    """A scan's returns as (N, 2) points in the scan frame. +inf (and beyond range_max) is free space;
+    anything else that is not a finite in-range distance (NaN, -inf, negative, a bad geometry) is
+    garbage and raises ValueError: a consumer must not read a broken scan as free space."""
+    geo = (angle_min, angle_increment, range_min, range_max)
+    if not all(math.isfinite(v) for v in geo) or angle_increment <= 0 or not 0 <= range_min < range_max:
+        raise ValueError(f"scan geometry is not usable: angle_min, angle_increment, range_min, range_max = {geo}")
+    r = np.asarray(ranges, dtype=float).reshape(-1)
+    if len(r) == 0:
+        raise ValueError("scan has no beams")
+    if len(r) * angle_increment > 2 * math.pi + 1e-3:
+        raise ValueError(f"scan of {len(r)} beams x {angle_increment:g} rad is more than a turn")
+    bad = np.isnan(r) | (r == -np.inf) | (r < 0)
+    if bad.any():
+        raise ValueError(f"scan has {int(bad.sum())} invalid range(s) (NaN, -inf or negative)")
+    hit = np.isfinite(r) & (r <= range_max)  # a return under range_min is kept: too close is not free
+    a = angle_min + angle_increment * np.nonzero(hit)[0]
+    return np.column_stack([r[hit] * np.cos(a), r[hit] * np.sin(a)])

@@ -1,0 +1,63 @@
+"""The Go2's L1 lidar in MuJoCo: a ring of rays cast with mj_multiRay from the lidar's mount.
+
+Pure (no DDS). `Lidar.scan(data)` returns the hit points in the lidar frame (spec.LIDAR_FRAME, the
+frame of the real rt/utlidar/cloud), so that the sim publishes the cloud a real Go2 does and the same
+`geometry/scan.py` code turns either into /scan.
+
+The real L1 covers 360 x 90 degrees with ~21600 points/s. The sim casts a cheap subset: `azimuths`
+rays around (2 degrees apart by default) on each of the `ELEVATIONS` rows (degrees above the base's
+horizontal plane): the rows below the horizon reach the floor within ~1.3 and ~2.6 m, so the cloud is
+never empty while the sensor works, the horizon row sees walls, and the one above sees tall things.
+The robot's own geoms (groups 2 and 3, sim/go2_model.py) are not hit: real clouds of the legs are
+left out of /scan by the self box instead.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from go2vlm.geometry.scan import mount_transform
+from go2vlm.robots.go2.spec import LIDAR_MOUNT_PITCH, LIDAR_MOUNT_POS
+
+__all__ = ["ELEVATIONS", "Lidar"]
+
+ELEVATIONS = (-12.0, -6.0, 0.0, 8.0)  # degrees
+CUTOFF = 10.0  # m: beyond this a ray returns nothing (the scan's range_max)
+_GEOMGROUP = np.array([1, 1, 0, 0, 1, 1], dtype=np.uint8)  # not the robot's groups 2 and 3
+
+
+class Lidar:
+    def __init__(self, model: mujoco.MjModel, base_body: int, azimuths: int = 180) -> None:
+        self.model = model
+        self.base = base_body
+        az = np.linspace(-math.pi, math.pi, azimuths, endpoint=False)
+        rows = []
+        for el in np.radians(ELEVATIONS):
+            rows.append(
+                np.column_stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.full_like(az, np.sin(el))])
+            )
+        self.dirs_base = np.vstack(rows)  # unit rays in the base frame
+        self.mount_r, self.mount_t = mount_transform(LIDAR_MOUNT_POS, LIDAR_MOUNT_PITCH)
+        n = len(self.dirs_base)
+        self._geomid = np.zeros(n, dtype=np.int32)
+        self._dist = np.zeros(n, dtype=np.float64)
+
+    @property
+    def rays(self) -> int:
+        return len(self.dirs_base)
+
+    def scan(self, data: mujoco.MjData) -> np.ndarray:
+        """Hit points (N, 3) in the lidar frame, at the pose in `data` (kinematics must be current)."""
+        rb = data.xmat[self.base].reshape(3, 3)
+        origin = data.xpos[self.base] + rb @ self.mount_t
+        vec = np.ascontiguousarray((self.dirs_base @ rb.T).reshape(-1))
+        n = self.rays
+        mujoco.mj_multiRay(
+            self.model, data, origin, vec, _GEOMGROUP, True, -1, self._geomid, self._dist, None, n, CUTOFF
+        )
+        hit = (self._geomid >= 0) & (self._dist >= 0) & (self._dist <= CUTOFF)
+        p_base = self.dirs_base[hit] * self._dist[hit, None]  # from the mount, in base axes
+        return p_base @ self.mount_r  # base axes -> lidar frame (R^T p, row-wise)
