@@ -40,7 +40,7 @@ os.environ.setdefault("GO2VLM_IFACE", "lo")
 from go2vlm.apps.episodes import Episode, RunOptions, run_episode  # noqa: E402
 from go2vlm.apps.episodes.suites import load_suite  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
-from go2vlm.cli.demo import node_params  # noqa: E402
+from go2vlm.cli.args import node_params  # noqa: E402
 
 LATENCIES = (0.1, 0.5, 1.0, 2.5, 5.0)
 GRAPH = """# episode_vlm.yaml with the answer_delay node in the vlm node's place (benchmarks/bench_vlm_latency.py)

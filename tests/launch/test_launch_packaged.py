@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from go2vlm.cli.demo import node_params
+from go2vlm.cli.args import node_params
 from go2vlm.launch.launcher import LaunchError, available, check_entries, load_launch, resolve, with_overrides
 
 ROBOTS = ("sim", "go2")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["non_negative", "positive"]
+__all__ = ["add_node_params", "non_negative", "node_params", "positive"]
 
 
 def _number(text: str) -> float:
@@ -32,3 +32,22 @@ def non_negative(text: str) -> float:
     if value < 0:
         raise argparse.ArgumentTypeError(f"{text} must not be negative")
     return value
+
+
+def add_node_params(p: argparse.ArgumentParser, help: str) -> None:
+    """`--param/-p NODE.NAME=VALUE`, repeatable (demo, eval, launch); `node_params` reads them."""
+    p.add_argument("--param", "-p", action="append", default=[], metavar="NODE.NAME=VALUE", help=help)
+
+
+def node_params(items: list[str]) -> dict[str, dict]:
+    """{node: {name: value}} from NODE.NAME=VALUE items; ParamError (exit 2) for a malformed one."""
+    from go2vlm.bus import ParamError, parse_overrides
+
+    out: dict[str, dict] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        node, dot, pname = name.partition(".")
+        if not sep or not dot or not node or not pname:
+            raise ParamError(f"--param {item!r}: expected NODE.NAME=VALUE, e.g. follower.kp_angular=1.0")
+        out.setdefault(node.strip(), {}).update(parse_overrides([f"{pname}={value}"]))
+    return out

@@ -7,6 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from go2vlm.cli.args import add_node_params, node_params
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -66,30 +67,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--ball-speed", type=float, default=0.3, help="ball speed, m/s (default 0.3)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
-    p.add_argument(
-        "--param",
-        "-p",
-        action="append",
-        default=[],
-        metavar="NODE.NAME=VALUE",
-        help="a node parameter, e.g. follower.kp_angular=1.0 or sim.camera_rate_hz=15",
-    )
+    add_node_params(p, "a node parameter, e.g. follower.kp_angular=1.0 or sim.camera_rate_hz=15")
     p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
     p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
     p.set_defaults(func=run)
-
-
-def node_params(items: list[str]) -> dict[str, dict]:
-    from go2vlm.bus import ParamError, parse_overrides
-
-    out: dict[str, dict] = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        node, dot, pname = name.partition(".")
-        if not sep or not dot or not node or not pname:
-            raise ParamError(f"--param {item!r}: expected NODE.NAME=VALUE, e.g. follower.kp_angular=1.0")
-        out.setdefault(node.strip(), {}).update(parse_overrides([f"{pname}={value}"]))
-    return out
 
 
 def run(args: argparse.Namespace) -> int:

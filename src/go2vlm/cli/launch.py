@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from go2vlm.cli.args import positive
+from go2vlm.cli.args import add_node_params, node_params, positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -24,14 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--processes", action="store_true", help="one child process per node")
     p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
-    p.add_argument(
-        "--param",
-        "-p",
-        action="append",
-        default=[],
-        metavar="NODE.NAME=VALUE",
-        help="override a node's parameter, e.g. -p vlm.base_url=http://gpu-box:8000/v1 (repeatable)",
-    )
+    add_node_params(p, "override a node's parameter, e.g. -p vlm.base_url=http://gpu-box:8000/v1 (repeatable)")
     p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
     p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")
     add_foxglove_args(p)
@@ -54,7 +47,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"go2vlm launch: give a launch file; packaged: {', '.join(available())}", file=sys.stderr)
         return 2
     from go2vlm.bus import ParamError
-    from go2vlm.cli.demo import node_params
     from go2vlm.launch.launcher import with_overrides
 
     try:
