@@ -20,8 +20,9 @@ from go2vlm.cli.doctor import RMEM_GOOD, RMEM_LOW, check_rcvbuf, interfaces, ipv
 LINK = str(Path(__file__).resolve().parent / "image_link.py")
 FRAMES = 30
 # Arrived fractions with margin: every frame arrived in every measured run on the 2-core reference
-# machine with a 4 MiB kernel limit (docs/benchmarks.md); a busy machine may drop a few.
-MIN_FRACTION = 0.8
+# machine with a 4 MiB kernel limit (docs/benchmarks.md); a busy machine may drop a few (23 of 30 at
+# 1280x720 with a demo, two busy loops and another suite beside it). Cyclone's defaults got 19.
+MIN_FRACTION = 0.7
 
 # Sizes and the kernel limit each needs (docs/benchmarks.md, "Large images").
 NEEDS = {"1280x720": RMEM_LOW, "1920x1080": RMEM_GOOD}
