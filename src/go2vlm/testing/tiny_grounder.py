@@ -202,15 +202,9 @@ def _grounder_config(vocab_size: int, special_ids: dict[str, int]) -> Any:
 def build_untrained_grounder(out_dir: str | os.PathLike[str], *, seed: int = 0) -> Path:
     """Write the random-init grounder (model, tokenizer, processor with its pixel budget) to ``out_dir``."""
     import torch
-    from transformers import (
-        GenerationConfig,
-        Qwen2_5_VLForConditionalGeneration,
-        Qwen2_5_VLProcessor,
-        Qwen2VLImageProcessor,
-    )
-    from transformers.models.qwen2_vl.video_processing_qwen2_vl import Qwen2VLVideoProcessor
+    from transformers import Qwen2_5_VLForConditionalGeneration
 
-    from go2vlm.testing.tiny_qwen import QWEN_CHAT_TEMPLATE, QWEN_SPECIAL_TOKENS, _train_tokenizer
+    from go2vlm.testing.tiny_qwen import QWEN_SPECIAL_TOKENS, _train_tokenizer, save_checkpoint
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -219,22 +213,7 @@ def build_untrained_grounder(out_dir: str | os.PathLike[str], *, seed: int = 0) 
     config = _grounder_config(len(tokenizer), special_ids)
     torch.manual_seed(seed)
     model = Qwen2_5_VLForConditionalGeneration._from_config(config, dtype=torch.float32)
-    model.generation_config = GenerationConfig(
-        bos_token_id=special_ids["<|endoftext|>"],
-        eos_token_id=[special_ids["<|im_end|>"], special_ids["<|endoftext|>"]],
-        pad_token_id=special_ids["<|endoftext|>"],
-        do_sample=False,
-    )
-    # The processor's own limits: servers (transformers serve) and default processor calls use them.
-    image_processor = Qwen2VLImageProcessor(min_pixels=GROUNDER_MIN_PIXELS, max_pixels=GROUNDER_MAX_PIXELS)
-    processor = Qwen2_5_VLProcessor(
-        image_processor=image_processor,
-        tokenizer=tokenizer,
-        video_processor=Qwen2VLVideoProcessor(),
-        chat_template=QWEN_CHAT_TEMPLATE,
-    )
-    model.save_pretrained(out)
-    processor.save_pretrained(out)
+    save_checkpoint(model, tokenizer, special_ids, GROUNDER_MIN_PIXELS, GROUNDER_MAX_PIXELS, out)
     return out
 
 

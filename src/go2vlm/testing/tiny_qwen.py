@@ -40,6 +40,7 @@ __all__ = [
     "ARCHS",
     "make_arch_config",
     "make_tiny_config",
+    "save_checkpoint",
     "save_untrained_checkpoint",
     "train_fixed_output",
 ]
@@ -281,13 +282,7 @@ def save_untrained_checkpoint(
     The tokenizer is always the small local one; its special-token ids are wired into the config.
     """
     import torch
-    from transformers import (
-        GenerationConfig,
-        Qwen2_5_VLForConditionalGeneration,
-        Qwen2_5_VLProcessor,
-        Qwen2VLImageProcessor,
-    )
-    from transformers.models.qwen2_vl.video_processing_qwen2_vl import Qwen2VLVideoProcessor
+    from transformers import Qwen2_5_VLForConditionalGeneration
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -303,23 +298,33 @@ def save_untrained_checkpoint(
     torch_dtype = getattr(torch, dtype)
     with torch.device(device):
         model = Qwen2_5_VLForConditionalGeneration._from_config(config, dtype=torch_dtype)
+    save_checkpoint(model, tokenizer, special_ids, min_pixels, max_pixels, out)
+    del model
+    return out
+
+
+def save_checkpoint(
+    model: Any, tokenizer: Any, special_ids: dict[str, int], min_pixels: int, max_pixels: int, out: Path
+) -> None:
+    """Write a Qwen2.5-VL checkpoint as the hub ships one: greedy generation config, and the processor
+    (with its pixel limits, which servers and default processor calls use) beside the weights."""
+    from transformers import GenerationConfig, Qwen2_5_VLProcessor, Qwen2VLImageProcessor
+    from transformers.models.qwen2_vl.video_processing_qwen2_vl import Qwen2VLVideoProcessor
+
     model.generation_config = GenerationConfig(
         bos_token_id=special_ids["<|endoftext|>"],
         eos_token_id=[special_ids["<|im_end|>"], special_ids["<|endoftext|>"]],
         pad_token_id=special_ids["<|endoftext|>"],
         do_sample=False,
     )
-    image_processor = Qwen2VLImageProcessor(min_pixels=min_pixels, max_pixels=max_pixels)
     processor = Qwen2_5_VLProcessor(
-        image_processor=image_processor,
+        image_processor=Qwen2VLImageProcessor(min_pixels=min_pixels, max_pixels=max_pixels),
         tokenizer=tokenizer,
         video_processor=Qwen2VLVideoProcessor(),
         chat_template=QWEN_CHAT_TEMPLATE,
     )
     model.save_pretrained(out)
     processor.save_pretrained(out)
-    del model
-    return out
 
 
 def _training_prompts() -> list[str]:
