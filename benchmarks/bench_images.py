@@ -25,36 +25,16 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_SENSOR, Node
+from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node
 from go2vlm.bus.domain import kernel_rmem_max
 from go2vlm.msgs.sensor_msgs import Image
+from go2vlm.testing.image_frames import send_frames
 
 TOPIC = "/bench/images"
 CYCLONE_DEFAULTS = (
     '<CycloneDDS><Domain id="any"><Internal><SocketReceiveBufferSize min="default" max="default"/>'
     "<Watermarks><WhcHigh>500kB</WhcHigh></Watermarks></Internal></Domain></CycloneDDS>"
 )
-
-
-def publish(width: int, height: int, frames: int, rate: float, wait_s: float) -> None:
-    node = Node(node_name="bench_images_pub")
-    pub = node.create_publisher(Image, TOPIC, QOS_IMAGE)
-    deadline = time.monotonic() + wait_s
-    while pub.matched < 1 and time.monotonic() < deadline:
-        time.sleep(0.02)
-    time.sleep(0.5)  # the reader sees us too
-    pixels = np.random.default_rng(0).integers(0, 255, width * height * 3, dtype=np.uint8).tobytes()
-    next_t = time.monotonic()
-    for i in range(frames):
-        msg = Image(height=height, width=width, encoding="rgb8", step=width * 3, data=pixels)
-        msg.header.frame_id = str(i)
-        pub.publish(msg)
-        next_t += 1.0 / rate
-        time.sleep(max(0.0, next_t - time.monotonic()))
-    time.sleep(1.0)  # reliable repairs finish before the writer goes
-    node.shutdown()
 
 
 READERS = {"best_effort": QOS_SENSOR, "reliable": QOS_DEFAULT}
@@ -100,7 +80,7 @@ def main() -> None:
     ap.add_argument("--publish", default=None, help=argparse.SUPPRESS)  # the child process
     args = ap.parse_args()
     if args.publish:
-        publish(*parse_size(args.publish), args.frames, args.rate, wait_s=10.0)
+        send_frames(TOPIC, *parse_size(args.publish), args.frames, args.rate, 10.0, "bench_images_pub")
         return
     config = "go2vlm"
     if args.cyclone_defaults:

@@ -13,10 +13,9 @@ import argparse
 import sys
 import time
 
-import numpy as np
-
-from go2vlm.bus import PROFILES, QOS_IMAGE, Node
+from go2vlm.bus import PROFILES, Node
 from go2vlm.msgs.sensor_msgs import Image
+from go2vlm.testing.image_frames import send_frames
 
 TOPIC = "/bus/large_images"
 
@@ -36,22 +35,7 @@ def recv(qos: str, frames: int, timeout: float) -> None:
 
 def send(size: str, frames: int, rate: float) -> None:
     width, height = (int(v) for v in size.split("x"))
-    node = Node(node_name="image_link_send")
-    pub = node.create_publisher(Image, TOPIC, QOS_IMAGE)
-    deadline = time.monotonic() + 20.0
-    while pub.matched == 0 and time.monotonic() < deadline:
-        time.sleep(0.02)
-    time.sleep(0.5)  # the reader sees us too
-    pixels = np.random.default_rng(1).integers(0, 255, width * height * 3, dtype=np.uint8).tobytes()
-    next_t = time.monotonic()
-    for i in range(frames):
-        msg = Image(height=height, width=width, encoding="rgb8", step=width * 3, data=pixels)
-        msg.header.frame_id = str(i)
-        pub.publish(msg)
-        next_t += 1.0 / rate
-        time.sleep(max(0.0, next_t - time.monotonic()))
-    time.sleep(1.0)  # reliable repairs finish before the writer goes
-    node.shutdown()
+    send_frames(TOPIC, width, height, frames, rate, 20.0, "image_link_send")
 
 
 def main() -> None:
