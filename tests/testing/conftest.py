@@ -6,6 +6,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from serveutil import served
 
 
 @pytest.fixture(scope="session")
@@ -21,14 +22,4 @@ def grounder_ckpt() -> Path:
 @pytest.fixture(scope="session")
 def grounder_server(grounder_ckpt: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """`transformers serve <grounder dir>` on 127.0.0.1:<free port>; yields the /v1 base URL."""
-    pytest.importorskip("fastapi")
-    pytest.importorskip("uvicorn")
-    pytest.importorskip("openai")
-    from go2vlm.testing.serve import ServeFailed, serve_checkpoint
-
-    log = tmp_path_factory.mktemp("grounder_serve") / "serve.log"
-    try:
-        with serve_checkpoint(grounder_ckpt, log) as url:
-            yield url
-    except ServeFailed as exc:
-        pytest.fail(str(exc))
+    yield from served(grounder_ckpt, tmp_path_factory, "grounder_serve")

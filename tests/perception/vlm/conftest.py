@@ -11,6 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from serveutil import served
 
 
 @pytest.fixture(scope="session")
@@ -27,14 +28,4 @@ def tiny_ckpt() -> Path:
 @pytest.fixture(scope="session")
 def tiny_server(tiny_ckpt: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """`transformers serve <tiny dir>` on 127.0.0.1:<free port> (go2vlm.testing.serve); yields the /v1 base URL."""
-    pytest.importorskip("fastapi")
-    pytest.importorskip("uvicorn")
-    pytest.importorskip("openai")
-    from go2vlm.testing.serve import ServeFailed, serve_checkpoint
-
-    log = tmp_path_factory.mktemp("serve") / "serve.log"
-    try:
-        with serve_checkpoint(tiny_ckpt, log) as url:
-            yield url
-    except ServeFailed as exc:
-        pytest.fail(str(exc))
+    yield from served(tiny_ckpt, tmp_path_factory, "serve")
