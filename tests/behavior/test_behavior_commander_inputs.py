@@ -1,22 +1,26 @@
 """The commander at its new boundary, over real DDS: it publishes its goal's object on /target/query,
 drives only on the target_tracker's confirmed target (a real tracker on synthetic frames), stops the
 moment the tracker says lost, relays /detected_target only for follow goals, ignores bad tracker
-reports, and answers a goal it cannot parse (given as a CLI parameter) with zero motion through the
-real gate. Perception itself (grounding, catching up late VLM answers, bad images and boxes) is
-tested at the target_tracker: tests/perception/test_perception_tracker_node.py."""
+reports, steers round a box on /scan and ignores a bad scan, and answers a goal it cannot parse
+(given as a CLI parameter) with zero motion through the real gate. Perception itself (grounding,
+catching up late VLM answers, bad images and boxes) is tested at the target_tracker:
+tests/perception/test_perception_tracker_node.py."""
 
 from __future__ import annotations
 
 import json
 import math
 
+import numpy as np
 import pytest
 from busutil import echo_json, wait_for
 from targetutil import Cam, det
 
-from go2vlm.bus import QOS_DEFAULT, ParamError, running
+from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, ParamError, running
+from go2vlm.geometry.scan import ScanSpec
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.go2vlm_msgs import TRACKING, TrackedTarget
+from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
 
 
@@ -108,6 +112,41 @@ def test_bad_tracker_reports_and_other_labels_move_nothing() -> None:
         fake.report("blue cylinder", 320.0, 50.0, math.inf)  # confirmed, but no distance: turn only
         assert wait_for(lambda: fake.cstate().get("state") == "approaching", 5)
         assert fake.cstate()["distance_m"] is None and all(vx == 0.0 for vx, _ in fake.cmds)
+
+
+def test_a_scan_with_a_box_ahead_makes_it_detour_and_a_bad_scan_is_ignored() -> None:
+    commander = make_node("commander", params={"goal": "go to the blue cylinder"})
+    fake = _FakeTracker()
+    scans = fake.create_publisher(LaserScan, "/scan", QOS_SENSOR)
+    sp = ScanSpec()
+
+    def scan(ranges: np.ndarray, frame: str = "base_link") -> LaserScan:
+        return LaserScan(header=fake.header(frame), angle_min=sp.angle_min, angle_max=sp.angle_max,
+                         angle_increment=sp.angle_increment, range_min=sp.range_min, range_max=sp.range_max,
+                         ranges=[float(r) for r in ranges])  # fmt: skip
+
+    box = np.full(sp.bins, np.inf)
+    box[sp.bins // 2 - 4 : sp.bins // 2 + 5] = 1.4  # 1.4 m straight ahead, +-8 degrees
+    bad = box.copy()
+    bad[3] = math.nan
+    with running(fake, commander):
+        assert wait_for(lambda: fake.pub.matched >= 1 and scans.matched >= 1, 10)
+
+        def seen_with(msg: LaserScan) -> dict:
+            fake.report("blue cylinder", 320.0, 80.0, 3.0)
+            scans.publish(msg)
+            return fake.cstate()
+
+        assert wait_for(lambda: seen_with(scan(box)).get("state") == "detouring", 10, period=0.1), fake.cstate()
+        assert fake.cstate()["planner"].startswith("steering")
+        assert wait_for(lambda: fake.last_cmd() is not None and fake.last_cmd()[0] > 0.0, 5)
+        # Garbage scans (a NaN range, another frame): counted, dropped; no planning on them.
+        assert wait_for(
+            lambda: seen_with(scan(bad)).get("counters", {}).get("bad_scan", 0) >= 3 and seen_with(scan(box, "odom")),
+            10,
+            period=0.1,
+        )
+        assert wait_for(lambda: seen_with(scan(bad)).get("state") == "approaching", 5), fake.cstate()
 
 
 def test_unparseable_goal_parameter_gets_a_reply_and_no_motion(procs) -> None:

@@ -1,5 +1,6 @@
 """The approach's local planner (behavior/planner.py): a free way passes the command unchanged; a box
-in the way turns the robot to a free heading within view of the goal; it never speeds anything up."""
+in the way turns the robot to a free heading; the goal itself is no obstacle; it never speeds anything
+up nor drives backwards."""
 
 from __future__ import annotations
 
@@ -20,40 +21,65 @@ def box(cx: float, cy: float, hx: float, hy: float) -> np.ndarray:
 
 
 def test_free_way_passes_unchanged() -> None:
-    s = steer(0.4, 0.1, 0.0, 3.0, box(0.0, 3.0, 0.3, 0.3), P)
-    assert (s.vx, s.wz, s.note) == (0.4, 0.1, "")
+    s = steer(0.4, 0.1, 0.4, 0.0, 3.0, box(0.0, 3.0, 0.3, 0.3), P)
+    assert (s.vx, s.wz, s.blocked, s.note) == (0.4, 0.1, False, "")
 
 
-def test_box_in_the_way_steers_round_it_within_view() -> None:
-    pts = box(1.6, 0.05, 0.2, 0.2)
-    assert corridor_free(pts, 0.0, P) < 1.0
-    s = steer(0.4, 0.0, 0.0, 3.0, pts, P)
-    assert s.note and abs(s.heading) <= P.max_offset + 1e-9 and s.heading != 0.0
+def test_box_in_the_way_steers_round_it() -> None:
+    pts = box(1.6, 0.05, 0.2, 0.3)
+    assert corridor_free(pts, 0.0, P) < P.lookahead
+    s = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P)
+    assert s.blocked and s.note and s.heading != 0.0
     assert corridor_free(pts, s.heading, P) >= P.lookahead
     assert 0.0 < s.vx < 0.4 and s.wz * s.heading > 0  # slower, turning towards the free heading
 
 
+def test_the_goal_is_not_its_own_obstacle() -> None:
+    # The cylinder itself, 1.2 m ahead, with the robot to stop 0.8 m from it: no detour.
+    cyl = np.array([[1.2 + 0.3 - 0.3 * math.cos(a), 0.3 * math.sin(a)] for a in np.linspace(-1.2, 1.2, 13)])
+    s = steer(0.2, 0.0, 0.2, 0.0, 1.2, cyl, P, reach_m=0.4)
+    assert not s.blocked and (s.vx, s.wz) == (0.2, 0.0)
+
+
 def test_goal_closer_than_the_obstacle_is_not_steered() -> None:
-    s = steer(0.3, 0.0, 0.0, 0.5, box(2.0, 0.0, 0.3, 0.3), P)
-    assert s.note == ""
+    s = steer(0.3, 0.0, 0.3, 0.0, 0.5, box(2.5, 0.0, 0.3, 0.3), P)
+    assert not s.blocked
 
 
-def test_wall_across_turns_in_place() -> None:
-    wall = np.array([[1.0, y] for y in np.linspace(-3, 3, 61)])
-    s = steer(0.4, 0.0, 0.0, 3.0, wall, P)
-    assert s.vx == 0.0 and "no free way" in s.note
+def test_keeps_to_the_side_it_chose() -> None:
+    pts = box(1.5, 0.0, 0.2, 0.3)  # dead ahead: either side is as good
+    left = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, side=1.0)
+    right = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, side=-1.0)
+    assert left.heading > 0 > right.heading
 
 
-@settings(max_examples=100, deadline=None)
+def test_boxed_in_turns_in_place() -> None:
+    ring = np.array([[1.0 * math.cos(a), 1.0 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
+    s = steer(0.4, 0.0, 0.4, 0.0, 3.0, ring, P)
+    assert s.blocked and s.vx == 0.0 and "no free way" in s.note
+
+
+@settings(max_examples=200, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3)), max_size=20),
     st.floats(0.0, 1.0),
     st.floats(-1.0, 1.0),
-    st.floats(-0.6, 0.6),
+    st.floats(0.0, 1.0),
+    st.floats(-math.pi, math.pi),
+    st.one_of(st.none(), st.floats(0.0, 6.0)),
+    st.sampled_from([-1.0, 0.0, 1.0]),
 )
-def test_never_faster_and_heading_near_the_goal(pts: list, vx: float, wz: float, bearing: float) -> None:
-    s = steer(vx, wz, bearing, 3.0, np.array(pts).reshape(-1, 2), P)
-    assert 0.0 <= s.vx <= vx
-    assert abs(s.wz) <= max(abs(wz), P.max_angular)
-    assert abs(s.heading - bearing) <= P.max_offset + 1e-9
-    assert math.isfinite(s.wz)
+def test_never_faster_never_backwards(
+    pts: list, vx: float, wz: float, speed: float, bearing: float, goal: float | None, side: float
+) -> None:
+    s = steer(vx, wz, speed, bearing, goal, np.array(pts).reshape(-1, 2), P, side=side)
+    if not s.blocked:
+        assert (s.vx, s.wz) == (vx, wz)
+    else:
+        assert 0.0 <= s.vx <= speed
+        assert abs(s.wz) <= P.max_angular
+        assert abs(math.remainder(s.heading - bearing, 2 * math.pi)) <= P.max_offset + 1e-9
+        if s.vx > 0 and goal is None:  # it only drives along a corridor that is free
+            free = corridor_free(np.array(pts).reshape(-1, 2), s.heading, P)
+            assert free > 0.0
+    assert math.isfinite(s.vx) and math.isfinite(s.wz)

@@ -11,6 +11,10 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   frame; only `tracking` reports for the goal's object count
               /vlm/decision       std_msgs/String       raw VLM scene decisions (the vlm node in
                                   mode=decide), mapped onto the whitelist of behavior/decisions.py
+              /scan               sensor_msgs/LaserScan  best-effort, keep-last 5 (`scan_topic`, frame
+                                  base_link): obstacles for the local planner (avoid_obstacles)
+              /odom               nav_msgs/Odometry     (`odom_topic`): keeps the target's last confirmed
+                                  place while a detour takes it out of view
   publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
@@ -30,7 +34,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
 
 Goals and states
   follow    tracking | waiting | lost | searching(self mode only)   never ends by itself
-  go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface)
+  go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface);
+            detouring while the local planner (behavior/planner.py) steers round an obstacle on /scan
   look for  searching -> aligning -> found (target centred), or not_found after search_timeout_s
   stop      stopped (zero velocity); sit / stand -> done; text it cannot parse -> rejected: reason on
             /commander/status, zero velocity, nothing else moves; an object the target_tracker cannot
@@ -38,6 +43,13 @@ Goals and states
   The target counts only while the tracker confirms it (its newest report says tracking, younger than
   lost_timeout_s): otherwise zero at once (`lost`), then go to / look for search (turn in place
   towards where it was last seen) if search_on_loss.
+
+Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow (follow_control=self)
+steer round what lies between the robot and the target, planner_margin_m each side of the footprint.
+A detour that takes the target out of the camera's view carries on towards its last confirmed place
+(from /odom) for up to detour_memory_s, and only while the direct way is blocked. Without a scan the
+approach is straight; the safety gate's collision guard stops it short of anything either way. Follow
+with follow_control=follower is the article's follower: the gate's guard is what keeps it off walls.
 
 Decisions (/vlm/decision): stop | continue | turn (|angle| <= max_turn_deg <= 30) | sit; anything else
 is ignored, logged and counted (decisions_rejected). The text never becomes a velocity: stop holds
@@ -55,14 +67,20 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.behavior.planner import PlannerParams
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.rotations import quat_yaw
+from go2vlm.geometry.scan import scan_points
 from go2vlm.geometry.target import normalized_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
+from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.robots.go2 import spec
 
@@ -99,6 +117,23 @@ class CommanderConfig:
     camera_forward_m: float = param(
         spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
     )
+    camera_fovy_deg: float = param(
+        spec.HEAD_CAMERA_FOVY_DEG, help="the camera's vertical field of view: a box's bearing", min=1.0, max=170.0
+    )
+    avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
+    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the local planner")
+    odom_topic: str = param("/odom", help="nav_msgs/Odometry: the target's place while a detour hides it")
+    scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
+    planner_margin_m: float = param(
+        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
+    )
+    detour_memory_s: float = param(
+        8.0,
+        help="a detour out of the target's view lasts this long after the last sighting",
+        min=0.0,
+        max=60.0,
+        live=True,
+    )
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
     decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
@@ -125,10 +160,16 @@ class CommanderConfig:
             decision_hold_s=self.decision_hold_s,
             decision_turn_rate=self.decision_turn_rate,
             max_turn_deg=self.max_turn_deg,
+            avoid_obstacles=self.avoid_obstacles,
+            scan_timeout_s=self.scan_timeout_s,
+            detour_memory_s=self.detour_memory_s,
+            planner=replace(PlannerParams(), margin=self.planner_margin_m, max_angular=self.max_angular),
         )
 
 
-def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
+def sighting_of(
+    msg: TrackedTarget, t: float, fovy_deg: float = spec.HEAD_CAMERA_FOVY_DEG
+) -> tuple[Sighting, str | None]:
     """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
     state = STATE_NAMES.get(int(msg.state))
     if state is None:
@@ -144,7 +185,9 @@ def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     x, _, _ = normalized_target(_xyxy(msg), w, h)
     d = msg.distance_m
     distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32]), None
+    cam = PinholeCamera.from_fovy(w, h, fovy_deg)
+    bearing = -math.atan2(b.center.position.x - cam.cx, cam.fx)
+    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing), None
 
 
 def _xyxy(msg: TrackedTarget) -> tuple[float, float, float, float]:
@@ -171,6 +214,8 @@ class CommanderNode(Node):
         self.create_subscription(String, "/goal", self.on_goal, QOS_DEFAULT)
         self.create_subscription(TrackedTarget, "/target/tracked", self.on_tracked, QOS_DEFAULT)
         self.create_subscription(String, "/vlm/decision", self.on_decision, QOS_DEFAULT)
+        self.create_subscription(LaserScan, cfg.scan_topic, self.on_scan, QOS_SENSOR)
+        self.create_subscription(Odometry, cfg.odom_topic, self.on_odom, QOS_DEFAULT)
         self._query: str | None = None
         self._tracked: TrackedTarget | None = None  # the newest report for the goal's object, not yet relayed
         self._last_key: tuple[str, str] | None = None
@@ -201,7 +246,7 @@ class CommanderNode(Node):
         self.tick()
 
     def on_tracked(self, msg: TrackedTarget) -> None:
-        sighting, bad = sighting_of(msg, self.clock.monotonic())
+        sighting, bad = sighting_of(msg, self.clock.monotonic(), self.config.camera_fovy_deg)
         if bad is not None:
             n = self.count("bad_tracked")
             self.log.throttled("error", 5.0, f"ignoring a bad /target/tracked ({n} so far): {bad}", key="tracked")
@@ -211,6 +256,26 @@ class CommanderNode(Node):
             self._tracked = msg
         if was_active and not self.mission.active:
             self.tick()  # rejected: stop now
+
+    def on_scan(self, msg: LaserScan) -> None:
+        now = self.clock.monotonic()
+        try:
+            if msg.header.frame_id != spec.BASE_FRAME:
+                raise ValueError(f"scan in frame {msg.header.frame_id!r}, not {spec.BASE_FRAME!r}")
+            pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+        except (ValueError, TypeError, OverflowError) as exc:
+            n = self.count("bad_scan")
+            self.log.throttled("error", 5.0, f"ignoring a bad {self.config.scan_topic} ({n} so far): {exc}", key="scan")
+            self.mission.observe_scan(None, now)
+            return
+        self.mission.observe_scan(pts, now)
+
+    def on_odom(self, msg: Odometry) -> None:
+        pose = msg.pose.pose
+        q = pose.orientation
+        self.mission.observe_pose(
+            pose.position.x, pose.position.y, quat_yaw(q.w, q.x, q.y, q.z), self.clock.monotonic()
+        )
 
     def on_decision(self, msg: String) -> None:
         before = self.mission.counters["decisions_rejected"]
@@ -268,6 +333,7 @@ class CommanderNode(Node):
             "range_method": s.range_method if seen and s is not None else None,
             "tracker": s.state if s is not None else None,
             "cmd": [round(m.cmd[0], 4), round(m.cmd[1], 4)],
+            "planner": m.planner_note,
             "decision": m.last_decision,
             "counters": {**m.counters, **self.counters},
         }

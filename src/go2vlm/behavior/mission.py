@@ -28,6 +28,14 @@ Rules
   |angle| / rate seconds, sit sends "sit" and ends the goal. Text never becomes a velocity.
 - Terminal states (idle, stopped, rejected, done, reached, found, not_found, sat) output zero: a
   burst of zeros for ZERO_BURST_S, then /behavior/cmd_vel goes quiet.
+- Obstacles (`avoid_obstacles`, behavior/planner.py): go to and follow (self) steer round what the
+  newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
+  the target (`detouring`). With the pose (`observe_pose`, odometry, fresh for `pose_timeout_s`) the
+  target's last confirmed place is kept in the odometry frame; a detour that takes the target out of
+  view carries on towards that place for up to `detour_memory_s` after the last confirmation, but only
+  while the direct way is blocked: a free direct way with the target unseen turns in place towards
+  where it was (no forward speed), and then the lost/search rules apply. No fresh scan: no planning,
+  the straight approach (the safety gate's collision guard still stops it short of anything).
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular (never backwards).
 """
 
@@ -38,9 +46,12 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from go2vlm.behavior.approach import ApproachParams, approach_command
 from go2vlm.behavior.decisions import DecisionRejected, parse_decision
 from go2vlm.behavior.goals import Goal, GoalParseError, parse_goal
+from go2vlm.behavior.planner import PlannerParams, Steer, steer
 from go2vlm.robots.go2 import spec
 
 __all__ = ["TERMINAL", "Intent", "Mission", "MissionParams", "Sighting"]
@@ -69,6 +80,11 @@ class MissionParams:
     decision_hold_s: float = 3.0
     decision_turn_rate: float = 0.5
     max_turn_deg: float = 30.0
+    avoid_obstacles: bool = True
+    scan_timeout_s: float = 0.5  # a scan older than this is no scan: no planning
+    pose_timeout_s: float = 0.5  # an odometry pose older than this places nothing
+    detour_memory_s: float = 8.0  # a detour out of the target's view lasts this long after the last sighting
+    planner: PlannerParams = field(default_factory=PlannerParams)
 
     def __post_init__(self) -> None:
         if self.follow_control not in ("follower", "self"):
@@ -98,6 +114,7 @@ class Sighting:
     x: float = math.nan  # box centre, -1..1 from the image centre (geometry/target.py); NaN without a box
     distance: float | None = None  # camera -> near surface (m)
     range_method: str = "none"
+    bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
 
     @property
     def tracked(self) -> bool:
@@ -138,6 +155,13 @@ class Mission:
         self._hold_until = -math.inf
         self._turn_until = -math.inf
         self._turn_dir = 0.0
+        self.planner_note = ""  # what the local planner did on the last step ("" = nothing)
+        self._scan: tuple[np.ndarray, float] | None = None  # obstacle points (base frame), arrival
+        self._pose: tuple[float, float, float, float] | None = None  # odometry x, y, yaw, arrival
+        self._goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry)
+        self._detour_t: float | None = None  # when the planner last had to steer round something
+        self._side = 0.0  # the side it went round on (+1 left, -1 right)
+        self._side_t = -math.inf
 
     # -- inputs ------------------------------------------------------------------------------
     def set_goal(self, text: str, now: float) -> None:
@@ -155,6 +179,7 @@ class Mission:
         self.sighting = None
         self._last_seen = None
         self._last_x = 0.0
+        self._goal_xy, self._detour_t, self._side = None, None, 0.0
         self._hold_until = self._turn_until = -math.inf
         if goal.kind == "stop":
             self._enter("stopped", "stop requested", now)
@@ -186,6 +211,30 @@ class Mission:
         elif s.tracked:
             self._last_seen = s.t
             self._last_x = s.x
+            self._remember(s)
+
+    def observe_scan(self, points: np.ndarray | None, now: float) -> None:
+        """Obstacle points ((N, 2), base frame, x forward) from a scan; None: the scan was garbage."""
+        if points is None:
+            self._scan = None
+            return
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        self._scan = (pts[np.isfinite(pts).all(axis=1)], now)
+
+    def observe_pose(self, x: float, y: float, yaw: float, now: float) -> None:
+        """The robot's odometry pose (a NaN one is dropped)."""
+        self._pose = (x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
+
+    def _remember(self, s: Sighting) -> None:
+        """Keep where a confirmed, ranged sighting puts the target, in the odometry frame."""
+        pose = self._fresh(self._pose, s.t, self.params.pose_timeout_s)
+        rel = self._seen_in_base(s)
+        if pose is None or rel is None:
+            return
+        x, y, yaw = pose[:3]
+        bx, by = rel
+        c, sn = math.cos(yaw), math.sin(yaw)
+        self._goal_xy = (x + c * bx - sn * by, y + sn * bx + c * by)
 
     def decide(self, text: str, now: float) -> None:
         """A raw VLM scene decision: applied if it is inside the whitelist, else counted and ignored."""
@@ -238,6 +287,45 @@ class Mission:
             return None
         return s.distance + self.params.camera_forward_m
 
+    @staticmethod
+    def _fresh(item: tuple | None, now: float, timeout: float) -> tuple | None:
+        return item if item is not None and 0.0 <= now - item[-1] <= timeout else None
+
+    def _seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
+        """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
+        d, b = s.distance, s.bearing
+        if d is None or not (math.isfinite(d) and math.isfinite(b)):
+            return None
+        return self.params.camera_forward_m + d * math.cos(b), d * math.sin(b)
+
+    def _remembered_in_base(self, now: float) -> tuple[float, float] | None:
+        """The target's last confirmed place as (bearing, distance) from the base now, if the pose is fresh."""
+        pose = self._fresh(self._pose, now, self.params.pose_timeout_s)
+        if pose is None or self._goal_xy is None:
+            return None
+        x, y, yaw = pose[:3]
+        dx, dy = self._goal_xy[0] - x, self._goal_xy[1] - y
+        c, sn = math.cos(yaw), math.sin(yaw)
+        return math.atan2(-sn * dx + c * dy, c * dx + sn * dy), math.hypot(dx, dy)
+
+    def _avoid(self, vx: float, wz: float, ap: ApproachParams, goal: tuple[float, float], now: float) -> Steer | None:
+        """The planner's way round the fresh scan towards `goal` (bearing, base distance), or None (no
+        planning: off, or no fresh scan)."""
+        scan = self._fresh(self._scan, now, self.params.scan_timeout_s)
+        if not self.params.avoid_obstacles or scan is None:
+            return None
+        bearing, dist = goal
+        speed, _, _ = approach_command(0.0, dist, ap)
+        side = self._side if now - self._side_t < 3.0 else 0.0
+        st = steer(
+            vx, wz, speed, bearing, dist, scan[0], self.params.planner, reach_m=dist - ap.stop_distance, side=side
+        )
+        if st.blocked:
+            self._detour_t = now
+            if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
+                self._side, self._side_t = math.copysign(1.0, st.heading - bearing), now
+        return st
+
     def _enter(self, state: str, reason: str, now: float) -> None:
         self.state, self.reason = state, reason
         if state in TERMINAL:
@@ -250,6 +338,7 @@ class Mission:
     # -- output --------------------------------------------------------------------------------
     def step(self, now: float) -> Intent:
         postures, self._postures = tuple(self._postures), []
+        self.planner_note = ""
         vx, wz, publish, follow = self._control(now)
         vx = min(max(vx, 0.0), self.params.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-self.params.max_angular, min(self.params.max_angular, wz)) if math.isfinite(wz) else 0.0
@@ -294,22 +383,62 @@ class Mission:
                 return 0.0, wz, True, False
             follow = goal.kind == "follow"
             dist = self.base_distance(now)
-            vx, wz, reached = approach_command(
-                x, dist, p.approach(p.follow_distance_m if follow else p.stop_distance_m)
-            )
+            ap = p.approach(p.follow_distance_m if follow else p.stop_distance_m)
+            vx, wz, reached = approach_command(x, dist, ap)
             how = "unknown" if dist is None else f"{dist:.2f} m ({self.sighting.range_method})"
             if reached and not follow:
                 self._enter("reached", f"{dist:.2f} m from the {self.label} ({self.sighting.range_method})", now)
                 return 0.0, 0.0, True, False
+            rel = self._seen_in_base(self.sighting)
+            if rel is not None and not reached:
+                st = self._avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
+                if st is not None and st.blocked:
+                    self.planner_note = st.note
+                    self._set("detouring", f"target at {how}: {st.note}", now)
+                    return st.vx, st.wz, True, False
             if follow:
                 self._set("tracking", "target in view: following", now)
             else:
                 self._set("approaching", f"target at {how}", now)
             return vx, wz, True, False
+        detour = self._detour_unseen(now)
+        if detour is not None:
+            return detour
         if self._last_seen is not None and (now - self._last_seen < 2 * p.lost_timeout_s or not p.search_on_loss):
             self._set("lost", "target not in view: stopped", now)
             return 0.0, 0.0, True, False
         return self._search(now)
+
+    def _detour_unseen(self, now: float) -> tuple[float, float, bool, bool] | None:
+        """Out of view during a detour (go to, follow self): on round the obstacle towards where the
+        target was, while the direct way stays blocked; a free way turns back towards it. None: the
+        detour is over (no detour, memory too old, no pose or no scan)."""
+        p, goal = self.params, self.goal
+        last = self._last_seen
+        if goal is None or goal.kind == "look_for" or (goal.kind == "follow" and p.follow_control == "follower"):
+            return None
+        if last is None or self._detour_t is None or self._detour_t < last - p.lost_timeout_s:
+            return None
+        if now - last > p.detour_memory_s:
+            return None
+        rel = self._remembered_in_base(now)
+        if rel is None:
+            return None
+        bearing, dist = rel
+        ap = p.approach(p.follow_distance_m if goal.kind == "follow" else p.stop_distance_m)
+        turn = max(-p.max_angular, min(p.max_angular, p.planner.kp * bearing))
+        st = self._avoid(0.0, turn, ap, rel, now)
+        if st is None:
+            return None
+        if st.blocked:
+            self.planner_note = st.note
+            self._set("detouring", f"the {self.label} is out of view: {st.note}", now)
+            return st.vx, st.wz, True, False
+        if abs(bearing) < p.planner.step:
+            return None  # facing where it was, and still not seen: lost, then search
+        self.planner_note = "turning back towards the target"
+        self._set("detouring", f"turning back towards where the {self.label} was last seen ({dist:.1f} m)", now)
+        return 0.0, turn, True, False
 
     def _search(self, now: float) -> tuple[float, float, bool, bool]:
         p = self.params

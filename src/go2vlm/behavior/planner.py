@@ -1,14 +1,22 @@
-"""A local planner for the go-to approach: steer round what /scan shows between the robot and its goal.
+"""A local planner for the commander's approach: steer round what /scan shows between the robot and
+its goal.
 
-Pure (no DDS), a vector-field-histogram idea cut to what the approach needs: candidate headings
-around the robot's own, each a straight corridor as wide as the footprint plus `margin`; the free
-length of a corridor is how far the robot could drive that way before its front meets a scan point.
-If the corridor towards the goal is free for `lookahead` (or up to the goal), the approach's command
-passes unchanged. Otherwise the planner picks the free heading closest to the goal's bearing, but
-only within `max_offset` of it, so that the goal stays in the camera's view (the tracker must keep
-seeing it), turns towards it and slows with the angle. No free heading: turn in place towards the
-freest one that keeps the goal in view, and say so. The safety gate's collision guard still has the
-last word on every command; the planner only keeps the approach out of the guard's way.
+Pure (no DDS), a vector-field-histogram idea cut to what the approach needs. Candidate headings lie
+around the goal's bearing, each a straight corridor as wide as the footprint plus `margin` each side;
+the free length of a corridor is how far the footprint's front could go that way before it comes
+within `margin` of a scan point. Scan points within `goal_radius` of the goal's own surface are the
+goal, not an obstacle.
+
+- The corridor towards the goal is free for `lookahead` (or up to where the robot will stop): the
+  approach's own command passes unchanged (`blocked` False).
+- Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
+  the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn).
+  The robot turns towards it and drives at `speed`, slower the further it has to turn.
+- No free heading: turn in place towards the freest one, forward speed zero.
+
+It never drives faster than the `speed` it is given and never backwards. The safety gate's collision
+guard still has the last word on every command; the planner keeps the approach out of the guard's
+way, it does not replace it.
 """
 
 from __future__ import annotations
@@ -26,13 +34,24 @@ __all__ = ["PlannerParams", "Steer", "corridor_free", "steer"]
 @dataclass(frozen=True)
 class PlannerParams:
     margin: float = 0.35  # m each side of the footprint (a little more than the guard's 0.3)
-    lookahead: float = 1.0  # m of free corridor that counts as free
-    max_offset: float = math.radians(35.0)  # how far from the goal's bearing it may head (head camera ~37 deg)
+    lookahead: float = 1.2  # m of free corridor that counts as a free way
+    max_offset: float = math.radians(100.0)  # how far from the goal's bearing it may head
     step: float = math.radians(5.0)
+    side_bias: float = math.radians(15.0)  # a heading on the other side must be this much closer
+    goal_radius: float = 0.5  # m round the goal's surface point that is the goal itself
     kp: float = 1.5  # rad/s per rad of heading error
     max_angular: float = 0.8
+    turn_only: float = math.radians(60.0)  # |heading| beyond which it only turns
     half_length: float = FOOTPRINT_LENGTH / 2
     half_width: float = FOOTPRINT_WIDTH / 2
+
+    def __post_init__(self) -> None:
+        for name in ("margin", "lookahead", "max_offset", "step", "goal_radius", "kp", "max_angular", "turn_only"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"planner {name} must be a finite number >= 0, got {v}")
+        if self.step <= 0 or self.turn_only <= 0:
+            raise ValueError("planner step and turn_only must be positive")
 
 
 @dataclass(frozen=True)
@@ -40,7 +59,8 @@ class Steer:
     vx: float
     wz: float
     heading: float  # rad, the chosen heading (robot frame, + left)
-    note: str  # "" when the approach's own command passed
+    blocked: bool  # the way to the goal is blocked: (vx, wz) is the planner's, not the approach's
+    note: str  # why, for the commander's status ("" when the approach's command passed)
 
 
 def corridor_free(points: np.ndarray, heading: float, p: PlannerParams) -> float:
@@ -56,22 +76,51 @@ def corridor_free(points: np.ndarray, heading: float, p: PlannerParams) -> float
     return max(0.0, float(along[block].min()) - p.half_length - p.margin)
 
 
-def steer(vx: float, wz: float, bearing: float, goal_m: float | None, points: np.ndarray, p: PlannerParams) -> Steer:
-    """The approach's (vx, wz) towards a goal at `bearing` (rad, + left) and `goal_m` from the base
-    (None: unknown), adjusted round the scan `points` ((N, 2), base frame)."""
-    need = p.lookahead if goal_m is None else max(0.0, min(p.lookahead, goal_m))
-    if vx <= 0.0 or corridor_free(points, bearing, p) >= need:
-        return Steer(vx, wz, bearing, "")
+def steer(
+    vx: float,
+    wz: float,
+    speed: float,
+    bearing: float,
+    goal_m: float | None,
+    points: np.ndarray,
+    p: PlannerParams,
+    *,
+    reach_m: float | None = None,
+    side: float = 0.0,
+) -> Steer:
+    """The approach's (vx, wz), or a way round the scan `points` ((N, 2), base frame, x forward).
+
+    `bearing` (rad, + left) and `goal_m` (base centre -> the goal's near surface; None: unknown)
+    place the goal; `reach_m` is how far the robot still has to go (default: up to the goal).
+    `speed` (>= 0) is the forward speed the approach would like on a free way; `side` (-1, 0, +1) the
+    side chosen last time."""
+    if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
+        return Steer(vx, wz, bearing, False, "")
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    if goal_m is not None and math.isfinite(goal_m) and len(pts):
+        g = np.array([goal_m * math.cos(bearing), goal_m * math.sin(bearing)])
+        pts = pts[np.hypot(pts[:, 0] - g[0], pts[:, 1] - g[1]) > p.goal_radius]
+    far = goal_m if reach_m is None else reach_m
+    need = p.lookahead if far is None or not math.isfinite(far) else max(0.0, min(p.lookahead, far))
+    if need <= 0.0 or corridor_free(pts, bearing, p) >= need:
+        return Steer(vx, wz, bearing, False, "")
     n = int(p.max_offset / p.step)
-    cands = sorted((bearing + k * p.step for k in range(-n, n + 1)), key=lambda h: abs(h - bearing))
-    free = [(h, corridor_free(points, h, p)) for h in cands]
+    offsets = [k * p.step for k in range(-n, n + 1)]
+
+    def cost(off: float) -> float:
+        return abs(off) + (p.side_bias if side and off * side < 0 else 0.0)
+
+    free = [(bearing + off, corridor_free(pts, bearing + off, p)) for off in sorted(offsets, key=cost)]
     ok = [h for h, f in free if f >= need]
     if ok:
-        h = ok[0]  # the closest to the goal's bearing
+        h = _wrap(ok[0])
         turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
-        return Steer(
-            vx * max(0.0, math.cos(h)), turn, h, f"steering {math.degrees(h - bearing):+.0f} deg round an obstacle"
-        )
-    h, _ = max(free, key=lambda hf: hf[1])
+        fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only)
+        return Steer(fwd, turn, h, True, f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg round an obstacle")
+    h = _wrap(max(free, key=lambda hf: hf[1])[0])
     turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
-    return Steer(0.0, turn, h, "no free way within view of the goal: turning")
+    return Steer(0.0, turn, h, True, "no free way towards the goal: turning")
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi

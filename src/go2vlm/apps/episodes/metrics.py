@@ -20,7 +20,9 @@ Per episode (every task):
   path_length_m    the base's path (ground truth at 20 Hz).
   collisions       times the robot's footprint (0.70 x 0.31 m around the base: the Go2's size,
                    robots/go2/spec.py) began to overlap an object's footprint; min_clearance_m is
-                   the smallest gap. Geometric, so it is the same in kinematic and dynamic physics.
+                   the smallest gap; collided_with names the bodies. Geometric, so it is the same
+                   in kinematic and dynamic physics (and a moving body, such as a world's red
+                   ball, that runs into a robot standing still counts too).
   fell             the sim reported a fall.
   target_in_view_fraction  ground-truth samples with the target's centre inside the head camera's
                    horizontal field of view (geometric: occlusion is not checked); *_at_end likewise.
@@ -40,7 +42,9 @@ Tracking (/target/tracked, goal episodes):
   grounding_age_s    p50/p95 of grounding_age_s over the tracking frames;
   forward_unconfirmed  /cmd_vel samples with forward speed > 0.05 m/s although no `tracking` message came
                      in the UNCONFIRMED_GRACE_S before (the commander's lost_timeout_s 1.0 s + the
-                     gate's ramp-down): motion toward a target the tracker did not confirm.
+                     gate's ramp-down): motion toward a target the tracker did not confirm (a
+                     detour round an obstacle that takes the target out of view counts here too:
+                     behavior/mission.py bounds it by detour_memory_s).
 """
 
 from __future__ import annotations
@@ -237,6 +241,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     centre: list[float] = []  # base centre -> target centre
     in_view: list[bool] = []
     min_clear, collisions, colliding = math.inf, 0, False
+    collided_with: set[str] = set()
     for t, p in rec.poses:
         if "go2" not in p:
             continue
@@ -244,12 +249,14 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         yaw = quat_yaw(qw, qx, qy, qz)
         track.append((t, x, y, yaw))
         robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
-        worst = math.inf
+        worst, worst_name = math.inf, ""
         for name, shape in ctx.shapes.items():
             if name in p:
                 b = p[name]
                 shape = shape.moved(b[0], b[1], quat_yaw(b[3], b[4], b[5], b[6]))
-            worst = min(worst, clearance(robot, shape))
+            gap = clearance(robot, shape)
+            if gap < worst:
+                worst, worst_name = gap, name
             if name == target:
                 dists.append((t, surface_distance(x, y, shape)))
                 centre.append(math.hypot(shape.x - x, shape.y - y))
@@ -260,6 +267,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             min_clear = min(min_clear, worst)
         if worst < 0 and not colliding:
             collisions += 1
+            collided_with.add(worst_name)
         colliding = worst < 0
     path = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(track, track[1:], strict=False))
 
@@ -331,6 +339,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         "time_to_goal_s": None if t_goal is None else round(t_goal - ctx.t0, 2),
         "path_length_m": round(path, 3),
         "collisions": collisions,
+        "collided_with": sorted(collided_with),
         "min_clearance_m": _r(min_clear),
         "fell": fell,
         "target_in_view_fraction": _r(sum(in_view) / len(in_view), 4) if in_view else None,
