@@ -54,9 +54,16 @@ def test_keeps_to_the_side_it_chose() -> None:
 
 
 def test_boxed_in_turns_in_place() -> None:
-    ring = np.array([[1.0 * math.cos(a), 1.0 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
+    ring = np.array([[0.9 * math.cos(a), 0.9 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
     s = steer(0.4, 0.0, 0.4, 0.0, 3.0, ring, P)
-    assert s.blocked and s.vx == 0.0 and "no free way" in s.note
+    assert s.blocked and s.vx == 0.0 and "no free way" in s.note and abs(s.wz) >= P.max_angular / 2
+
+
+def test_a_short_free_way_is_still_progress() -> None:
+    # Nothing free for the 1.2 m it would like, but 0.5 m ahead-left is: creep that way, slower.
+    ring = np.array([[1.2 * math.cos(a), 1.2 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
+    s = steer(0.0, 0.0, 0.4, 0.0, 3.0, ring, P)
+    assert s.blocked and 0.0 < s.vx < 0.4 * 0.5
 
 
 @settings(max_examples=200, deadline=None)

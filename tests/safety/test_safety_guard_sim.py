@@ -138,7 +138,7 @@ WALL = Footprint.rect(2.0, 0.0, 0.0, 0.2, 3.0)  # sim/worlds/wall.xml
 
 def test_oracle_goal_behind_a_wall_does_not_drive_into_it(run: tuple[Procs, Probe], tmp_path: Path) -> None:
     """The sim's ground-truth boxes ground "the blue cylinder" above a low wall; the commander drives
-    straight at it; the gate stops the robot at the wall's margin."""
+    straight at it (its local planner off); the gate stops the robot at the wall's margin."""
     procs, probe = run
     graph = tmp_path / "oracle_wall.yaml"
     graph.write_text(  # the oracle episode graph (launch/episode_oracle.yaml) in the wall world; JSON is YAML
@@ -153,7 +153,8 @@ def test_oracle_goal_behind_a_wall_does_not_drive_into_it(run: tuple[Procs, Prob
                     "params": {"use_sim_time": True, "grounding": "vlm"},
                     "remap": {"/vlm/detections": "/sim/detections"},
                 },
-                {"node": "commander", "params": {"use_sim_time": True}},
+                # The local planner off: a straight approach, so that the guard is what is tested.
+                {"node": "commander", "params": {"use_sim_time": True, "avoid_obstacles": False}},
                 {"node": "safety", "params": {"use_sim_time": True, "margin": MARGIN}},
             ]
         )  # fmt: skip

@@ -11,8 +11,10 @@ goal, not an obstacle.
   approach's own command passes unchanged (`blocked` False).
 - Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
   the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn).
-  The robot turns towards it and drives at `speed`, slower the further it has to turn.
-- No free heading: turn in place towards the freest one, forward speed zero.
+  The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
+  that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
+- No free heading at all: turn in place (towards the freest one, or the side it keeps to), forward
+  speed zero.
 
 It never drives faster than the `speed` it is given and never backwards. The safety gate's collision
 guard still has the last word on every command; the planner keeps the approach out of the guard's
@@ -38,6 +40,7 @@ class PlannerParams:
     max_offset: float = math.radians(100.0)  # how far from the goal's bearing it may head
     step: float = math.radians(5.0)
     side_bias: float = math.radians(15.0)  # a heading on the other side must be this much closer
+    min_free: float = 0.3  # m: the shortest free way it still drives along when nothing longer is free
     goal_radius: float = 0.5  # m round the goal's surface point that is the goal itself
     kp: float = 1.5  # rad/s per rad of heading error
     max_angular: float = 0.8
@@ -46,7 +49,18 @@ class PlannerParams:
     half_width: float = FOOTPRINT_WIDTH / 2
 
     def __post_init__(self) -> None:
-        for name in ("margin", "lookahead", "max_offset", "step", "goal_radius", "kp", "max_angular", "turn_only"):
+        names = (
+            "margin",
+            "lookahead",
+            "max_offset",
+            "step",
+            "min_free",
+            "goal_radius",
+            "kp",
+            "max_angular",
+            "turn_only",
+        )
+        for name in names:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"planner {name} must be a finite number >= 0, got {v}")
@@ -111,14 +125,19 @@ def steer(
         return abs(off) + (p.side_bias if side and off * side < 0 else 0.0)
 
     free = [(bearing + off, corridor_free(pts, bearing + off, p)) for off in sorted(offsets, key=cost)]
-    ok = [h for h, f in free if f >= need]
-    if ok:
-        h = _wrap(ok[0])
-        turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
-        fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only)
-        return Steer(fwd, turn, h, True, f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg round an obstacle")
+    for want in (need, need / 2, p.min_free):  # a shorter free way is still progress
+        ok = [(h, f) for h, f in free if f >= want]
+        if ok:
+            h, f = _wrap(ok[0][0]), ok[0][1]
+            turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
+            fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
+            note = f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg round an obstacle"
+            return Steer(fwd, turn, h, True, note)
+    # Boxed in within max_offset of the goal: turn in place (towards the side it keeps to), never
+    # standing still facing a blocked way.
     h = _wrap(max(free, key=lambda hf: hf[1])[0])
-    turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
+    direction = math.copysign(1.0, h) if abs(h) > p.step else (side or 1.0)
+    turn = direction * max(min(p.max_angular, p.kp * abs(h)), p.max_angular / 2)
     return Steer(0.0, turn, h, True, "no free way towards the goal: turning")
 
 
