@@ -128,11 +128,7 @@ class CommanderConfig:
         0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
     )
     detour_memory_s: float = param(
-        8.0,
-        help="a detour out of the target's view lasts this long after the last sighting",
-        min=0.0,
-        max=60.0,
-        live=True,
+        8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
     )
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
