@@ -60,7 +60,8 @@ Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_tim
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
-search settings and decision limits; goal (use /goal), follow_control, the rates are read-only.
+search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s; goal (use
+/goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates are read-only.
 """
 
 from __future__ import annotations
