@@ -96,11 +96,15 @@ class Harness:
     def wait_status(self, pred: Any, timeout: float = 10.0) -> bool:
         return wait_for(lambda: bool(self.status.msgs()) and pred(self.last_status()), timeout)
 
-    def drive(self, vx: float, seconds: float, rate: float = 20.0) -> None:
+    def drive(self, vx: float, seconds: float, rate: float = 20.0, until: Any = None) -> bool:
+        """Teleop at `vx` for `seconds`, or until `until()` is true (then True)."""
         end = time.monotonic() + seconds
         while time.monotonic() < end:
+            if until is not None and until():
+                return True
             self.cmd_vel.publish(Twist(linear=Vector3(vx, 0.0, 0.0)))
-            time.sleep(1.0 / rate)
+            time.sleep(1.0 / rate)  # the teleop rate, not synchronisation
+        return until is None
 
     def sent(self, api: int, since: float = 0.0) -> int:
         return sum(1 for t, r in self.wire.items if t >= since and r.header.identity.api_id == api)
@@ -145,17 +149,20 @@ def test_stand_move_stop(go2: tuple[Harness, Procs]) -> None:
     assert h.wait_status(lambda s: s["mode"] == "balance_stand" and s["busy"] is None)
     x0 = h.x()
     t0 = time.monotonic()
-    h.drive(0.3, 2.0)
+    # Drive at 0.3 m/s until the robot has gone 0.45 m. Wait on the distance, not on a clock: with
+    # two busy loops and a demo beside it the driver's 20 Hz Move timer was seen starved to 11 Hz
+    # (22 Moves in 2 s), and the robot, rightly, moved only while Moves came.
+    went = h.drive(0.3, 30.0, until=lambda: h.x() - x0 >= 0.45)
     t_stop = time.monotonic()
     h.drive(0.0, 1.0)
     dx = h.x() - x0
-    # 0.6 m at real time; on a loaded machine the sim may run slower than real time, so the
-    # expectation follows the simulated time that passed while Move was commanded.
     sim_s = h.sim_time(t_stop) - h.sim_time(t0)
-    moved = 0.45 <= dx <= 0.75 or abs(dx - 0.3 * sim_s) <= 0.15
-    assert moved, f"advanced {dx:.3f} m in {sim_s:.2f} sim s; {h.sent(p.MOVE, t0)} Moves; driver {h.last_status()}"
-    assert h.sent(p.MOVE, t0) >= 30  # ~20 Hz
-    assert h.sent(p.MOVE, t_stop + 0.2) == 0
+    why = f"advanced {dx:.3f} m in {sim_s:.2f} sim s; {h.sent(p.MOVE, t0)} Moves; driver {h.last_status()}"
+    assert went, why
+    assert dx <= 0.3 * sim_s + 0.1, why  # never faster than commanded
+    moves = h.sent(p.MOVE, t0)
+    assert 10 <= moves <= 20 * (t_stop - t0) + 5, why  # Moves while driving, at no more than move_rate_hz
+    assert h.sent(p.MOVE, t_stop + 0.5) == 0
     assert h.sent(p.STOP_MOVE, t0) == 1, "StopMove must be sent once per transition to zero"
     x1 = h.x()
     h.drive(0.0, 1.0)
