@@ -68,7 +68,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
@@ -76,7 +76,7 @@ from go2vlm.behavior.planner import PlannerParams
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_yaw
-from go2vlm.geometry.scan import scan_points
+from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.geometry.target import normalized_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
@@ -160,7 +160,7 @@ class CommanderConfig:
             avoid_obstacles=self.avoid_obstacles,
             scan_timeout_s=self.scan_timeout_s,
             detour_memory_s=self.detour_memory_s,
-            planner=replace(PlannerParams(), margin=self.planner_margin_m, max_angular=self.max_angular),
+            planner=PlannerParams(margin=self.planner_margin_m, max_angular=self.max_angular),
         )
 
 
@@ -257,9 +257,10 @@ class CommanderNode(Node):
     def on_scan(self, msg: LaserScan) -> None:
         now = self.clock.monotonic()
         try:
-            if msg.header.frame_id != spec.BASE_FRAME:
-                raise ValueError(f"scan in frame {msg.header.frame_id!r}, not {spec.BASE_FRAME!r}")
-            pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+            pts = frame_scan_points(
+                spec.BASE_FRAME, msg.header.frame_id, msg.ranges, msg.angle_min, msg.angle_increment,
+                msg.range_min, msg.range_max,
+            )  # fmt: skip
         except (ValueError, TypeError, OverflowError) as exc:
             n = self.count("bad_scan")
             self.log.throttled("error", 5.0, f"ignoring a bad {self.config.scan_topic} ({n} so far): {exc}", key="scan")

@@ -308,6 +308,10 @@ class Mission:
         c, sn = math.cos(yaw), math.sin(yaw)
         return math.atan2(-sn * dx + c * dy, c * dx + sn * dy), math.hypot(dx, dy)
 
+    def _approach_params(self, goal: Goal) -> ApproachParams:
+        p = self.params
+        return p.approach(p.follow_distance_m if goal.kind == "follow" else p.stop_distance_m)
+
     def _avoid(self, vx: float, wz: float, ap: ApproachParams, goal: tuple[float, float], now: float) -> Steer | None:
         """The planner's way round the fresh scan towards `goal` (bearing, base distance), or None (no
         planning: off, or no fresh scan)."""
@@ -383,7 +387,7 @@ class Mission:
                 return 0.0, wz, True, False
             follow = goal.kind == "follow"
             dist = self.base_distance(now)
-            ap = p.approach(p.follow_distance_m if follow else p.stop_distance_m)
+            ap = self._approach_params(goal)
             vx, wz, reached = approach_command(x, dist, ap)
             how = "unknown" if dist is None else f"{dist:.2f} m ({self.sighting.range_method})"
             if reached and not follow:
@@ -425,7 +429,7 @@ class Mission:
         if rel is None:
             return None
         bearing, dist = rel
-        ap = p.approach(p.follow_distance_m if goal.kind == "follow" else p.stop_distance_m)
+        ap = self._approach_params(goal)
         turn = max(-p.max_angular, min(p.max_angular, p.planner.kp * bearing))
         st = self._avoid(0.0, turn, ap, rel, now)
         if st is None:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ScanSpec", "cloud_to_ranges", "mount_transform", "scan_points", "to_base"]
+__all__ = ["ScanSpec", "cloud_to_ranges", "frame_scan_points", "mount_transform", "scan_points", "to_base"]
 
 
 @dataclass(frozen=True)
@@ -92,3 +92,19 @@ def scan_points(
     hit = np.isfinite(r) & (r <= range_max)  # a return under range_min is kept: too close is not free
     a = angle_min + angle_increment * np.nonzero(hit)[0]
     return np.column_stack([r[hit] * np.cos(a), r[hit] * np.sin(a)])
+
+
+def frame_scan_points(
+    frame: str,
+    frame_id: str,
+    ranges: np.ndarray | list[float],
+    angle_min: float,
+    angle_increment: float,
+    range_min: float,
+    range_max: float,
+) -> np.ndarray:
+    """`scan_points` of a scan that must be in `frame` (a scan in another frame raises ValueError too):
+    what the safety gate's guard and the commander's planner both take from /scan."""
+    if frame_id != frame:
+        raise ValueError(f"scan in frame {frame_id!r}, not {frame!r}")
+    return scan_points(ranges, angle_min, angle_increment, range_min, range_max)

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from go2vlm.geometry.scan import scan_points
+from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.robots.go2.spec import BASE_FRAME, FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 from go2vlm.safety.limits import ZERO, Limits, Velocity
 
@@ -143,9 +143,10 @@ class CollisionGuard:
     def scan(self, scan: Scan, now: float) -> str | None:
         """Take a scan received at `now`; returns why it is garbage (then the guard is blind), or None."""
         try:
-            if scan.frame_id != self.config.frame:
-                raise ValueError(f"scan in frame {scan.frame_id!r}, not {self.config.frame!r}")
-            pts = scan_points(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max)
+            pts = frame_scan_points(
+                self.config.frame, scan.frame_id, scan.ranges, scan.angle_min, scan.angle_increment,
+                scan.range_min, scan.range_max,
+            )  # fmt: skip
         except (ValueError, TypeError, OverflowError) as exc:
             self._count("scans_rejected")
             self._points, self._t, self._why_blind = None, None, f"last scan rejected: {exc}"
