@@ -5,17 +5,9 @@ from go2vlm.bus import Node, param, QOS_SENSOR
 
 from go2vlm.bus.clock import Clock
 from go2vlm.bus.domain import cyclone_config, dds_topic_name, domain_id_from_env, participant
+from go2vlm.bus.endpoints import Endpoint, Publisher, RawSample, RawSubscription, Subscription
 from go2vlm.bus.log import Logger
-from go2vlm.bus.node import (
-    Endpoint,
-    Node,
-    NoParams,
-    Publisher,
-    RawSample,
-    RawSubscription,
-    Subscription,
-    Timer,
-)
+from go2vlm.bus.node import Node, NoParams, Timer
 from go2vlm.bus.params import (
     BASE_PARAMS,
     NodeParams,

@@ -28,15 +28,19 @@ from __future__ import annotations
 import dataclasses
 import math
 import typing
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import yaml
 
 from go2vlm.bus import domain
+from go2vlm.bus.endpoints import Publisher
+from go2vlm.bus.log import Logger
 from go2vlm.bus.params import NodeParams, ParamError, _is_optional, _type_name, build_config
-from go2vlm.bus.qos import QOS_PARAMETERS
-from go2vlm.bus.service import ServiceClient, ServiceError
+from go2vlm.bus.qos import QOS_PARAMETERS, QosProfile
+from go2vlm.bus.service import Service, ServiceClient, ServiceError, SrvType
 from go2vlm.msgs import rcl_interfaces as rcl
+from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.rcl_interfaces import (
     PARAMETER_BOOL,
     PARAMETER_BOOL_ARRAY,
@@ -59,7 +63,7 @@ from go2vlm.msgs.rcl_interfaces import (
 if TYPE_CHECKING:
     from cyclonedds.domain import DomainParticipant
 
-    from go2vlm.bus.node import Node
+M = TypeVar("M")
 
 __all__ = [
     "ParameterClient",
@@ -254,10 +258,30 @@ def node_service(node: str, service: str) -> str:
 
 
 # -- the server ------------------------------------------------------------------------------------
+class ParamHost(Protocol):
+    """What the parameter services need of their node (a Node, bus/node.py)."""
+
+    config: Any
+    node_name: str
+    log: Logger
+
+    @property
+    def fully_qualified_name(self) -> str: ...
+    def count(self, name: str, n: int = 1) -> int: ...
+    def params(self) -> dict[str, Any]: ...
+    def check_params(self, new: Any, changed: frozenset[str]) -> None: ...
+    def on_params_changed(self, old: Any, changed: frozenset[str]) -> None: ...
+    def stamp(self, t: float | None = None) -> Time: ...
+    def create_publisher(self, msg_type: type[M], topic: str, qos: QosProfile = ...) -> Publisher[M]: ...
+    def create_service(
+        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = ...
+    ) -> Service[Any, Any]: ...
+
+
 class ParameterServer:
     """A node's parameter services (made by Node.__init__ unless parameter_services=False)."""
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: ParamHost) -> None:
         self.node = node
         cfg_cls = type(node.config)
         own = dataclasses.fields(cfg_cls) if dataclasses.is_dataclass(cfg_cls) else ()

@@ -38,7 +38,7 @@ import types as pytypes
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cache
-from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 from cyclonedds.core import DDSException, InstanceState, Policy, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.domain import DomainParticipant
@@ -50,10 +50,9 @@ from cyclonedds.sub import DataReader
 from cyclonedds.util import duration
 
 from go2vlm.bus import domain
+from go2vlm.bus.endpoints import Publisher, Subscription, delete_now
+from go2vlm.bus.log import Logger
 from go2vlm.bus.qos import QOS_SERVICES, QosProfile
-
-if TYPE_CHECKING:
-    from go2vlm.bus.node import Node
 
 __all__ = [
     "GUID_FIELD",
@@ -89,6 +88,15 @@ class SrvType(Protocol):
     NAME: str
     Request: type
     Response: type
+
+
+class ServiceHost(Protocol):
+    """What a Service needs of its node (a Node): its participant, its counters and its log."""
+
+    participant: DomainParticipant
+    log: Logger
+
+    def count(self, name: str, n: int = 1) -> int: ...
 
 
 class ServiceError(RuntimeError):
@@ -186,14 +194,12 @@ class Service(Generic[Req, Resp]):
 
     def __init__(
         self,
-        node: Node,
+        node: ServiceHost,
         srv_type: SrvType,
         name: str,
         handler: Callable[[Any], Any],
         qos: QosProfile = QOS_SERVICES,
     ) -> None:
-        from go2vlm.bus.node import Publisher, Subscription
-
         self.node = node
         self.name = name
         self.srv_type = srv_type
@@ -202,10 +208,10 @@ class Service(Generic[Req, Resp]):
         user_data = f"serviceid={self.id};"
         self._pending: list[_Reply] = []
         self.reply_pub = Publisher(
-            node, wire_type(srv_type.Response), name, qos, dds_name=reply_topic(name), user_data=user_data
+            node.participant, wire_type(srv_type.Response), name, qos, dds_name=reply_topic(name), user_data=user_data
         )
         self.request_sub = Subscription(
-            node,
+            node.participant,
             wire_type(srv_type.Request),
             name,
             self._on_request,
@@ -334,7 +340,7 @@ class ServiceClient(Generic[Req, Resp]):
     def close(self) -> None:
         self._waitset.detach(self._cond)
         for entity in (self._cond, self._reader, self._writer, self._waitset):
-            entity.__del__()  # now, not at garbage collection (see node._delete)
+            delete_now(entity)
 
     def __enter__(self) -> ServiceClient[Req, Resp]:
         return self
