@@ -33,6 +33,12 @@ VISION_MSGS = {
         "vision_msgs/BoundingBox2D bbox\nstring id\n"
     ),
     "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
+    "vision_msgs/msg/BoundingBox3D": "geometry_msgs/Pose center\ngeometry_msgs/Vector3 size\n",
+    "vision_msgs/msg/Detection3D": (
+        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
+        "vision_msgs/BoundingBox3D bbox\nstring id\n"
+    ),
+    "vision_msgs/msg/Detection3DArray": "std_msgs/Header header\nvision_msgs/Detection3D[] detections\n",
 }
 
 # rcl_interfaces/srv (Jazzy) as rosidl splits each service: <Name>_Request and <Name>_Response
@@ -93,9 +99,21 @@ def go2vlm_msgs() -> dict[str, str]:
     return {f"go2vlm_msgs/msg/{f.stem}": f.read_text() for f in sorted(MSG_DIR.glob("*.msg"))}
 
 
+def go2vlm_srvs() -> dict[str, str]:
+    """go2vlm's own .srv files, split as rosidl splits a service: <Name>_Request and <Name>_Response."""
+    from go2vlm.msgs.go2vlm_msgs import SRV_DIR
+
+    out = {}
+    for f in sorted(SRV_DIR.glob("*.srv")):
+        request, response = f.read_text().split("\n---\n")
+        out[f"go2vlm_msgs/srv/{f.stem}_Request"] = request
+        out[f"go2vlm_msgs/srv/{f.stem}_Response"] = response
+    return out
+
+
 @cache
 def typestore() -> Any:
-    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS, **go2vlm_msgs()})
+    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS, **go2vlm_msgs(), **go2vlm_srvs()})
 
 
 def fields_of(typename: str) -> list[tuple[str, Any]]:
