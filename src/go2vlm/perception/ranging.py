@@ -89,8 +89,9 @@ class RangeEstimator:
                 return RangeReading(dist, "size" if self.calibrated else "default_size")
             dist = h / math.tan(beta)
             if width_ok and shape == "cylinder":
-                s = math.sin(half)
-                self._calibrate(dist * s / max(1e-6, 1.0 - s))
+                # r = D sin(half), with D = (dist + r) / cos(bearing) the centre along its ray
+                s, cb = math.sin(half), math.cos((a1 + a2) / 2.0)
+                self._calibrate(dist * s / max(1e-6, cb - s))
             elif width_ok and shape == "box":
                 self._calibrate(dist * (math.tan(a2) - math.tan(a1)))
             return RangeReading(dist, "bottom")
