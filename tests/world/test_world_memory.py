@@ -42,7 +42,7 @@ def test_repeated_answers_tighten_it(x: float, y: float, noise: float, seed: int
         sigmas.append(o.sigma)
     assert all(b <= a + 1e-9 for a, b in zip(sigmas, sigmas[1:], strict=False))
     assert sigmas[-1] < sigmas[0] or sigmas[0] == pytest.approx(MemoryParams().min_sigma_m)
-    floor = MemoryParams().min_sigma_m**2  # the gain never falls below floor / (floor + noise^2)
+    floor = MemoryParams().min_sigma_m ** 2  # the gain never falls below floor / (floor + noise^2)
     k = floor / (floor + noise**2)
     assert math.hypot(o.x - x, o.y - y) < 0.02 + 3 * noise * max(1 / math.sqrt(30), math.sqrt(k / (2 - k)))
     assert o.seen >= 28 and o.confidence > 0.95 and o.last_seen >= 28
@@ -58,7 +58,7 @@ def test_a_wrong_answer_far_away_does_not_move_it(far: float, angle: float) -> N
     wx, wy = -2.0 + far * math.cos(angle), far * math.sin(angle)
     m.observe([sighting("blue cylinder", wx, wy, stamp=6)], view_towards(wx, wy, 6))
     after = {o.id: o for o in m.snapshot()}
-    (oid, xy), = before.items()
+    ((oid, xy),) = before.items()
     assert (after[oid].x, after[oid].y) == xy
     assert after[oid].refused == 1
     assert len(after) == 2  # the wrong answer is a separate, unconfirmed object ...

@@ -99,7 +99,14 @@ def test_a_scan_return_outside_the_box_is_not_its_range() -> None:
 
 @pytest.mark.parametrize(
     "box",
-    [(math.nan, 1, 2, 3), (1, 2, math.inf, 4), (10, 10, 5, 20), (0, 0, 5000, 5000), (700, 10, 800, 50), (1, 1, 1.5, 1.5)],
+    [
+        (math.nan, 1, 2, 3),
+        (1, 2, math.inf, 4),
+        (10, 10, 5, 20),
+        (0, 0, 5000, 5000),
+        (700, 10, 800, 50),
+        (1, 1, 1.5, 1.5),
+    ],
 )
 def test_bad_boxes_are_refused(box: tuple[float, float, float, float]) -> None:
     with pytest.raises(PlacementError) as e:

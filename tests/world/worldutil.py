@@ -15,7 +15,12 @@ MOUNT = CameraMount()
 
 
 def cylinder_box(
-    pose: Pose2D, obj: tuple[float, float], r: float, height: float, cam: PinholeCamera = CAM, mount: CameraMount = MOUNT
+    pose: Pose2D,
+    obj: tuple[float, float],
+    r: float,
+    height: float,
+    cam: PinholeCamera = CAM,
+    mount: CameraMount = MOUNT,
 ) -> tuple[float, float, float, float] | None:
     """The pixel box of an upright cylinder (centre `obj`, radius r) seen from the robot at `pose`,
     or None when it is not wholly in the picture."""

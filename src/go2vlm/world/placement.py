@@ -93,7 +93,7 @@ class PlacementError(ValueError):
 
     def __init__(self, reason: str, detail: str) -> None:
         super().__init__(f"{reason}: {detail}")
-        self.reason = reason
+        self.reason, self.detail = reason, detail
 
 
 def check_box(box: Box, cam: PinholeCamera, min_px: float = 2.0) -> Box:
