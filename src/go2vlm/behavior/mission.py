@@ -109,7 +109,7 @@ class MissionParams:
     memory_confirm_confidence: float = 0.7  # ... and this sure worth walking to (two that agree: 0.73)
     reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
     confirm_looks: int = 3  # answered looks without the object before it is given up
-    search_step_deg: float = 40.0  # stop and look: the turn between two looks
+    search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
     continuous_search_below_s: float = 0.5  # answers this fast: turn without stopping
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
     look_timeout_s: float = 20.0  # a look waits at most this long for its answer

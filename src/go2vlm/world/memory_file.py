@@ -26,7 +26,7 @@ from go2vlm.errors import ConfigError
 from go2vlm.world.labels import MAX_LABEL, normalize_label
 from go2vlm.world.memory import MemoryObject
 
-__all__ = ["FORMAT", "VERSION", "MemoryFileError", "dumps", "loads"]
+__all__ = ["FORMAT", "VERSION", "MemoryFileError", "dumps", "header", "loads"]
 
 FORMAT = "go2vlm-object-memory"
 VERSION = 1
@@ -101,8 +101,9 @@ def _object(d: Any, k: int) -> MemoryObject:
     )  # fmt: skip
 
 
-def loads(text: str | bytes, world: str, frame_id: str, max_objects: int) -> list[MemoryObject]:
-    """The objects of a memory file, checked (module docstring); MemoryFileError otherwise."""
+def loads(text: str | bytes, world: str | None, frame_id: str | None, max_objects: int) -> list[MemoryObject]:
+    """The objects of a memory file, checked (module docstring); MemoryFileError otherwise. `world` or
+    `frame_id` None: whatever the file says (reading a file without a memory to load it into)."""
     if len(text) > MAX_FILE_BYTES:
         raise MemoryFileError(f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB")
     try:
@@ -118,9 +119,11 @@ def loads(text: str | bytes, world: str, frame_id: str, max_objects: int) -> lis
         raise MemoryFileError(
             f"written by a newer go2vlm (format version {version}; this one reads version {VERSION}): upgrade go2vlm"
         )
-    if doc.get("world") != world:
+    if not isinstance(doc.get("world"), str) or not isinstance(doc.get("frame_id"), str):
+        raise MemoryFileError("not a memory file: 'world' or 'frame_id' is not a string")
+    if world is not None and doc["world"] != world:
         raise MemoryFileError(f"it remembers world {doc.get('world')!r}, and this memory is of world {world!r}")
-    if doc.get("frame_id") != frame_id:
+    if frame_id is not None and doc["frame_id"] != frame_id:
         raise MemoryFileError(f"its positions are in frame {doc.get('frame_id')!r}, and this memory's in {frame_id!r}")
     objects = doc.get("objects")
     if not isinstance(objects, list):
@@ -132,3 +135,9 @@ def loads(text: str | bytes, world: str, frame_id: str, max_objects: int) -> lis
     if len(set(ids)) != len(ids):
         raise MemoryFileError("two objects share an id")
     return out
+
+
+def header(text: str | bytes) -> tuple[str, str]:
+    """(world, frame_id) of a memory file that `loads` accepts with world and frame_id None."""
+    doc = json.loads(text)
+    return doc["world"], doc["frame_id"]
