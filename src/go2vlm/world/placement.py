@@ -16,7 +16,9 @@ Rules
   the nearest scan return within the box's bearings (the middle half of them) when it agrees with the
   monocular range (within `lidar_agree_m` or `lidar_agree_frac` of it) or when there is no monocular
   range and the return is within `lidar_only_max_m`. Neither: a bearing-only sighting (`range_m` None),
-  which can confirm an object already remembered along that bearing but places nothing new.
+  which can confirm an object already remembered along that bearing but places nothing new. So is a
+  box cut by one side of the image (`cut`: its middle is not the object's), and a box whose scan
+  return is much nearer than its monocular range (`hidden`: something in front hides its bottom edge).
 - The object's centre is half its depth behind the near surface (a ball's or cylinder's radius, half a
   box's width), from the ranger's calibrated size.
 - Uncertainty (1 sigma): range 5 cm + 1 % (lidar), 5 cm + 3 % of d^2 (bottom edge), 5 cm + 10 %
@@ -60,6 +62,7 @@ class CameraMount:
 @dataclass(frozen=True)
 class PlacementParams:
     min_box_px: float = 2.0
+    border_px: float = 3.0  # a box edge this close to the image's side is cut by it
     lidar_agree_m: float = 0.5  # lidar and monocular ranges agree within this ...
     lidar_agree_frac: float = 0.35  # ... or within this fraction of the monocular range
     lidar_only_max_m: float = 2.0  # without a monocular range, a scan return this close is the object
@@ -80,7 +83,7 @@ class Placed:
     range_m: float | None  # camera -> the near surface, horizontal (m)
     bearing: float  # world direction from the camera to the box's centre (rad)
     span: tuple[float, float]  # world directions of the box's right and left edges (rad)
-    method: str  # lidar | bottom | size | default_size | fills_view | none
+    method: str  # lidar | bottom | size | default_size | fills_view | cut | hidden | none
     camera: tuple[float, float]  # the camera's place in the world at that stamp
 
     @property
@@ -175,7 +178,12 @@ def place(
     quarter = (b_l - b_r) / 4.0
     lidar = _lidar_range(scan_points, mount, b_r + quarter, b_l - quarter)
     rng, method = mono, reading.method
-    if lidar is not None:
+    cut_l, cut_r = x1 <= p.border_px, x2 >= cam.width - p.border_px
+    if cut_l != cut_r:  # cut on one side: its middle is not the object's, nor its width
+        rng, method = None, "cut"
+    elif lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
+        rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
+    elif lidar is not None:
         agree = mono is not None and abs(lidar - mono) <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
         if agree or (mono is None and lidar <= p.lidar_only_max_m):
             rng, method = lidar, "lidar"
