@@ -105,7 +105,7 @@ class MissionParams:
     detour_memory_s: float = 8.0  # a detour out of the target's view lasts this long after the last sighting
     planner: PlannerParams = field(default_factory=PlannerParams)
     use_memory: bool = True  # go to / look for the object memory's remembered objects
-    memory_min_confidence: float = 0.45  # a remembered object this sure is worth turning to (one sighting: 0.5)
+    memory_min_confidence: float = 0.3  # worth turning to (one sighting: 0.5; then three empty looks: 0.32)
     memory_confirm_confidence: float = 0.7  # ... and this sure worth walking to (two that agree: 0.73)
     reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
     confirm_looks: int = 3  # answered looks without the object before it is given up
