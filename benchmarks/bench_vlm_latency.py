@@ -48,36 +48,29 @@ from go2vlm.bus import ShutdownRequested  # noqa: E402
 from go2vlm.cli.args import node_params  # noqa: E402
 
 LATENCIES = (0.1, 1.0, 2.5, 5.0, 10.0)
-GRAPH = """# episode_vlm.yaml with the answer_delay node in the vlm node's place (benchmarks/bench_vlm_latency.py)
+
+
+def graph_yaml(memory: bool = True) -> str:
+    """episode_vlm.yaml with the answer_delay node in the vlm node's place, with or without the memory."""
+    mem = "- node: object_memory\n  params: {use_sim_time: true, answers_cover: all}\n" if memory else ""
+    search = "" if memory else ", search_yaw_rate: 0.25"  # the vlm graph's commander before the memory
+    return f"""# episode_vlm.yaml with answer_delay in the vlm node's place (benchmarks/bench_vlm_latency.py)
 - node: sim
-  params: {use_sim_time: true, world: vision_test, world_camera: false, detections: true}
+  params: {{use_sim_time: true, world: vision_test, world_camera: false, detections: true}}
 - node: answer_delay
-  params: {use_sim_time: true, input_topic: /sim/detections, output_topic: /vlm/detections}
+  params: {{use_sim_time: true, input_topic: /sim/detections, output_topic: /vlm/detections}}
 - node: target_tracker
-  params: {use_sim_time: true, grounding: vlm}
-- node: object_memory
-  params: {use_sim_time: true, answers_cover: all}
-- node: commander
-  params: {use_sim_time: true}
+  params: {{use_sim_time: true, grounding: vlm}}
+{mem}- node: commander
+  params: {{use_sim_time: true{search}}}
 - node: follower
-  params: {use_sim_time: true}
+  params: {{use_sim_time: true}}
 - node: safety
-  params: {use_sim_time: true}
+  params: {{use_sim_time: true}}
 """
-GRAPH_NO_MEMORY = """# without the object memory: the commander before it (bench_vlm_latency.py --no-memory)
-- node: sim
-  params: {use_sim_time: true, world: vision_test, world_camera: false, detections: true}
-- node: answer_delay
-  params: {use_sim_time: true, input_topic: /sim/detections, output_topic: /vlm/detections}
-- node: target_tracker
-  params: {use_sim_time: true, grounding: vlm}
-- node: commander
-  params: {use_sim_time: true, search_yaw_rate: 0.25}
-- node: follower
-  params: {use_sim_time: true}
-- node: safety
-  params: {use_sim_time: true}
-"""
+
+
+GRAPH = graph_yaml()
 
 
 def episodes(follow_s: float, n_goto: int) -> list[Episode]:
@@ -175,8 +168,12 @@ def main() -> int:
     ap.add_argument("--latencies", type=float, nargs="+", default=list(LATENCIES))
     ap.add_argument("--follow-s", type=float, default=40.0, help="sim seconds of the follow episode")
     ap.add_argument("--goto", type=int, default=12, help="go-to episodes per latency (the goals suite's first)")
-    ap.add_argument("--timeout-per-latency", type=float, default=15.0,
-                    help="go to: timeout = the suite's + this many seconds per second of latency")
+    ap.add_argument(
+        "--timeout-per-latency",
+        type=float,
+        default=15.0,
+        help="go to: timeout = the suite's + this many seconds per second of latency",
+    )
     ap.add_argument("--no-memory", action="store_true", help="without the object memory (the commander before it)")
     ap.add_argument("--rtf", type=float, default=2.0, help="target real-time factor (sim time is what counts)")
     ap.add_argument("--fast", action="store_true")
@@ -191,7 +188,7 @@ def main() -> int:
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         graph = Path(tmp) / "episode_delayed.yaml"
-        graph.write_text(GRAPH_NO_MEMORY if args.no_memory else GRAPH)
+        graph.write_text(graph_yaml(memory=not args.no_memory))
         for lat in args.latencies:
             for ep in episodes(args.follow_s, args.goto):
                 row = run_one(ep, lat, graph, args.rtf, args.fast, node_params(args.param), args.timeout_per_latency)

@@ -61,7 +61,7 @@ from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D, detection_array
-from go2vlm.perception.ranging import DEFAULT_SIZES
+from go2vlm.perception.ranging import DEFAULT_SIZES, check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
 from go2vlm.robots.go2 import spec
 
@@ -104,11 +104,7 @@ class TargetTrackerConfig:
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:
-        for key, value in self.object_sizes.items():
-            if key not in DEFAULT_SIZES:
-                raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
-                raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+        check_object_sizes(self.object_sizes)
 
     def tracking_params(self) -> TrackingParams:
         return TrackingParams(

@@ -95,7 +95,7 @@ from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray, detection_boxes
 from go2vlm.msgs.visualization_msgs import MarkerArray
 from go2vlm.perception.color import PRESETS, color_mask
-from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
+from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
 from go2vlm.robots.go2 import spec
 from go2vlm.world.labels import normalize_label
@@ -160,11 +160,7 @@ class ObjectMemoryConfig:
                                    max=60.0)  # fmt: skip
 
     def validate(self) -> None:
-        for key, value in self.object_sizes.items():
-            if key not in DEFAULT_SIZES:
-                raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
-                raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+        check_object_sizes(self.object_sizes)
         MemoryParams(**self._memory_values())
 
     def _memory_values(self) -> dict[str, Any]:
