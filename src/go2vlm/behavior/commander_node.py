@@ -174,7 +174,7 @@ class CommanderConfig:
     )  # fmt: skip
     look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
                                  min=0.0, max=5.0, live=True)  # fmt: skip
-    look_timeout_s: float = param(_MP.look_timeout_s, help="a look waits at most this long for its answer (s)",
+    look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
                                   min=0.5, max=120.0, live=True)  # fmt: skip
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)

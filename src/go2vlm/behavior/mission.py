@@ -49,9 +49,9 @@ Rules
   it is seen again) and the search goes on. A goal for an object already remembered goes straight there.
 - Search, with a memory whose answers take longer than `continuous_search_below_s` (measured: the
   stamps of the answers against when the memory had them): stop and look. Hold still until an answer
-  about a frame taken at this heading has come back (a frame `look_settle_s` after the stop, or
-  `look_timeout_s` at most, or 2.5 x the answer latency + 0.5 s), then turn `search_step_deg` and
-  look again. A faster grounder (or no memory) turns continuously at `search_yaw_rate`, as before.
+  about a frame taken at this heading has come back (a frame `look_settle_s` after the stop; at most
+  2.5 x the answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg`
+  and look again. A faster grounder (or no memory) turns continuously at `search_yaw_rate`, as before.
   With stop and look, `not_found` also needs one whole turn looked at.
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular (never backwards).
 """
@@ -112,7 +112,7 @@ class MissionParams:
     search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
     continuous_search_below_s: float = 0.5  # answers this fast: turn without stopping
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
-    look_timeout_s: float = 20.0  # a look waits at most this long for its answer
+    look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
     hfov_rad: float = math.radians(spec.head_camera_hfov_deg(640, 480))  # the camera's horizontal view
 
     def __post_init__(self) -> None:
@@ -523,7 +523,7 @@ class Mission:
         if self.answered_through is not None and self.answered_through >= self._still_since:
             return "answered"
         lat = self.answer_latency
-        limit = p.look_timeout_s if lat is None else min(p.look_timeout_s, max(2.0, 2.5 * lat + 0.5))
+        limit = p.look_timeout_s if lat is None else 2.5 * lat + 1.0
         return "timeout" if now - self._still_since > limit else "waiting"
 
     def _give_up(self, o: Remembered, now: float, why: str) -> None:
