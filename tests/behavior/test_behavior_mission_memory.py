@@ -219,3 +219,18 @@ def test_it_never_walks_towards_what_nothing_confirms(data: st.DataObject) -> No
             o = m.target_obj
             assert m.confirmed(t) or (o is not None and o.confidence >= m.params.memory_confirm_confidence)
         assert 0.0 <= out.vx <= m.params.max_linear and abs(out.wz) <= m.params.max_angular
+
+
+def test_the_scan_measures_a_remembered_objects_surface() -> None:
+    """A box remembered too big (seen corner-on: 1.4 m for 1 m) would stop the robot 0.2 m short; where
+    the scan has returns on it, its nearest one is the surface."""
+    box = Remembered("green_box_1", "green box", 3.0, 0.0, 0.5, (1.4, 1.4, 1.0), 0.9, 0.0, (0.01, 0.0, 0.01))
+    m = Mission(MissionParams())
+    m.observe_pose(0.0, 0.0, 0.0, 0.0)
+    assert m.relative(box, 0.0) == pytest.approx((0.0, 2.3))  # the memory's size alone
+    face = np.array([[2.5, y] for y in np.linspace(-0.5, 0.5, 11)])
+    m.observe_scan(face, 0.0)
+    assert m.relative(box, 0.0) == pytest.approx((0.0, 2.5))
+    wall = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 11)])  # something well in front: not its surface
+    m.observe_scan(wall, 0.0)
+    assert m.relative(box, 0.0) == pytest.approx((0.0, 2.3))

@@ -504,14 +504,26 @@ class Mission:
 
     def relative(self, o: Remembered, now: float) -> tuple[float, float] | None:
         """(bearing from the base, base centre -> the object's surface) of a remembered object, with a
-        fresh pose; None without one."""
+        fresh pose; None without one. Where the fresh scan has returns on it (within its bearings, no
+        nearer than its remembered near side less 0.4 m), the nearest one is its surface: the lidar
+        knows a box's face better than the memory knows its size."""
         pose = self._fresh(self._pose, now, self.params.pose_timeout_s)
         if pose is None:
             return None
         x, y, yaw = pose[:3]
         dx, dy = o.x - x, o.y - y
-        bearing = math.atan2(dy, dx) - yaw
-        return math.atan2(math.sin(bearing), math.cos(bearing)), math.hypot(dx, dy) - o.radius
+        bearing = math.atan2(math.sin(math.atan2(dy, dx) - yaw), math.cos(math.atan2(dy, dx) - yaw))
+        centre = math.hypot(dx, dy)
+        surface = centre - o.radius
+        scan = self._fresh(self._scan, now, self.params.scan_timeout_s)
+        if scan is not None and len(scan[0]) and centre > o.radius:
+            pts = scan[0]
+            off = np.abs(np.angle(np.exp(1j * (np.arctan2(pts[:, 1], pts[:, 0]) - bearing))))
+            d = np.hypot(pts[:, 0], pts[:, 1])
+            on = (off <= math.asin(min(1.0, o.radius / centre))) & (d <= centre) & (d >= surface - 0.4)
+            if on.any():
+                surface = float(d[on].min())
+        return bearing, surface
 
     def _look(self, key: object, now: float) -> str:
         """Hold still and look: 'waiting' until an answer about a frame taken after the stop has come
