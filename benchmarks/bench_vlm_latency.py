@@ -19,7 +19,7 @@ Episodes (kinematic physics):
   the time the commander saw it confirmed, and whether the follow succeeded (metrics.py).
 - go to: the first --goto go-to episodes of the `goals` suite (seeded random spawns anywhere in the
   8 x 8 m square, any heading; goals/000, 001, 002, 006, ...): success and time to goal. Each episode's
-  timeout is the suite's 40 s plus --timeout-per-latency (15) seconds per second of latency: a search
+  timeout is the suite's 40 s plus --timeout-per-latency (20) seconds per second of latency: a search
   that waits for each answer needs time in proportion to it (and --follow-s is the follow's length).
 Targets: follow keeps the ball in view >= 90 % of the time at 2.5 s; go to succeeds >= 90 % at 5 s and
 at 10 s, within 5 points of 0.1 s.
