@@ -171,7 +171,7 @@ def main() -> int:
     ap.add_argument(
         "--timeout-per-latency",
         type=float,
-        default=15.0,
+        default=20.0,
         help="go to: timeout = the suite's + this many seconds per second of latency",
     )
     ap.add_argument("--no-memory", action="store_true", help="without the object memory (the commander before it)")
