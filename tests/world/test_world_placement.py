@@ -3,6 +3,7 @@ however the robot has moved since (world/placement.py over world/poses.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -119,3 +120,29 @@ def test_a_box_without_a_range_is_a_bearing_only_sighting() -> None:
     p = place("green box", (0, 100, 640, 479), 1.0, Pose2D(0, 0, 0), CAM, MOUNT, RangeEstimator("box"))
     assert not p.ranged and p.method == "fills_view" and math.isnan(p.x)
     assert p.span[0] < 0 < p.span[1]
+
+
+@settings(max_examples=100, deadline=None)
+@given(pose=poses, dist=st.floats(1.2, 4.0), bearing=st.floats(-0.5, 0.5), cut=st.floats(0.1, 0.45),
+       left=st.booleans())  # fmt: skip
+def test_a_round_object_cut_by_the_image_lands_on_it(
+    pose: Pose2D, dist: float, bearing: float, cut: float, left: bool
+) -> None:
+    """A cylinder more than half in view but cut by one side of the image: its centre is a half-angle
+    inside the uncut edge (a few cm); less than half in view, or a box, it places nothing."""
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    x1, y1, x2, y2 = box
+    shift = cut * (x2 - x1)  # the image's side moves this many pixels into the box
+    if left:  # the same camera, its image starting `shift` px inside the box's left edge
+        clipped = (0.0, y1, x2 - x1 - shift, y2)
+        cam = dataclasses.replace(CAM, cx=CAM.cx - x1 - shift)
+    else:  # ... or ending `shift` px inside its right edge
+        clipped = (x1, y1, x2 - shift, y2)
+        cam = dataclasses.replace(CAM, width=int(round(x2 - shift)))
+    p = place("blue cylinder", clipped, 1.0, pose, cam, MOUNT, ranger())
+    assert p.ranged, p
+    assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.06
+    q = place("green box", clipped, 1.0, pose, cam, MOUNT, RangeEstimator("box"))
+    assert not q.ranged and q.method == "cut"

@@ -17,8 +17,10 @@ Rules
   monocular range (within `lidar_agree_m` or `lidar_agree_frac` of it) or when there is no monocular
   range and the return is within `lidar_only_max_m`. Neither: a bearing-only sighting (`range_m` None),
   which can confirm an object already remembered along that bearing but places nothing new. So is a
-  box cut by one side of the image (`cut`: its middle is not the object's), and a box whose scan
-  return is much nearer than its monocular range (`hidden`: something in front hides its bottom edge).
+  box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
+  its bottom edge), and a box cut by one side of the image (`cut`: its middle is not the object's),
+  unless it is a ball or a cylinder more than half in view: its centre then lies a half-angle
+  (asin(r / (range + r))) inside the edge the image did not cut.
 - The object's centre is half its depth behind the near surface (a ball's or cylinder's radius, half a
   box's width), from the ranger's calibrated size.
 - Uncertainty (1 sigma): range 5 cm + 1 % (lidar), 5 cm + 3 % of d^2 (bottom edge), 5 cm + 10 %
@@ -178,15 +180,20 @@ def place(
     quarter = (b_l - b_r) / 4.0
     lidar = _lidar_range(scan_points, mount, b_r + quarter, b_l - quarter)
     rng, method = mono, reading.method
-    cut_l, cut_r = x1 <= p.border_px, x2 >= cam.width - p.border_px
-    if cut_l != cut_r:  # cut on one side: its middle is not the object's, nor its width
-        rng, method = None, "cut"
-    elif lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
+    if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
     elif lidar is not None:
         agree = mono is not None and abs(lidar - mono) <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
         if agree or (mono is None and lidar <= p.lidar_only_max_m):
             rng, method = lidar, "lidar"
+    if (x1 <= p.border_px) != (x2 >= cam.width - p.border_px):  # cut by one side of the image
+        half = math.asin(min(1.0, size_known / (rng + size_known))) if rng is not None else 0.0
+        if shape not in ("ball", "cylinder") or rng is None or b_l - b_r < half:
+            rng, method = None, "cut"  # its middle is not the object's, nor its width
+        else:  # a round object more than half in view: its centre is a half-angle inside the uncut edge
+            b_c = b_r + half if x1 <= p.border_px else b_l - half
+            lat_c = math.tan(b_c)
+            stretch = math.sqrt(1.0 + lat_c * lat_c)
     if shape not in ("ball", "cylinder", "box"):
         width = max(0.05, (rng if rng is not None else 1.0) * (math.tan(b_l) - math.tan(b_r)))
         half_depth = width / 2.0
