@@ -110,7 +110,7 @@ class MissionParams:
     reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
     confirm_looks: int = 3  # answered looks without the object before it is given up
     search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
-    continuous_search_below_s: float = 0.5  # answers this fast: turn without stopping
+    continuous_search_below_s: float = 1.2  # answers this fast: turn on (0.5 rad/s x 1.2 s: half the view)
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
     look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
     hfov_rad: float = math.radians(spec.head_camera_hfov_deg(640, 480))  # the camera's horizontal view
