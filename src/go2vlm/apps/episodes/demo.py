@@ -182,7 +182,8 @@ def memory_lines(m: dict[str, Any]) -> list[str]:
     if not mem:
         return []
     lines = [
-        f"  remembered:      {len(mem['objects'])} object(s), {mem['phantoms']} phantom(s), "
+        f"  remembered:      {len(mem['objects'])} object(s), {mem.get('accurate', 0)} within 0.3 m, "
+        f"{mem['phantoms']} phantom(s), "
         f"error max {_fmt(mem['max_error_m'], ' m')}, mean {_fmt(mem['mean_error_m'], ' m')} (odom frame = the world's)"
     ]
     for o in mem["objects"]:

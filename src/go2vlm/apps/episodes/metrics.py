@@ -51,8 +51,8 @@ Tracking (/target/tracked, goal episodes):
 Memory (/objects, episodes with an object_memory), at the end, against the ground truth:
   objects          every remembered object: label, place, confidence, and the world body of that
                    label nearest to it (apps/episodes/episode.py label_matches) with the error (m);
-  phantoms         remembered objects with no body of their label within PHANTOM_M (0.3 m);
-  max_error_m      the largest error of the others.
+  phantoms         remembered objects with no body of their label within PHANTOM_M (1 m): not there;
+  max_error_m      the largest error of the others; `accurate`: how many are within ACCURATE_M (0.3 m).
 """
 
 from __future__ import annotations
@@ -83,7 +83,8 @@ TRACKED_MIN = 0.7  # follow: tracked at least this fraction of the time after fi
 NEAR_MIN = 0.7  # follow: within follow_success_m at least this fraction of that time
 UNCONFIRMED_GRACE_S = 1.5  # commander lost_timeout_s (1.0) + the gate's ramp from 0.4 m/s to 0 (< 0.5 s)
 FORWARD_MPS = 0.05  # forward speed that counts as driving toward something
-PHANTOM_M = 0.3  # a remembered object farther than this from every body of its label is a phantom
+PHANTOM_M = 1.0  # a remembered object farther than this from every body of its label is a phantom
+ACCURATE_M = 0.3  # ... and one within this of its body is where it is
 
 
 @dataclass
@@ -261,6 +262,7 @@ def memory_metrics(objects: list[Remembered], bodies: dict[str, tuple[float, flo
     return {
         "objects": out,
         "phantoms": phantoms,
+        "accurate": sum(1 for e in errors if e <= ACCURATE_M),
         "max_error_m": _r(max(errors)) if errors else None,
         "mean_error_m": _r(float(np.mean(errors))) if errors else None,
     }
