@@ -9,9 +9,10 @@ Latency is isolated from accuracy: the answers are the sim's ground-truth boxes 
 one frame at a time, the newest when it is free, each answer L sim seconds after its frame, with its
 frame's stamp. They reach the real target_tracker on /vlm/detections, and the real commander, follower
 and safety gate drive the sim; everything runs on sim time, so L is exact whatever the host's speed.
-The graph is launch/episode_vlm.yaml's with answer_delay in the vlm node's place, and the object memory
-(world/) placing every answer at the pose of its frame; `--no-memory` runs it without the memory (the
-commander as it was before it, turning continuously at 0.25 rad/s as the vlm graph then did).
+The graph is launch/episode_vlm.yaml's with answer_delay in the vlm node's place (the commander's
+search_yaw_rate 0.25), and the object memory (world/) placing every answer at the pose of its frame;
+`--no-memory` runs it without the memory (the commander as it was before it: it turns on at 0.25 rad/s
+whatever the latency).
 
 Episodes (kinematic physics):
 - follow: "follow the red ball" in follow_ball, the ball at 0.3 m/s on its closed path, --follow-s sim
@@ -53,7 +54,6 @@ LATENCIES = (0.1, 1.0, 2.5, 5.0, 10.0)
 def graph_yaml(memory: bool = True) -> str:
     """episode_vlm.yaml with the answer_delay node in the vlm node's place, with or without the memory."""
     mem = "- node: object_memory\n  params: {use_sim_time: true, answers_cover: all}\n" if memory else ""
-    search = "" if memory else ", search_yaw_rate: 0.25"  # the vlm graph's commander before the memory
     return f"""# episode_vlm.yaml with answer_delay in the vlm node's place (benchmarks/bench_vlm_latency.py)
 - node: sim
   params: {{use_sim_time: true, world: vision_test, world_camera: false, detections: true}}
@@ -62,7 +62,7 @@ def graph_yaml(memory: bool = True) -> str:
 - node: target_tracker
   params: {{use_sim_time: true, grounding: vlm}}
 {mem}- node: commander
-  params: {{use_sim_time: true{search}}}
+  params: {{use_sim_time: true, search_yaw_rate: 0.25}}
 - node: follower
   params: {{use_sim_time: true}}
 - node: safety

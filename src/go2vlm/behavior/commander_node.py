@@ -55,9 +55,10 @@ remembered object of the goal's label while the tracker does not confirm it: tur
 its remembered place with the local planner once the memory is sure of it (memory_confirm_confidence),
 and stop there only when an answer about a frame taken at the stop placed it within reach (or the
 tracker confirms it); look for ends found when an answer about a frame taken facing it saw it. A goal
-for an object already remembered goes straight there. Search, with answers slower than
-continuous_search_below_s: stop and look (hold still until an answer about a frame taken at this
-heading has come back, then turn search_step_deg). The memory never commands a velocity: every
+for an object already remembered goes straight there. Search, with answers so slow that turning at
+search_yaw_rate would turn more than search_view_per_answer of the view between two of them: stop and
+look (hold still until an answer about a frame taken at this heading has come back, then turn
+search_step_deg at search_step_rate). The memory never commands a velocity: every
 command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
 
 Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow (follow_control=self)
@@ -168,10 +169,12 @@ class CommanderConfig:
                                live=True)  # fmt: skip
     search_step_deg: float = param(_MP.search_step_deg, help="stop and look: the turn between looks", min=5.0,
                                    max=90.0, live=True)  # fmt: skip
-    continuous_search_below_s: float = param(
-        _MP.continuous_search_below_s, help="answers faster than this: search without stopping (s)", min=0.0,
-        max=60.0, live=True,
+    search_view_per_answer: float = param(
+        _MP.search_view_per_answer, help="turning on would turn more of the view than this per answer: stop and look",
+        min=0.05, max=2.0, live=True,
     )  # fmt: skip
+    search_step_rate: float = param(_MP.search_step_rate, help="stop and look: the turn between looks (rad/s)",
+                                    min=0.05, max=1.5, live=True)  # fmt: skip
     look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
                                  min=0.0, max=5.0, live=True)  # fmt: skip
     look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
@@ -212,7 +215,8 @@ class CommanderConfig:
             reach_slack_m=self.reach_slack_m,
             confirm_looks=self.confirm_looks,
             search_step_deg=self.search_step_deg,
-            continuous_search_below_s=self.continuous_search_below_s,
+            search_view_per_answer=self.search_view_per_answer,
+            search_step_rate=self.search_step_rate,
             look_settle_s=self.look_settle_s,
             look_timeout_s=self.look_timeout_s,
             hfov_rad=fovy_to_hfov(self.camera_fovy_deg, 640, 480),

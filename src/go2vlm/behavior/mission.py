@@ -47,12 +47,13 @@ Rules
   confirms it within reach. Look for turns to face it and ends `found` when an answer about a frame
   taken facing it saw it. `confirm_looks` answered looks without it: that object is given up (until
   it is seen again) and the search goes on. A goal for an object already remembered goes straight there.
-- Search, with a memory whose answers take longer than `continuous_search_below_s` (measured: the
-  stamps of the answers against when the memory had them): stop and look. Hold still until an answer
-  about a frame taken at this heading has come back (a frame `look_settle_s` after the stop; at most
-  2.5 x the answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg`
-  and look again. A faster grounder (or no memory) turns continuously at `search_yaw_rate`, as before.
-  With stop and look, `not_found` also needs one whole turn looked at.
+- Search, with a memory whose answers are so slow that turning at `search_yaw_rate` would turn more
+  than `search_view_per_answer` of the view between two answers (the latency is measured: the stamps
+  of the answers against when the memory had them): stop and look. Hold still until an answer about a
+  frame taken at this heading has come back (a frame `look_settle_s` after the stop; at most 2.5 x the
+  answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg` at
+  `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
+  `search_yaw_rate`, as before. With stop and look, `not_found` also needs one whole turn looked at.
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular (never backwards).
 """
 
@@ -110,7 +111,8 @@ class MissionParams:
     reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
     confirm_looks: int = 3  # answered looks without the object before it is given up
     search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
-    continuous_search_below_s: float = 1.2  # answers this fast: turn on (0.5 rad/s x 1.2 s: half the view)
+    search_view_per_answer: float = 0.5  # turning on would turn more of the view than this per answer: stop and look
+    search_step_rate: float = 0.5  # stop and look: rad/s of the turn between two looks
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
     look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
     hfov_rad: float = math.radians(spec.head_camera_hfov_deg(640, 480))  # the camera's horizontal view
@@ -201,7 +203,7 @@ class Mission:
         self._still_since = math.inf  # frames from this time on are taken at the current heading
         self._failed_looks = 0
         self._search_phase = "look"  # stop and look: look | turn
-        self._turn_left = 0.0  # rad still to turn in this step
+        self._turn_t0 = 0.0  # when this step's turn began
         self._turn_yaw: float | None = None  # the yaw the step started from
         self._turned = 0.0  # rad turned (in steps) since the search began
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
@@ -639,7 +641,8 @@ class Mission:
     def _search(self, now: float) -> tuple[float, float, bool, bool]:
         p = self.params
         lat = self.answer_latency
-        stop_and_look = self.memory is not None and p.use_memory and (lat is None or lat > p.continuous_search_below_s)
+        fast = lat is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * p.hfov_rad
+        stop_and_look = self.memory is not None and p.use_memory and not fast
         full_turn = self._turned >= 2 * math.pi - 1e-6
         if now - self._t_search > p.search_timeout_s and (not stop_and_look or full_turn):
             self._enter("not_found", f"no {self.label} in view after {p.search_timeout_s:g} s", now)
@@ -655,7 +658,8 @@ class Mission:
                 how = "answer latency unknown" if lat is None else f"answers take {lat:.1f} s"
                 self._set("searching", f"holding still, looking for the {self.label} ({how})", now)
                 return 0.0, 0.0, True, False
-            self._search_phase, self._turn_left, self._turn_yaw = "turn", math.radians(p.search_step_deg), None
+            self._search_phase, self._turn_t0, self._turn_yaw = "turn", now, None
+        rate = min(p.search_step_rate, p.max_angular)
         pose = self._fresh(self._pose, now, p.pose_timeout_s)
         if pose is not None:  # how far this step has turned, by odometry
             if self._turn_yaw is None:
@@ -663,8 +667,7 @@ class Mission:
             done = abs(math.atan2(math.sin(pose[2] - self._turn_yaw), math.cos(pose[2] - self._turn_yaw)))
         else:  # no odometry: by time
             self._turn_yaw = None
-            self._turn_left -= rate * 0.05
-            done = math.radians(p.search_step_deg) - self._turn_left
+            done = rate * (now - self._turn_t0)
         if done >= math.radians(p.search_step_deg) - 0.02:
             self._turned += math.radians(p.search_step_deg)
             self._search_phase = "look"

@@ -20,8 +20,8 @@ Rules
   An object with such a label that the answer did not see although it should have -- its centre well
   inside the camera's view, its surface `view_min_m`..`view_max_m` away, not hidden behind a scan
   return or a nearer remembered object -- loses `miss` on the log-odds. Below `forget_below` it is
-  forgotten. With hit 1.0 and miss 0.25 a detector that finds a visible object one time in five still
-  keeps it; a place seen empty five times forgets a single wrong sighting.
+  forgotten. With hit 1.0 and miss 0.1 a detector that finds a visible object one time in ten still
+  keeps it; a place seen empty eleven times forgets a single wrong sighting.
 - Two objects of one label that come closer than `merge_m` are merged.
 - Bounded: at most `max_objects`. A new object when full replaces the least confident one if that
   one is less confident than a first sighting, else it is refused (`memory_full`).
@@ -54,7 +54,7 @@ class MemoryParams:
     gate_min_m: float = 0.5  # ... or this close
     gate_max_m: float = 2.0  # ... and never farther
     hit: float = 1.0  # log-odds a sighting adds
-    miss: float = 0.25  # log-odds an answer that should have seen it, and did not, takes
+    miss: float = 0.1  # log-odds an answer that should have seen it, and did not, takes
     prior: float = -1.0  # log-odds before the first sighting (after it: 0, confidence 0.5)
     max_logodds: float = 4.0  # confidence 0.98: a long-remembered object can still be forgotten
     forget_below: float = -1.0  # confidence 0.27
