@@ -479,6 +479,7 @@ class Mission:
         remembered = self._memory_control(now)
         if remembered is not None:
             self._t_search = now
+            self._search_phase = "look"  # a search after this starts with a look where it then faces
             return remembered
         if self._last_seen is not None and (now - self._last_seen < 2 * p.lost_timeout_s or not p.search_on_loss):
             self._set("lost", "target not in view: stopped", now)
