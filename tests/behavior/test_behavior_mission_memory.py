@@ -234,3 +234,12 @@ def test_the_scan_measures_a_remembered_objects_surface() -> None:
     wall = np.array([[1.0, y] for y in np.linspace(-0.5, 0.5, 11)])  # something well in front: not its surface
     m.observe_scan(wall, 0.0)
     assert m.relative(box, 0.0) == pytest.approx((0.0, 2.3))
+
+
+def test_look_for_says_where_the_object_is() -> None:
+    m = Mission(MissionParams())
+    m.set_goal("look for the green box", 0.0)
+    m.observe_pose(1.0, 2.0, math.pi / 2, 0.0)
+    m.observe(Sighting(0.0, "green box", "tracking", 0.02, 1.5, "bottom", 0.0))
+    out = m.step(0.0)
+    assert out.state == "found" and "(1.00, 3.83) in the odometry frame" in out.reason

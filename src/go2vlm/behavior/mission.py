@@ -447,7 +447,7 @@ class Mission:
             x = self.sighting.x
             if goal.kind == "look_for":
                 if abs(x) < CENTRED_X:
-                    self._enter("found", f"the {self.label} is straight ahead", now)
+                    self._enter("found", f"the {self.label} is straight ahead{self._where()}", now)
                     return 0.0, 0.0, True, False
                 wz = max(-p.max_angular, min(p.max_angular, -p.kp_angular * x))
                 wz = math.copysign(min(p.max_angular, max(abs(wz), MIN_ALIGN_WZ)), wz)
@@ -540,6 +540,16 @@ class Mission:
         lat = self.answer_latency
         limit = p.look_timeout_s if lat is None else 2.5 * lat + 1.0
         return "timeout" if now - self._still_since > limit else "waiting"
+
+    def _where(self) -> str:
+        """Where the goal's object is in the world, as a reason's tail: the memory's place for it, else
+        where the last ranged sighting put it ('' when neither is known)."""
+        o = self.target_obj
+        if o is not None:
+            return f", at ({o.x:.2f}, {o.y:.2f}) in the odometry frame (memory, {o.confidence:.2f})"
+        if self._goal_xy is not None:
+            return f", at ({self._goal_xy[0]:.2f}, {self._goal_xy[1]:.2f}) in the odometry frame (its near side)"
+        return ""
 
     def _give_up(self, o: Remembered, now: float, why: str) -> None:
         self._given_up[o.id] = o.last_seen
