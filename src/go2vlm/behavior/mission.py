@@ -577,12 +577,6 @@ class Mission:
             return None
         bearing, surface = rel
         where = f"the remembered {o.label} at ({o.x:.2f}, {o.y:.2f})"
-        facing = p.planner.step if goal.kind == "look_for" else 0.25
-        if abs(bearing) > facing:  # turn to it first (looks are only taken facing it)
-            self._look_key = None
-            wz = math.copysign(max(MIN_ALIGN_WZ, min(p.max_angular, p.kp_angular * abs(bearing))), bearing)
-            self._set("aligning" if goal.kind == "look_for" else "approaching", f"turning to {where}", now)
-            return 0.0, wz, True, False
         ap = self._approach_params(goal)
         x = -bearing / (p.hfov_rad / 2.0)
         vx, wz, at_place = approach_command(x, surface, ap)
@@ -597,6 +591,7 @@ class Mission:
                             f"placed it here ({where})", now)  # fmt: skip
                 return 0.0, 0.0, True, False
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
+            # Walk: the approach turns before it walks, the planner steers round what is in the way.
             self._look_key, self._failed_looks = None, 0
             self.basis = "memory"
             st = self._avoid(vx, wz, ap, (bearing, surface), now)
@@ -606,6 +601,12 @@ class Mission:
                 return st.vx, st.wz, True, False
             self._set("approaching", f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})", now)
             return vx, wz, True, False
+        facing = p.planner.step if goal.kind == "look_for" else 0.25
+        if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
+            self._look_key = None
+            wz = math.copysign(max(MIN_ALIGN_WZ, min(p.max_angular, p.kp_angular * abs(bearing))), bearing)
+            self._set("aligning" if goal.kind == "look_for" else "approaching", f"turning to {where}", now)
+            return 0.0, wz, True, False
         # Hold still facing it (not sure enough to walk, or at its place) and look.
         look = self._look(key, now)
         if look == "answered":  # an answer about this view came back without it
