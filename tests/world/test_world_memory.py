@@ -41,8 +41,9 @@ def test_repeated_answers_tighten_it(x: float, y: float, noise: float, seed: int
         o = max(m.snapshot(), key=lambda o: o.seen)  # (a rare 3.5-sigma sighting starts a doubtful other one)
         sigmas.append(o.sigma)
     assert all(b <= a + 1e-9 for a, b in zip(sigmas, sigmas[1:], strict=False))
-    assert sigmas[-1] < sigmas[0] or sigmas[0] == pytest.approx(MemoryParams().min_sigma_m)
-    floor = MemoryParams().min_sigma_m ** 2  # the gain never falls below floor / (floor + noise^2)
+    mp = MemoryParams()
+    assert sigmas[-1] < sigmas[0] or sigmas[0] == pytest.approx(mp.min_sigma_m)
+    floor = max(mp.min_sigma_m, mp.bias_fraction * noise) ** 2  # the gain never falls below floor / (floor + noise^2)
     k = floor / (floor + noise**2)
     assert math.hypot(o.x - x, o.y - y) < 0.02 + 3 * noise * max(1 / math.sqrt(30), math.sqrt(k / (2 - k)))
     assert o.seen >= 28 and o.confidence > 0.95 and o.last_seen >= 28
@@ -149,3 +150,18 @@ def test_a_bearing_only_sighting_confirms_what_lies_that_way() -> None:
     away = Placed("green box", 6.0, math.nan, math.nan, math.nan, (math.inf, 0.0, math.inf), (1, 1, None), None,
                   3.0, (2.8, 3.1), "fills_view", (0.0, 0.0))  # fmt: skip
     assert m.observe([away], view_towards(-1.0, 0.0, 6.0)) == ["refused.unranged"]
+
+
+def test_a_rough_far_sighting_and_sharp_near_ones_are_one_object() -> None:
+    """Twenty sightings from far away, 0.6 m off (sigma 0.3 m each, and all off the same way), then sharp
+    ones from close by: one object, where the sharp ones put it (a small VLM's boxes are loose, and a
+    far box's bottom edge ranges it badly)."""
+    m = ObjectMemory()
+    for k in range(20):  # many from far away agree with each other (their error is the same each time)
+        m.observe([sighting("blue cylinder", -1.5, -0.35, sigma=0.3, stamp=k / 10, camera=(4.0, -1.0))],
+                  view_towards(-1.5, -0.35, k / 10, camera=(4.0, -1.0)))  # fmt: skip
+    for k in range(2, 6):
+        m.observe([sighting("blue cylinder", -2.0, 0.0, sigma=0.03, stamp=k, camera=(-0.8, 0.0))],
+                  view_towards(-2.0, 0.0, k, camera=(-0.8, 0.0)))  # fmt: skip
+    (o,) = m.snapshot()
+    assert math.hypot(o.x + 2.0, o.y) < 0.1 and o.seen == 24

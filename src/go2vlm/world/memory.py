@@ -12,17 +12,22 @@ Rules
 - A ranged sighting joins the nearest object of its label whose place it fits (a Mahalanobis distance
   within `gate_sigma`, or closer than `gate_min_m`; never farther than `gate_max_m`; one sighting per
   object per answer): a Kalman update of the position, so repeated answers tighten it, and `hit` on
-  the log-odds. A sighting that fits no object starts a new one (log-odds `prior + hit`: confidence
-  0.5): a wrong answer far from the others never moves an object, it is counted as refused by the
-  objects of that label it did not fit. A bearing-only sighting (no range) confirms the object of
-  its label along its bearings within `bearing_only_max_m`, and places nothing new.
+  the log-odds. Its sigma never falls below `bias_fraction` of its sharpest sighting's (nor
+  `min_sigma_m`): the errors of sightings from one place repeat, so a hundred from far away must not
+  shut out the first one from close by. A sighting that fits no object starts a new one (log-odds
+  `prior + hit`: confidence 0.5): a wrong answer far from the others never moves an object, it is
+  counted as refused by the objects of that label it did not fit. A bearing-only sighting (no range)
+  confirms the object of its label along its bearings within `bearing_only_max_m`, and places nothing
+  new.
 - An answer is about some labels (`View.covers`; None: every label, as the sim's ground truth is).
   An object with such a label that the answer did not see although it should have -- its centre well
   inside the camera's view, its surface `view_min_m`..`view_max_m` away, not hidden behind a scan
   return or a nearer remembered object -- loses `miss` on the log-odds. Below `forget_below` it is
   forgotten. With hit 1.0 and miss 0.1 a detector that finds a visible object one time in ten still
   keeps it; a place seen empty eleven times forgets a single wrong sighting.
-- Two objects of one label that come closer than `merge_m` are merged.
+- Two objects of one label that come closer than `merge_m`, or within `gate_sigma` of each other's
+  uncertainty, are merged: a first, far and rough sighting and the sharp ones from close by are one
+  object (inverse-variance weighted).
 - Bounded: at most `max_objects`. A new object when full replaces the least confident one if that
   one is less confident than a first sighting, else it is refused (`memory_full`).
 """
@@ -59,6 +64,8 @@ class MemoryParams:
     max_logodds: float = 4.0  # confidence 0.98: a long-remembered object can still be forgotten
     forget_below: float = -1.0  # confidence 0.27
     min_sigma_m: float = 0.03  # a position is never believed closer than this: new views still count
+    bias_fraction: float = 0.6  # ... nor closer than this part of its best sighting's sigma (errors from
+    # one view point repeat: many far sightings are no better than a few, and a near one must still fit)
     bearing_only_max_m: float = 3.0  # a sighting without range confirms an object this close
     view_margin_rad: float = 0.05  # a miss counts only with the object this far inside the view ...
     view_min_m: float = 0.5  # ... its surface at least this far from the camera ...
@@ -88,6 +95,7 @@ class MemoryObject:
     missed: int = 0
     first_seen: float = 0.0
     last_seen: float = 0.0
+    best_sigma: float = math.inf  # its sharpest sighting's sigma (m): a floor for its own (not saved)
 
     @property
     def confidence(self) -> float:
@@ -122,6 +130,10 @@ def _mahalanobis2(dx: float, dy: float, cov: tuple[float, float, float]) -> floa
     if det <= 1e-12:
         return math.inf
     return (yy * dx * dx - 2 * xy * dx * dy + xx * dy * dy) / det
+
+
+def _sigma_of(cov: tuple[float, float, float]) -> float:
+    return math.sqrt(max(0.0, (cov[0] + cov[2]) / 2.0))
 
 
 def _add(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -232,7 +244,8 @@ class ObjectMemory:
         x = np.array([o.x, o.y]) + K @ np.array([s.x - o.x, s.y - o.y])
         P = (np.eye(2) - K) @ P
         P = (P + P.T) / 2
-        floor = p.min_sigma_m**2
+        o.best_sigma = min(o.best_sigma, _sigma_of(s.cov))
+        floor = max(p.min_sigma_m, p.bias_fraction * o.best_sigma) ** 2
         o.x, o.y = float(x[0]), float(x[1])
         o.cov = (max(floor, float(P[0, 0])), float(P[0, 1]), max(floor, float(P[1, 1])))
         w = 1.0 / min(o.seen + 1, 10)  # sizes: a running mean over the last ~10 sightings
@@ -262,6 +275,7 @@ class ObjectMemory:
         self.objects[oid] = MemoryObject(
             oid, s.label, s.x, s.y, s.z, (max(floor, s.cov[0]), s.cov[1], max(floor, s.cov[2])),
             (s.size[0], s.size[1], height), p.prior + p.hit, first_seen=s.stamp, last_seen=s.stamp,
+            best_sigma=_sigma_of(s.cov),
         )  # fmt: skip
         self.counters["new"] += 1
         return oid
@@ -316,12 +330,16 @@ class ObjectMemory:
         for other in list(self.objects.values()):
             if other.id == o.id or other.label != o.label:
                 continue
-            if math.hypot(other.x - o.x, other.y - o.y) > self.params.merge_m:
+            dx, dy = other.x - o.x, other.y - o.y
+            near = math.hypot(dx, dy) <= self.params.merge_m
+            if not near and _mahalanobis2(dx, dy, _add(o.cov, other.cov)) > self.params.gate_sigma**2:
                 continue
             keep, gone = (o, other) if (o.seen, -o.first_seen) >= (other.seen, -other.first_seen) else (other, o)
             w1, w2 = 1.0 / max(keep.cov[0] + keep.cov[2], 1e-9), 1.0 / max(gone.cov[0] + gone.cov[2], 1e-9)
             keep.x = (w1 * keep.x + w2 * gone.x) / (w1 + w2)
             keep.y = (w1 * keep.y + w2 * gone.y) / (w1 + w2)
+            keep.cov = min(keep.cov, gone.cov, key=lambda c: c[0] + c[2])
+            keep.best_sigma = min(keep.best_sigma, gone.best_sigma)
             keep.logodds = min(self.params.max_logodds, max(keep.logodds, gone.logodds))
             keep.seen += gone.seen
             keep.refused += gone.refused
