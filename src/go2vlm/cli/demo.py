@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from go2vlm.cli.args import add_node_params, node_params
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -68,8 +68,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ball-speed", type=float, default=0.3, help="ball speed, m/s (default 0.3)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     add_node_params(p, "a node parameter, e.g. follower.kp_angular=1.0 or sim.camera_rate_hz=15")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

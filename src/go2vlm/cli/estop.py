@@ -39,6 +39,7 @@ from go2vlm.bus import (
     interrupt_on_signals,
     signal_of,
 )
+from go2vlm.cli.args import add_dds_args
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check_token
 
@@ -58,8 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--token", default=RELEASE_TOKEN, help=f"the release token (default {RELEASE_TOKEN})")
     p.add_argument("--timeout", type=float, default=10.0, help="--release: seconds to wait for the reports")
     p.add_argument("--wait", type=float, default=1.5, help="seconds of discovery before the first report")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo or enp3s0 (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

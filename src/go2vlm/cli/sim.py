@@ -11,6 +11,7 @@ import sys
 import time
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
+from go2vlm.cli.args import add_dds_args
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
@@ -34,8 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--viewer", action="store_true", help="open MuJoCo's interactive viewer (needs a display)")
     p.add_argument("--unitree", action="store_true", help="also serve the Unitree DDS protocol")
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="any sim parameter")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     add_foxglove_args(p)
     p.set_defaults(func=run)
 
