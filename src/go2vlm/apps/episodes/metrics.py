@@ -19,7 +19,7 @@ Per episode (every task):
   time_to_goal_s   sim seconds from the start to `reached` / `found`.
   path_length_m    the base's path (ground truth at 20 Hz).
   collisions       times the robot's footprint (0.70 x 0.31 m around the base: the Go2's size,
-                   robots/go2/spec.py) began to overlap an object's footprint; min_clearance_m is
+                   its robot profile, robot_profile/go2.py) began to overlap an object's footprint; min_clearance_m is
                    the smallest gap; collided_with names the bodies. Geometric, so it is the same
                    in kinematic and dynamic physics (and a moving body, such as a world's red
                    ball, that runs into a robot standing still counts too).
@@ -60,7 +60,7 @@ from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import profile
 
 __all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics", "tracker_metrics"]
 
@@ -232,7 +232,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     kind = ep.kind
     names = sorted({*ctx.shapes, *(n for _, p in rec.poses for n in p if n != "go2")})
     target = target_body(ep.goal, names)
-    hfov = math.radians(spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height))
+    robot_facts = profile(ep.robot)
+    hfov = math.radians(robot_facts.head_camera.hfov_deg(ep.camera_width, ep.camera_height))
 
     # -- geometry over time, from ground truth --------------------------------------------------
     track: list[tuple[float, float, float, float]] = []  # t, x, y, yaw
@@ -248,7 +249,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         x, y, _, qw, qx, qy, qz = p["go2"]
         yaw = quat_yaw(qw, qx, qy, qz)
         track.append((t, x, y, yaw))
-        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        robot = Footprint.rect(x, y, yaw, robot_facts.footprint_length, robot_facts.footprint_width)
         worst, worst_name = math.inf, ""
         for name, shape in ctx.shapes.items():
             if name in p:
