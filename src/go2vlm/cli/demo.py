@@ -19,7 +19,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "Bring up the simulated Go2 in the follow_ball world (a red ball at 0.3 m/s on a closed path), the "
             "colour detector, the follower and the safety gate in one process; the Go2 follows the ball. At the "
             "end it prints a summary and writes metrics.json, plot.png and video.mp4 to --out. Exit code 1 if "
-            "the robot fell."
+            "the robot fell or the e-stop stopped it; exit code 2, before anything starts, if the robot is latched."
         ),
     )
     p.add_argument(
@@ -76,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes import Episode, RunOptions
     from go2vlm.apps.episodes.demo import default_out_dir, demo_world, goal_summary, run_with_progress, summary
     from go2vlm.apps.episodes.episode import FOLLOW_BALL_GOAL, vlm_node_params
+    from go2vlm.apps.episodes.latch import stopped_line
     from go2vlm.behavior.goals import GoalParseError, parse_goal
     from go2vlm.bus import ShutdownRequested
     from go2vlm.launch.launcher import LaunchError
@@ -119,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
         cpu=goal is None,
         bag=args.bag,
         foxglove=foxglove_params(args),
+        refuse_latched=True,  # a latched robot: one line and exit 2, before anything starts
     )
     stop = ShutdownRequested()
     stop.install()
@@ -139,4 +141,8 @@ def run(args: argparse.Namespace) -> int:
         print(goal_summary(result), flush=True)
     if result.interrupted:
         return stop.exit_code or 130
+    stopped = stopped_line(result.metrics.get("estop"))
+    if stopped is not None:
+        print(f"go2vlm demo: {stopped}", file=sys.stderr)
+        return 1
     return 0 if goal is None or result.metrics["goal_reached"] else 1

@@ -52,6 +52,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes.evaluate import EvalError, EvalOptions, run_eval
+    from go2vlm.apps.episodes.latch import RobotLatched
     from go2vlm.apps.episodes.suites import SuiteError, available_suites, load_suite
     from go2vlm.bus import ShutdownRequested
     from go2vlm.launch.launcher import LaunchError
@@ -110,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     stop.install()
     try:
         outcome = run_eval(opts, stop)
-    except (EvalError, SuiteError, LaunchError) as exc:
+    except (EvalError, SuiteError, LaunchError, RobotLatched) as exc:
         print(f"go2vlm eval: {exc}", file=sys.stderr)
         return 2
     except RuntimeError as exc:

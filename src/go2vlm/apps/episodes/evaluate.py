@@ -17,6 +17,10 @@ run again from its start.
 Workers: every worker is a process with its own DDS domain (bus/domain.py claim_free_domain), so
 episodes in parallel never hear each other; each runs its episodes one after the other, every node
 in the worker process. A vlm variant's workers all ask the one server at --base-url.
+
+The e-stop (apps/episodes/latch.py): with a fixed --domain, an eval on a latched robot is refused
+before any worker starts (exit 2, one line with the release command); the free domains the workers
+claim leave out every domain whose latch file holds the suite's robot latched.
 """
 
 from __future__ import annotations
@@ -176,7 +180,9 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str) -> None:
+def _worker_init(
+    stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str, exclude: tuple[int, ...]
+) -> None:
     # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
     # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -187,7 +193,7 @@ def _worker_init(stop_event: Any, lo: int, hi: int, interface: str, domain_id: i
 
     Logger.set_level(log_level)  # the nodes' start-up chatter of every episode would bury the progress
     _WORKER["stop"] = stop_event
-    _WORKER["domain"] = domain_id if domain_id is not None else claim_free_domain(lo, hi, interface)
+    _WORKER["domain"] = domain_id if domain_id is not None else claim_free_domain(lo, hi, interface, exclude=exclude)
     _WORKER["interface"] = interface
 
 
@@ -252,6 +258,31 @@ def _check(episodes: list[Episode], opts: EvalOptions) -> None:
         check_entries(with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True}))
 
 
+def _latched(episodes: list[Episode], opts: EvalOptions) -> tuple[int, ...]:
+    """With a fixed domain: RobotLatched (exit 2) if the robot is latched there. Else the domains
+    of EVAL_DOMAINS where a latch file holds the robot latched, for the workers to leave out."""
+    from go2vlm.apps.episodes.latch import gate_latch, refuse_if_latched
+    from go2vlm.apps.episodes.runner import RunOptions, episode_entries
+    from go2vlm.safety.estop import LatchFile
+
+    run = RunOptions(rtf=opts.rtf, fast=opts.fast)
+    graphs = {graph_name(ep): episode_entries(ep, run) for ep in episodes}
+    if opts.domain_id is not None:
+        for entries in graphs.values():
+            refuse_if_latched(entries, opts.domain_id, opts.interface)
+        return ()
+    out = set()
+    for d in range(EVAL_DOMAINS[0], EVAL_DOMAINS[1] + 1):
+        for entries in graphs.values():
+            found = gate_latch(entries, d)
+            state = LatchFile(found[1]).read() if found is not None else None
+            if state is not None and state.engaged:
+                out.add(d)
+    if len(out) > EVAL_DOMAINS[1] - EVAL_DOMAINS[0]:
+        raise EvalError("the e-stop is latched for this suite's robot on every eval domain; `go2vlm estop --release`")
+    return tuple(sorted(out))
+
+
 def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
     try:
         return vlm_node_params(opts.perception, opts.model, opts.base_url, opts.params)
@@ -272,6 +303,7 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
     params = _vlm_params(opts)
     episodes = _episodes(suite, opts, seed, params)
     _check(episodes, opts)
+    exclude = _latched(episodes, opts)
     config = run_config(suite, opts, seed, params)
     run_id = config["run_id"]
     out = Path(opts.out)
@@ -319,7 +351,7 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
                 max_workers=min(opts.workers, len(todo)),
                 mp_context=ctx,
                 initializer=_worker_init,
-                initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level),
+                initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level, exclude),
             ) as pool:
                 futs: dict[Future[dict[str, Any]], Episode] = {
                     pool.submit(_worker_run, k, ep.to_dict(), run): ep for k, ep in todo

@@ -24,6 +24,10 @@ Per episode (every task):
                    in kinematic and dynamic physics (and a moving body, such as a world's red
                    ball, that runs into a robot standing still counts too).
   fell             the sim reported a fall.
+  estop            the latches of the safety gate's e-stop that held the robot during the run
+                   (apps/episodes/latch.py): {latched, latched_s, latched_at_end, latches: [{at_s,
+                   for_s, why, released}]}, sim seconds from the start; `stopped` is then true and a
+                   goal's result is "stopped", whatever the commander's last state says.
   target_in_view_fraction  ground-truth samples with the target's centre inside the head camera's
                    horizontal field of view (geometric: occlusion is not checked); *_at_end likewise.
 Grounding (answers on /vlm/detections, or the oracle's /sim/detections), each answer against the
@@ -56,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.apps.episodes.episode import Episode, goal_target, label_matches, target_body
+from go2vlm.apps.episodes.latch import estop_metrics
 from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
@@ -324,6 +329,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
 
     rtf, rtf_all = _rtf(rec.status)
     duration = max([rec.sim_time, *(float(s["sim_time"]) for s in rec.status if "sim_time" in s)])
+    estop = estop_metrics(rec.estop, ctx.t0, max(rec.sim_time, ctx.t0))
     m: dict[str, Any] = {
         "episode": ep.id or None,
         "kind": kind,
@@ -343,6 +349,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         "collided_with": sorted(collided_with),
         "min_clearance_m": _r(min_clear),
         "fell": fell,
+        "estop": estop,
+        "stopped": estop["latched"],
         "target_in_view_fraction": _r(sum(in_view) / len(in_view), 4) if in_view else None,
         "target_in_view_at_end": bool(in_view[-1]) if in_view else None,
         "final_distance_m": _r(final_dist),
@@ -391,6 +399,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     else:  # a language goal: `go2vlm demo --goal`'s figures
         m.update(
             {
+                "result": "stopped" if estop["latched"] else (states[-1] if states else None),
                 "final_state": states[-1] if states else None,
                 "final_reason": final.get("reason"),
                 "states": _dedupe(states),
