@@ -13,6 +13,7 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 from busutil import GO2VLM, Procs, Recorder, env, wait_for
 
 from go2vlm.apps.episodes.demo import goal_summary
@@ -127,6 +128,7 @@ class _Estop(Node):
     name = "latch_during_run"
 
 
+@pytest.mark.slow  # a demo at real time
 def test_a_latch_during_a_run_is_in_metrics_and_the_summary(procs: Procs, tmp_path: Path) -> None:
     """The e-stop latches 1 s into a demo and is released 2 s later: metrics.json and the summary say
     when, for how long and why, and the demo exits 1 (stopped)."""

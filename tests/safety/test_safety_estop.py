@@ -246,6 +246,7 @@ def test_release_without_anyone_to_confirm_fails() -> None:
     assert bad.returncode == 2 and "whitespace" in bad.stderr and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow  # flips the gate's state for 4 s of wall time
 def test_state_change_log_is_rate_limited(procs: Procs, tmp_path: Path) -> None:
     """Alternating NaN and valid commands flip the gate's state at the input rate; its INFO lines
     about state changes stay at about one per second."""
