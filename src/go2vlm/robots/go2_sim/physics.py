@@ -18,17 +18,15 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
-from go2vlm.bus import Timer
-from go2vlm.robots.go2_sim.render_thread import Snapshot
+from go2vlm.bus import Clock, Logger, Timer
+from go2vlm.robots.go2_sim.publishers import SimPublishers
+from go2vlm.robots.go2_sim.render_thread import RenderThread, Snapshot
 from go2vlm.sim import Go2Sim
 from go2vlm.sim.state import RobotState
 
-if TYPE_CHECKING:
-    from go2vlm.robots.go2_sim.sim_node import SimNode
-
-__all__ = ["CATCH_UP_S", "PhysicsThread"]
+__all__ = ["CATCH_UP_S", "PhysicsHost", "PhysicsThread"]
 
 # A real-time run that falls behind by less than this catches up (briefly faster than real time),
 # so that a short stall (another process, a GC pause) does not lower the real-time factor for good.
@@ -41,8 +39,31 @@ def _noop() -> None:
     pass
 
 
+class PhysicsHost(Protocol):
+    """What the physics thread needs of its node (the sim node)."""
+
+    node_name: str
+    config: Any  # SimNodeConfig
+    clock: Clock
+    log: Logger
+    sim: Go2Sim
+    outputs: SimPublishers
+    renderer: RenderThread
+    bridge: Any  # UnitreeSimBridge or None
+
+    def count(self, key: str) -> int: ...
+
+    def now(self) -> float: ...
+
+    def set_sim_time(self, t: float) -> None: ...
+
+    def apply_command(self, sim: Go2Sim) -> None: ...
+
+    def publish_status(self) -> None: ...
+
+
 class PhysicsThread:
-    def __init__(self, node: SimNode) -> None:
+    def __init__(self, node: PhysicsHost) -> None:
         self.node = node
         self.sim: Go2Sim = node.sim
         self._calls: list[Callable[[Go2Sim], None]] = []
