@@ -64,37 +64,37 @@ def _result(status: Recorder, word: str) -> str | None:
     return last.get("result") if last.get("name") == word else None
 
 
-def test_postures_and_the_estop_are_checked_the_same_way(end: tuple[RobotEnd, _Probe, Recorder]) -> None:
+def test_the_shared_robot_end(end: tuple[RobotEnd, _Probe, Recorder]) -> None:
     node, probe, status = end
-    command = probe.create_publisher(String, protocol.POSTURE_TOPIC, QOS_DEFAULT)
-    estop = probe.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
-    assert wait_for(lambda: command.matched > 0 and estop.matched > 0 and len(status) > 0, 20)
-    for key in ("estop", "estop_why", "commander", "last_command"):
-        assert key in _last(status), _last(status)
-
-    command.publish(String(data="fly"))
-    assert wait_for(lambda: _result(status, "fly") == "unknown command", 10), _last(status)
-    assert node.counters.get("bad_command") == 1
-
-    estop.publish(Bool(data=True))
-    assert wait_for(lambda: _last(status).get("estop") is True, 10), _last(status)
-    assert "robot_base_probe" in _last(status)["estop_why"], "the status names who latched it"
-    for word in ("stand", "rise", "hello"):  # nothing that stands the robot up or moves it
-        command.publish(String(data=f" {word.upper()} "))
-        assert wait_for(lambda w=word: _result(status, w) == "refused: emergency stop latched", 10), _last(status)
-    assert node.counters.get("refused_command") == 3
-    command.publish(String(data="stop"))  # allowed while latched
-    assert wait_for(lambda: _result(status, "stop") is not None, 10), _last(status)
-    assert _result(status, "stop") != "refused: emergency stop latched"
-
-
-def test_cmd_vel_is_clamped_to_the_profile_and_a_bad_one_stops(end: tuple[RobotEnd, _Probe, Recorder]) -> None:
-    node, _, _ = end
+    # /cmd_vel: clamped to the robot profile's ceilings; a non-finite one is refused by stopping.
     c = node.profile.ceilings
     node._on_cmd_vel(Twist(linear=Vector3(9.0, -5.0, 0.0), angular=Vector3(0.0, 0.0, 20.0)))
     assert node.command() == (c.vx_forward, -c.vy, c.vyaw)
     node._on_cmd_vel(Twist(linear=Vector3(float("nan"), 0.0, 0.0)))
     assert node.command() == (0.0, 0.0, 0.0) and node.counters.get("bad_cmd_vel") == 1
     node._on_cmd_vel(Twist(linear=Vector3(0.3, 0.0, 0.0)))
-    node.estop.engage("test")
-    assert node.command() == (0.0, 0.0, 0.0), "the e-stop zeroes the command"
+    assert node.command() == (0.3, 0.0, 0.0)
+
+    # Postures: one vocabulary, checked the same way; the same status fields.
+    command = probe.create_publisher(String, protocol.POSTURE_TOPIC, QOS_DEFAULT)
+    estop = probe.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
+    assert wait_for(lambda: command.matched > 0 and estop.matched > 0 and len(status) > 0, 20)
+    for key in ("estop", "estop_why", "commander", "last_command"):
+        assert key in _last(status), _last(status)
+    command.publish(String(data="fly"))
+    assert wait_for(lambda: _result(status, "fly") == "unknown command", 10), _last(status)
+    assert node.counters.get("bad_command") == 1
+
+    # The e-stop: the command is zero, the status names who latched it, postures that stand or move
+    # the robot are refused, the stops are not.
+    estop.publish(Bool(data=True))
+    assert wait_for(lambda: _last(status).get("estop") is True, 10), _last(status)
+    assert node.command() == (0.0, 0.0, 0.0)
+    assert "robot_base_probe" in _last(status)["estop_why"], "the status names who latched it"
+    for word in ("stand", "rise", "hello"):
+        command.publish(String(data=f" {word.upper()} "))
+        assert wait_for(lambda w=word: _result(status, w) == "refused: emergency stop latched", 10), _last(status)
+    assert node.counters.get("refused_command") == 3
+    command.publish(String(data="stop"))  # allowed while latched
+    assert wait_for(lambda: _result(status, "stop") is not None, 10), _last(status)
+    assert _result(status, "stop") != "refused: emergency stop latched"
