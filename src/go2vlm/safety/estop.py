@@ -247,7 +247,9 @@ class EstopInput:
         self.store = store
         self._on_engage = on_engage
         self._on_release = on_release
-        self._names: Any = None  # DDS writer -> node name, made on the first e-stop
+        # Who sent an e-stop, by name: the node's announcements, heard from the start (the same
+        # process-wide directory the one-commander watch reads).
+        self._names = discovery_info.directory(node.participant)
         listen(node, self._estop, self._release, with_sender=True)
 
     @property
@@ -258,8 +260,6 @@ class EstopInput:
         """The node behind an e-stop sample's writer, for the log, the status and the latch file."""
         if sender is None:
             return "an unknown writer"
-        if self._names is None:
-            self._names = discovery_info.directory(self.node.participant)
         return self._names.node_of(sender.guid) or f"participant {sender.participant}"
 
     def _estop(self, msg: Any, sender: Any = None) -> None:
