@@ -108,9 +108,7 @@ def test_malformed_messages_raise(raw: str | bytes) -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(
-    st.lists(
-        st.tuples(st.floats(-4, 4), st.floats(-4, 4), st.floats(-1, 2)).map(list), min_size=0, max_size=200
-    ),
+    st.lists(st.tuples(st.floats(-4, 4), st.floats(-4, 4), st.floats(-1, 2)).map(list), min_size=0, max_size=200),
     st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(0.1, 0.5)),
 )
 def test_voxel_map_round_trip(points: list[list[float]], center: tuple[float, float, float]) -> None:

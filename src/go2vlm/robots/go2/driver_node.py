@@ -1,4 +1,7 @@
-"""go2: drives a real Unitree Go2 (or the simulator's Unitree bridge) over Unitree's own DDS protocol.
+"""go2: drives a real Unitree Go2 (or the simulator) over Unitree's own DDS protocol (`transport: dds`,
+the EDU's Ethernet port) or over WebRTC (`transport: webrtc`, the Unitree app's route over Wi-Fi, every
+Go2 model). Over WebRTC the Unitree topics below travel as JSON on the data channel and the camera as
+a video track (robots/go2/webrtc/transport.py); everything on the ROS side is the same.
 
 Subscribes:
   /emergency_stop          std_msgs/Bool        true -> Damp (1001), latched: no Move, no standing up
@@ -52,6 +55,15 @@ again after every further foreign request, and no Move until the deliberate rele
 default because two masters on one robot is the situation where nobody knows what it does next,
 and Damp is the one action the other controller cannot make worse by accident. "report" only logs
 and counts. Either way the log says so loudly and /go2/status names the writer (GUID, node).
+
+WebRTC (`ip`, `serial`, `mode`, `signal_port`, `aes_key`, `connect_timeout_s`): the first connection
+is made at start; a robot that does not answer, a signalling answer that cannot be read or an unknown
+protocol is one line and exit 2. A link that drops later stops the robot (StopMove is not possible,
+so: nothing sent, nothing queued, /go2/status `link.connected` false, the gate stops on the silent
+/go2/lowstate), reconnects with backoff, and moves again only after /cmd_vel passed through zero. The
+robot closing the connection (another client took it over) or answering "reject" on reconnect counts
+as a foreign controller (`foreign_sport`). The firmware version is read on every connect and logged,
+with a warning for one go2vlm has not been tested on (docs/real_robot.md#firmware).
 
 Time: cmd_timeout_s, move_rate_hz, state_rate_hz, camera_rate_hz, the status period and the stamps
 are in the node's clock (sim time with use_sim_time, e.g. against the simulator); the sport and

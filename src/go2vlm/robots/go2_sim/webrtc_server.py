@@ -33,6 +33,7 @@ Time: wall time throughout (network timeouts, the lf decimation); stamps come fr
 from __future__ import annotations
 
 import asyncio
+import collections
 import fractions
 import json
 import secrets
@@ -71,6 +72,7 @@ class _Peer:
         self.lidar = False
         self.video = False
         self.last_lf: dict[str, float] = {}
+        self.sent_frames: collections.deque[tuple[int, float]] = collections.deque(maxlen=512)  # (pts, frame in)
 
     @property
     def alive(self) -> bool:
@@ -117,6 +119,7 @@ class SimWebRtcServer:
         self._state: SportModeState | None = None
         self._frame: np.ndarray | None = None
         self._frame_seq = 0
+        self._frame_time = 0.0  # when the newest camera frame reached the server (wall)
         self._key = codec.new_robot_key()
         self._lidar_tf = spec.lidar_transforms()[spec.LIDAR_FRAME]
 
@@ -374,6 +377,7 @@ class SimWebRtcServer:
         if msg.encoding == "bgr8":
             rgb = rgb[:, :, ::-1]
         self._frame = np.ascontiguousarray(rgb)
+        self._frame_time = time.monotonic()
         self._frame_seq += 1
         self._loop.call_soon_threadsafe(self._frame_ready.set)
 
@@ -418,6 +422,7 @@ def _camera_track_class() -> type:
             frame = av.VideoFrame.from_ndarray(server._frame, format="rgb24")
             frame.pts = int((time.monotonic() - self.t0) * 90000)
             frame.time_base = fractions.Fraction(1, 90000)
+            self.peer.sent_frames.append((frame.pts, server._frame_time))
             return frame
 
     return CameraTrack

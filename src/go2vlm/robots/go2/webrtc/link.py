@@ -17,6 +17,7 @@ Time: every timeout here is a network timeout, wall time.
 from __future__ import annotations
 
 import asyncio
+import collections
 import json
 import socket
 import threading
@@ -191,6 +192,7 @@ class Go2Link:
         self.counters: dict[str, int] = {}
         self.connects = 0
         self.last_heard = 0.0
+        self.frame_log: collections.deque[tuple[int, float]] = collections.deque(maxlen=512)  # (pts, arrival)
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="go2-webrtc", daemon=True)
         self._pending: dict[int, tuple[RpcFuture, str]] = {}
@@ -376,6 +378,7 @@ class Go2Link:
             while True:
                 frame = await track.recv()
                 self.last_heard = time.monotonic()
+                self.frame_log.append((int(frame.pts or 0), self.last_heard))
                 if self.on_frame is not None:
                     self.on_frame(frame.to_ndarray(format="bgr24"))
         except MediaStreamError:
