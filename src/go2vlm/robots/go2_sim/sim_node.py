@@ -794,6 +794,8 @@ class SimNode(Node):
             "commander": self.cmd_vel.status(),
             "counters": dict(self.counters),
         }
+        if self.webrtc is not None:
+            status["webrtc"] = self.webrtc.status()
         self.pub_status.publish(String(data=json.dumps(status)))
 
     def _publish_frame(self, key: str, rgb: np.ndarray, stamp: float) -> None:

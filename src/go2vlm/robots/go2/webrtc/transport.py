@@ -36,6 +36,7 @@ from go2vlm.robots.go2.webrtc import codec
 from go2vlm.robots.go2.webrtc.link import BUSY, CLOSED_BY_ROBOT, Go2Link, LinkSettings
 
 OWN_IDS = 4096  # request ids remembered as ours (to tell other controllers' requests apart)
+QUIET_S = 0.5  # nothing heard from the robot for this long: send no Move (it might arrive late)
 
 
 class WebRtcSport:
@@ -69,6 +70,9 @@ class WebRtcSport:
     def send_noreply(self, api_id: int, parameter: str | dict[str, Any] = "") -> bool:
         """Fire and forget (Move): the robot answers it over WebRTC, and the answer is not waited for."""
         link = self.transport.link
+        if time.monotonic() - link.last_heard > QUIET_S:  # wall: the link's silence
+            link.count("quiet_link")
+            return False
         rid = link.new_id()
         self.transport.own(rid)
         result = link.request(p.RTC_SPORT_REQUEST, api_id, parameter, reply=False, request_id=rid).result()
