@@ -55,6 +55,7 @@ from go2vlm.msgs.unitree import LowState, Request, Response, SportModeState
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.webrtc import codec
+from go2vlm.robots.go2.webrtc.link import stop_loop
 
 LF_PERIOD_S = 0.05  # the rt/lf/* copies at most 20 Hz
 MAX_PENDING = 1024  # sport requests waiting for the bridge's answer
@@ -158,15 +159,7 @@ class SimWebRtcServer:
         for server in self._http:
             server.shutdown()
             server.server_close()
-        if self._loop_thread.is_alive():
-            if self.peer is not None:
-                fut = asyncio.run_coroutine_threadsafe(self.peer.pc.close(), self._loop)
-                try:
-                    fut.result(3.0)
-                except Exception:
-                    pass
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            self._loop_thread.join(3.0)
+        stop_loop(self._loop, self._loop_thread, None if self.peer is None else self.peer.pc.close())
 
     def status(self) -> dict[str, Any]:
         peer = self.peer

@@ -225,14 +225,7 @@ class Go2Link:
 
     def stop(self) -> None:
         self._stopping = True
-        if self._thread.is_alive():
-            fut = asyncio.run_coroutine_threadsafe(self._close(), self._loop)
-            try:
-                fut.result(3.0)
-            except Exception:
-                pass
-            self._loop.call_soon_threadsafe(self._loop.stop)
-            self._thread.join(3.0)
+        stop_loop(self._loop, self._thread, self._close())
 
     # -- sending (any thread) -----------------------------------------------------------------
     def send(self, text: str) -> bool:
@@ -498,6 +491,22 @@ class Go2Link:
             except Exception as exc:
                 self.on_link(False, f"reconnect failed ({one_line(exc)}); next try in {backoff * 2:g} s")
                 backoff = min(backoff * 2, self.settings.max_backoff_s)
+
+
+def stop_loop(loop: asyncio.AbstractEventLoop, thread: threading.Thread, closing: Any = None) -> None:
+    """Run `closing` (a coroutine: close the peer connections) on the loop's thread, then stop the
+    loop and join its thread; each step at most 3 s (wall)."""
+    if not thread.is_alive():
+        if closing is not None:
+            closing.close()
+        return
+    if closing is not None:
+        try:
+            asyncio.run_coroutine_threadsafe(closing, loop).result(3.0)
+        except Exception:
+            pass
+    loop.call_soon_threadsafe(loop.stop)
+    thread.join(3.0)
 
 
 def one_line(exc: BaseException) -> str:
