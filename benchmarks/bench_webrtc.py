@@ -1,6 +1,7 @@
 """The go2 driver over WebRTC next to DDS, against the sim on loopback: what reaches the driver's
 ROS side per second (state, lowstate, scan, camera), the camera's latency, and a Move's round trip
-(sent, applied on the sim's physics thread, answered).
+(sent, applied on the sim's physics thread, answered), and the CPU it all costs (the process's
+CPU time per second of wall time, next to the sim alone).
 
 Usage: PYTHONPATH=src python benchmarks/bench_webrtc.py [--seconds 20] [--calls 200] [--json out.json]
 
@@ -123,6 +124,11 @@ def main() -> None:
     probe.start()
     out: dict[str, Any] = {"load_average_start": os.getloadavg()}
     try:
+        time.sleep(3.0)  # the sim's start-up
+        cpu0, wall0 = time.process_time(), time.monotonic()
+        time.sleep(args.seconds / 2)
+        out["sim_alone_cpu_cores"] = round((time.process_time() - cpu0) / (time.monotonic() - wall0), 2)
+        print("sim alone", out["sim_alone_cpu_cores"], flush=True)
         for transport in ("webrtc", "dds"):
             params = {"transport": transport, "rpc_timeout_s": 5.0, "stand_on_start": True}
             if transport == "webrtc":
@@ -130,8 +136,11 @@ def main() -> None:
             driver = make_node("go2", params=params)
             driver.start()
             try:
+                cpu0, wall0 = time.process_time(), time.monotonic()
                 counters = measure(args.seconds, probe)
                 res: dict[str, Any] = rates(counters, args.seconds)
+                # The whole process (sim, driver, probe): the sim's share is the same for both routes.
+                res["process_cpu_cores"] = round((time.process_time() - cpu0) / (time.monotonic() - wall0), 2)
                 if transport == "webrtc":
                     link = driver.link.link
                     peer = sim.webrtc.peer

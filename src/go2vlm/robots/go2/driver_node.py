@@ -126,7 +126,7 @@ class Go2DriverConfig:
         "sta", help="webrtc: sta (robot on your network) or ap (your PC on the robot's Wi-Fi)", choices=("sta", "ap")
     )
     signal_port: int = param(
-        9991, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
+        p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
     )
     aes_key: str = param("", help="webrtc: the robot's AES-128 key (32 hex chars), needed on firmware >= 1.1.15")
     connect_timeout_s: float = param(

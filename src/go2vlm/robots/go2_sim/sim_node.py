@@ -188,15 +188,15 @@ class SimNodeConfig(SimConfig):
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
     webrtc: bool = param(False, help="also serve the Go2's WebRTC (signalling, data channel, video); implies unitree")
     webrtc_host: str = param("127.0.0.1", help="address of the WebRTC signalling server")
-    webrtc_port: int = param(9991, help="WebRTC signalling port (a Go2's is 9991)", min=1, max=65535)
+    webrtc_port: int = param(protocol.SIGNAL_PORT, help="WebRTC signalling port (a Go2's is 9991)", min=1, max=65535)
     webrtc_legacy_port: int = param(
         0, help="also the legacy plain-text /offer signalling here (a Go2's is 8081); 0 = off", min=0, max=65535
     )
     webrtc_seal: int = param(
-        2, help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key", min=1, max=3
+        protocol.SEAL_STATIC, help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key", min=1, max=3
     )
     webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
-    webrtc_firmware: str = param("1.1.7-sim", help="the firmware version the sim reports over WebRTC")
+    webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
     webrtc_takeover: bool = param(False, help="a new WebRTC client replaces the connected one (as the phone app can)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
     release_token: str = param(
