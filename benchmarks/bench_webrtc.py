@@ -101,6 +101,70 @@ def move_rtt(call: Any, n: int) -> list[float]:
     return out
 
 
+def cpu_ms(fn: Any, n: int, clock: Any = time.thread_time) -> float:
+    """CPU milliseconds per call of `fn` (this thread's, or the process's with `clock=time.process_time`
+    for work on threads of its own, as x264's): steady on a loaded machine."""
+    fn()
+    t0 = clock()
+    for _ in range(n):
+        fn()
+    return round((clock() - t0) / n * 1e3, 3)
+
+
+def codec_costs() -> dict[str, float]:
+    """What each message costs to put on the data channel and to take off it, in CPU time."""
+    import av
+    import numpy as np
+
+    from go2vlm.msgs.unitree import LowState, SportModeState
+    from go2vlm.robots.go2.webrtc import codec
+
+    state, low = SportModeState(position=[1.0, 2.0, 0.3]), LowState(power_v=29.0)
+    state_text = codec.message(p.DC_MSG, p.RTC_SPORT_STATE, codec.to_jsonable(state))
+    low_text = codec.message(p.DC_MSG, p.RTC_LOW_STATE, codec.to_jsonable(low))
+    rng = np.random.default_rng(0)
+    cloud = rng.uniform([-5, -5, -0.3], [5, 5, 1.0], (720, 3))  # the sim lidar's 720 rays
+    header, payload = codec.voxelize(cloud, np.zeros(3), 0.0)
+    frame = codec.encode_binary({"type": p.DC_MSG, "topic": p.RTC_LIDAR_VOXELS, "data": header}, payload)
+
+    def voxels(msg: dict[str, Any], data: bytes | None) -> Any:
+        return codec.voxel_points(msg["data"], data or b"")
+
+    out = {
+        "sportmodestate_json_bytes": len(state_text),
+        "sportmodestate_encode_ms": cpu_ms(
+            lambda: codec.message(p.DC_MSG, p.RTC_SPORT_STATE, codec.to_jsonable(state)), 500
+        ),
+        "sportmodestate_decode_ms": cpu_ms(
+            lambda: codec.sport_state_from_json(codec.decode(state_text)[0]["data"]), 500
+        ),
+        "lowstate_json_bytes": len(low_text),
+        "lowstate_encode_ms": cpu_ms(lambda: codec.message(p.DC_MSG, p.RTC_LOW_STATE, codec.to_jsonable(low)), 200),
+        "lowstate_decode_ms": cpu_ms(lambda: codec.low_state_from_json(codec.decode(low_text)[0]["data"]), 200),
+        "voxel_map_bytes": len(frame),
+        "voxel_map_encode_ms": cpu_ms(lambda: codec.voxelize(cloud, np.zeros(3), 0.0), 100),
+        "voxel_map_decode_ms": cpu_ms(lambda: voxels(*codec.decode(frame)), 100),
+    }
+    # The video: one 640x480 frame through H.264 (libx264, as aiortc encodes) and back.
+    enc = av.CodecContext.create("libx264", "w")
+    enc.width, enc.height, enc.pix_fmt = 640, 480, "yuv420p"
+    enc.options = {"preset": "ultrafast", "tune": "zerolatency"}
+    dec = av.CodecContext.create("h264", "r")
+    img = rng.integers(0, 255, (480, 640, 3), dtype=np.uint8)
+    img[:, :320] = 90  # half flat, half noise: a hard frame
+    packets: list[Any] = []
+
+    def encode() -> None:
+        packets.extend(enc.encode(av.VideoFrame.from_ndarray(img, format="rgb24").reformat(format="yuv420p")))
+
+    out["h264_encode_640x480_ms"] = cpu_ms(encode, 30, time.process_time)
+    good = [pk for pk in packets if pk.size]
+    out["h264_decode_640x480_ms"] = (
+        cpu_ms(lambda: [dec.decode(pk) for pk in good[:1]], 1, time.process_time) if good else None
+    )
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seconds", type=float, default=20.0, help="measuring time per transport")
@@ -122,7 +186,8 @@ def main() -> None:
     probe = Node(node_name="bench_webrtc")
     sim.start()
     probe.start()
-    out: dict[str, Any] = {"load_average_start": os.getloadavg()}
+    out: dict[str, Any] = {"load_average_start": os.getloadavg(), "codec": codec_costs()}
+    print("codec", json.dumps(out["codec"]), flush=True)
     try:
         time.sleep(3.0)  # the sim's start-up
         cpu0, wall0 = time.process_time(), time.monotonic()
