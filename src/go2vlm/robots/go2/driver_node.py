@@ -224,7 +224,11 @@ class Go2DriverNode(Node):
         self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
         self.pub_status = self.create_publisher(String, "/go2/status", QOS_LATCHED)
         if cfg.camera_rate_hz > 0:
-            self.pub_jpeg = self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+            self.pub_jpeg = (  # the robot's own JPEGs: videohub over DDS; WebRTC has H.264 video instead
+                self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+                if self.video is not None
+                else None
+            )
             self.pub_image = self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE) if cfg.publish_raw else None
             self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
             if self.video is not None:  # over WebRTC the camera is a video track
@@ -567,7 +571,7 @@ class Go2DriverNode(Node):
         """One camera frame out: the JPEG as it came (DDS videohub), the bgr8 image, the camera info."""
         cfg: Go2DriverConfig = self.config
         header = self.header(cfg.camera_frame, t=stamp)
-        if jpeg is not None:
+        if jpeg is not None and self.pub_jpeg is not None:
             self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=jpeg))
         if self.pub_image is not None:
             self.pub_image.publish(numpy_to_image(bgr, "bgr8", header))

@@ -193,7 +193,10 @@ class SimNodeConfig(SimConfig):
         0, help="also the legacy plain-text /offer signalling here (a Go2's is 8081); 0 = off", min=0, max=65535
     )
     webrtc_seal: int = param(
-        protocol.SEAL_STATIC, help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key", min=1, max=3
+        protocol.SEAL_STATIC,
+        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key",
+        min=1,
+        max=3,
     )
     webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
     webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
