@@ -214,6 +214,28 @@ def test_a_dropped_link_stops_the_robot_and_reconnects(h: Harness) -> None:
         t.join()
 
 
+def _doctor(port: int) -> subprocess.CompletedProcess[str]:
+    skip = [a for c in ("render", "torch", "peers", "cmd_vel", "rcvbuf") for a in ("--skip", c)]
+    args = ["doctor", "--robot", "127.0.0.1", "--robot-port", str(port), *skip]
+    return subprocess.run([*GO2VLM, *args], capture_output=True, text=True, env=env(), timeout=90)
+
+
+def test_doctor_sees_the_app_holding_the_robot(h: Harness) -> None:
+    """`go2vlm doctor --robot`: the robot answers, its protocol, and another client (here the driver,
+    as the phone app would be) holding the one connection."""
+    assert wait_for(lambda: h.driver.link.link.connected, 30)
+    h.sim.webrtc.takeover = False
+    try:
+        proc = _doctor(h.port)
+    finally:
+        h.sim.webrtc.takeover = True
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "[  ok] webrtc.robot: 127.0.0.1 answers" in proc.stdout
+    assert "webrtc.signalling: con_notify" in proc.stdout and "data2=2" in proc.stdout
+    assert "[FAIL] webrtc.connection: another WebRTC client holds the robot" in proc.stdout
+    assert h.driver.link.link.connected and not h.driver.estop.engaged  # a rejected probe disturbs nothing
+
+
 def test_a_foreign_sport_request_latches_the_estop(h: Harness) -> None:
     """Another client on the robot's DDS (relayed over WebRTC as rt/api/sport/request) commands it."""
     assert wait_for(lambda: h.driver.link.link.connected and h.sim.webrtc.peer.validated, 30)
@@ -245,6 +267,16 @@ def test_a_webrtc_takeover_latches_the_estop(h: Harness) -> None:
         assert wait_for(lambda: h.sim_mode() == "damped", 15)
     finally:
         other.stop()
+
+
+def test_doctor_checks_the_robot(h: Harness) -> None:
+    """Last: with takeover the doctor's probe takes the connection (the driver damps, as it should)."""
+    proc = _doctor(h.port)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "[  ok] webrtc.connection: WebRTC connected and validated" in proc.stdout
+    assert f"[  ok] webrtc.firmware: {p.SIM_FIRMWARE} (the go2vlm simulator)" in proc.stdout
+    nobody = _doctor(free_port())
+    assert nobody.returncode == 1 and "[FAIL] webrtc.robot: nothing answers at 127.0.0.1" in nobody.stdout
 
 
 # -- start-up errors: one line, exit 2 -----------------------------------------------------------
