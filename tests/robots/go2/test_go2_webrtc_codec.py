@@ -17,6 +17,9 @@ from go2vlm.msgs.unitree import LowState, SportModeState
 from go2vlm.robots.go2 import protocol as p
 from go2vlm.robots.go2.webrtc import codec
 
+pytest.importorskip("cryptography", reason="the webrtc extra: pip install 'go2vlm[webrtc]'")
+pytest.importorskip("lz4", reason="the webrtc extra: pip install 'go2vlm[webrtc]'")
+
 ROBOT_KEY = codec.new_robot_key()  # 2048-bit RSA: made once, it takes a moment
 DEVICE_KEY = bytes(range(16))
 
