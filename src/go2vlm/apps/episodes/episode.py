@@ -51,6 +51,7 @@ class Episode:
     duration_s: float = 60.0  # sim seconds: how long a follow runs; the timeout of other goals
     settle_s: float = 1.0  # sim seconds kept running after a goal ends (it must stay put)
     robot: str = "sim"  # sim | go2 (the follow loop through the Unitree protocol and the go2 driver)
+    transport: str = "dds"  # robot go2: dds (Unitree DDS) | webrtc (the Unitree app's route)
     camera_width: int = 640
     camera_height: int = 480
     camera_rate_hz: float = 10.0
@@ -69,6 +70,10 @@ class Episode:
             raise ValueError(f"mode {self.mode!r} is not kinematic or dynamic")
         if self.robot not in ("sim", "go2"):
             raise ValueError(f"robot {self.robot!r} is not sim or go2")
+        if self.transport not in ("dds", "webrtc"):
+            raise ValueError(f"transport {self.transport!r} is not dds or webrtc")
+        if self.transport != "dds" and self.robot != "go2":
+            raise ValueError("--transport is how the go2 driver reaches the robot: it needs --robot go2")
         if self.robot == "go2" and self.goal is not None:
             raise ValueError("--robot go2 runs the follow article's loop only (no goal)")
         if self.duration_s <= 0:
@@ -104,7 +109,9 @@ def graph_name(ep: Episode) -> str:
     if ep.graph is not None:
         return ep.graph
     if ep.goal is None:
-        return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
+        if ep.robot == "go2":
+            return "follow_go2_sim_webrtc" if ep.transport == "webrtc" else "follow_go2_sim"
+        return "follow_sim"
     return f"episode_{ep.perception}"
 
 
@@ -158,6 +165,14 @@ def vlm_node_params(
     return out
 
 
+def free_tcp_port(host: str) -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
 def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, Any]]:
     """Parameters per node name that make the graph run this episode (the user's own `params` last)."""
     sim: dict[str, Any] = {
@@ -180,6 +195,10 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
 
         hfov = spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height)
         out["go2"] = {"camera_rate_hz": ep.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
+        if ep.transport == "webrtc":  # a free port on loopback, so that runs side by side do not meet
+            port = free_tcp_port("127.0.0.1")
+            sim.update(webrtc_host="127.0.0.1", webrtc_port=port)
+            out["go2"].update(ip="127.0.0.1", signal_port=port)
     if ep.goal is not None:
         out["commander"] = {"goal": ep.goal}
     for name, values in ep.params.items():

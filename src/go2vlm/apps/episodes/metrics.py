@@ -380,7 +380,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
                 "cmd_rate_hz": round((len(cmds) - 1) / span, 2) if span > 0 else 0.0,
                 "mean_cmd_vx": round(float(np.mean([c[1] for c in cmds])), 4) if cmds else None,
                 "frames_dropped_by_renderer": rec.status[-1].get("frames_dropped") if rec.status else None,
-                "robot": ep.robot,
+                "robot": ep.robot if ep.transport == "dds" else f"{ep.robot} ({ep.transport})",
                 "rtf_target": None if ctx.fast else ctx.rtf,
                 "fast": ctx.fast,
                 "camera": f"{ep.camera_width}x{ep.camera_height}@{ep.camera_rate_hz:g}Hz",

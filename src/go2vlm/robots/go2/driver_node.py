@@ -1,4 +1,7 @@
-"""go2: drives a real Unitree Go2 (or the simulator's Unitree bridge) over Unitree's own DDS protocol.
+"""go2: drives a real Unitree Go2 (or the simulator) over Unitree's own DDS protocol (`transport: dds`,
+the EDU's Ethernet port) or over WebRTC (`transport: webrtc`, the Unitree app's route over Wi-Fi, every
+Go2 model). Over WebRTC the Unitree topics below travel as JSON on the data channel and the camera as
+a video track (robots/go2/webrtc/transport.py); everything on the ROS side is the same.
 
 Subscribes:
   /emergency_stop          std_msgs/Bool        true -> Damp (1001), latched: no Move, no standing up
@@ -53,6 +56,15 @@ default because two masters on one robot is the situation where nobody knows wha
 and Damp is the one action the other controller cannot make worse by accident. "report" only logs
 and counts. Either way the log says so loudly and /go2/status names the writer (GUID, node).
 
+WebRTC (`ip`, `serial`, `mode`, `signal_port`, `aes_key`, `connect_timeout_s`): the first connection
+is made at start; a robot that does not answer, a signalling answer that cannot be read or an unknown
+protocol is one line and exit 2. A link that drops later stops the robot (StopMove is not possible,
+so: nothing sent, nothing queued, /go2/status `link.connected` false, the gate stops on the silent
+/go2/lowstate), reconnects with backoff, and moves again only after /cmd_vel passed through zero. The
+robot closing the connection (another client took it over) or answering "reject" on reconnect counts
+as a foreign controller (`foreign_sport`). The firmware version is read on every connect and logged,
+with a warning for one go2vlm has not been tested on (docs/real_robot.md#firmware).
+
 Time: cmd_timeout_s, move_rate_hz, state_rate_hz, camera_rate_hz, the status period and the stamps
 are in the node's clock (sim time with use_sim_time, e.g. against the simulator); the sport and
 videohub RPC timeouts (rpc_timeout_s) are network timeouts, always wall time.
@@ -103,6 +115,23 @@ RETRY_S = 0.25  # an unanswered Damp or StopMove is sent again after this long
 
 @dataclass
 class Go2DriverConfig:
+    transport: str = param(
+        "dds",
+        help="dds: Unitree DDS on the Ethernet port (EDU); webrtc: the Unitree app's route (every Go2)",
+        choices=("dds", "webrtc"),
+    )
+    ip: str = param("", help="webrtc: the robot's IP (its Wi-Fi address; 127.0.0.1 for go2vlm sim --webrtc)")
+    serial: str = param("", help="webrtc: find the robot on the LAN by its serial number instead of ip")
+    mode: str = param(
+        "sta", help="webrtc: sta (robot on your network) or ap (your PC on the robot's Wi-Fi)", choices=("sta", "ap")
+    )
+    signal_port: int = param(
+        p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
+    )
+    aes_key: str = param("", help="webrtc: the robot's AES-128 key (32 hex chars), needed on firmware >= 1.1.15")
+    connect_timeout_s: float = param(
+        10.0, help="webrtc: signalling + ICE + validation at start (wall s)", min=1.0, max=120.0
+    )
     interface: str = param("", help="network interface wired to the Go2 (enp3s0, eth0; lo for a local sim); '' = env")
     domain: int = param(-1, help="DDS domain; the Go2 uses 0; -1 = ROS_DOMAIN_ID (default 0)", min=-1, max=232)
     move_rate_hz: float = param(20.0, help="rate of sport Move requests while /cmd_vel is non-zero", min=1.0, max=100.0)
@@ -155,8 +184,16 @@ class Go2DriverNode(Node):
         if cfg.domain >= 0 and kwargs.get("domain_id") is None:
             kwargs["domain_id"] = cfg.domain
         super().__init__(cfg, **kwargs)
-        self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
-        self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
+        self.link: Any = None  # the WebRTC transport (robots/go2/webrtc/transport.py), with transport=webrtc
+        if cfg.transport == "webrtc":
+            from go2vlm.robots.go2.webrtc.transport import WebRtcTransport
+
+            self.link = WebRtcTransport(self, cfg)
+            self.sport: Any = self.link.sport
+            self.video: Any = None
+        else:
+            self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
+            self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
 
         self._cmd = (0.0, 0.0, 0.0)
         self._cmd_time = -math.inf
@@ -187,10 +224,15 @@ class Go2DriverNode(Node):
         self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
         self.pub_status = self.create_publisher(String, "/go2/status", QOS_LATCHED)
         if cfg.camera_rate_hz > 0:
-            self.pub_jpeg = self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+            self.pub_jpeg = (  # the robot's own JPEGs: videohub over DDS; WebRTC has H.264 video instead
+                self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+                if self.video is not None
+                else None
+            )
             self.pub_image = self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE) if cfg.publish_raw else None
             self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
-            self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
+            if self.video is not None:  # over WebRTC the camera is a video track
+                self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
         # The e-stop first: each executor pass takes it before /cmd_vel (the priority lane).
         EstopInput(
@@ -202,22 +244,33 @@ class Go2DriverNode(Node):
             released_note="the robot stays down until 'recover' or 'stand'",
         )
         self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self._on_cmd_stop)
-        self.create_subscription(
-            Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
-        )
+        dds = self.link is None  # over WebRTC the transport feeds the same methods
+        if dds:
+            self.create_subscription(
+                Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
+            )
         self._names = discovery_info.directory(self.participant)
         self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
-        self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
+        if dds:
+            self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self._last_lowstate_pub = -math.inf
         if cfg.lowstate_topic:
             self.pub_lowstate = self.create_publisher(LowState, "/go2/lowstate", QOS_SENSOR)
-            self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
+            if dds:
+                self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
         if cfg.lidar:
             self._scan_spec, self._lidar_tfs = spec.lidar_scan_spec(), spec.lidar_transforms()
             self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
-            self.create_subscription(PointCloud2, spec.LIDAR_TOPIC, self._on_cloud, QOS_SENSOR)
+            if dds:
+                self.create_subscription(PointCloud2, spec.LIDAR_TOPIC, self._on_cloud, QOS_SENSOR)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self._status_tick)
+        if self.link is not None:
+            self.link.start()  # the first connection, or a LinkError: one line, exit 2
+
+    def close(self) -> None:
+        if self.link is not None:
+            self.link.stop()
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_cmd_vel(self, msg: Twist) -> None:
@@ -250,15 +303,18 @@ class Go2DriverNode(Node):
         api = int(req.header.identity.api_id)
         if api not in p.SPORT_API_NAMES:
             return  # a query (API version), not a command
-        name = p.SPORT_API_NAMES[api]
         who = "an unknown writer" if sender is None else sender.guid
         node = self._names.node_of(sender.guid) if sender is not None else None
+        self._foreign_sport(p.SPORT_API_NAMES[api], who, None if sender is None else sender.participant, node)
+
+    def _foreign_sport(self, name: str, who: str, participant: Any, node: str | None) -> None:
+        """Another controller commands the robot (`foreign_sport`): damp and latch, or report."""
         self.foreign["requests"] += 1
         writers = self.foreign["writers"]
         if who not in writers and len(writers) >= 16:
             writers.pop(next(iter(writers)))  # the status names the latest few, the log every one
         writers[who] = {
-            "participant": None if sender is None else sender.participant,
+            "participant": participant,
             "node": node,
             "last_api": name,
         }
@@ -477,7 +533,10 @@ class Go2DriverNode(Node):
             "last_command": self.last_command,
             "frames": self.frames,
             "errors": dict(self.counters),
+            "transport": self.config.transport,
         }
+        if self.link is not None:
+            status["link"] = self.link.status()
         self.pub_status.publish(String(data=json.dumps(status)))
 
     # -- camera ------------------------------------------------------------------------------
@@ -506,9 +565,14 @@ class Go2DriverNode(Node):
             self.count("bad_frames")
             self.log.throttled("error", 2.0, "videohub JPEG does not decode", key="camdec")
             return
+        self._publish_camera(bgr, stamp, bytes(jpeg))
+
+    def _publish_camera(self, bgr: np.ndarray, stamp: float, jpeg: bytes | None) -> None:
+        """One camera frame out: the JPEG as it came (DDS videohub), the bgr8 image, the camera info."""
         cfg: Go2DriverConfig = self.config
         header = self.header(cfg.camera_frame, t=stamp)
-        self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=bytes(jpeg)))
+        if jpeg is not None and self.pub_jpeg is not None:
+            self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=jpeg))
         if self.pub_image is not None:
             self.pub_image.publish(numpy_to_image(bgr, "bgr8", header))
         h, w = bgr.shape[:2]

@@ -100,6 +100,12 @@ With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport
 StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
 `go2vlm.robots.go2_sim.unitree_bridge.UnitreeSimBridge`, so `go2vlm run go2 --param interface=lo` drives it like
 a real Go2. While /cmd_vel is silent the sport API has the robot; a live /cmd_vel overrides it.
+
+With `webrtc: true` (implies `unitree`) it also answers the Go2's WebRTC route, the Unitree app's, on
+`webrtc_host`:`webrtc_port` (127.0.0.1:9991): signalling, the data channel relaying the Unitree topics
+above as JSON, and the head camera (/camera/image_raw: keep `camera` on) as an H.264 video track
+(robots/go2_sim/webrtc_server.py). `go2vlm run go2 --param transport=webrtc --param ip=127.0.0.1` and
+unitree_webrtc_connect drive it like a real Go2.
 """
 
 from __future__ import annotations
@@ -180,6 +186,21 @@ class SimNodeConfig(SimConfig):
     lidar_rate_hz: float = param(10.0, help="lidar cloud and /scan rate (sim time)", min=1.0, max=50.0)
     detections: bool = param(False, help="publish ground-truth boxes of each head frame on /sim/detections")
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
+    webrtc: bool = param(False, help="also serve the Go2's WebRTC (signalling, data channel, video); implies unitree")
+    webrtc_host: str = param("127.0.0.1", help="address of the WebRTC signalling server")
+    webrtc_port: int = param(protocol.SIGNAL_PORT, help="WebRTC signalling port (a Go2's is 9991)", min=1, max=65535)
+    webrtc_legacy_port: int = param(
+        0, help="also the legacy plain-text /offer signalling here (a Go2's is 8081); 0 = off", min=0, max=65535
+    )
+    webrtc_seal: int = param(
+        protocol.SEAL_STATIC,
+        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key",
+        min=1,
+        max=3,
+    )
+    webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
+    webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
+    webrtc_takeover: bool = param(False, help="a new WebRTC client replaces the connected one (as the phone app can)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
@@ -372,6 +393,7 @@ class SimNode(Node):
         self.physics_busy_s = 0.0
         self.fell_reported = False
         self.bridge: Any = None
+        self.webrtc: Any = None  # the Go2's WebRTC service (robots/go2_sim/webrtc_server.py), with `webrtc`
 
         # The e-stop first: each executor pass takes it before /cmd_vel.
         self.estop = EstopLatch(cfg.release_token)
@@ -387,7 +409,7 @@ class SimNode(Node):
         self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
         if self.clock.sim:
             self.set_sim_time(self.sim.time)  # stamps from the start are sim time (0.0)
-        if not cfg.unitree:
+        if not (cfg.unitree or cfg.webrtc):
             self.create_subscription(String, "/go2/command", self._on_posture, QOS_DEFAULT)
         self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
         self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
@@ -432,7 +454,7 @@ class SimNode(Node):
         elif cfg.world_camera:
             self.log.info(f"world {cfg.world!r} has no world_camera; /world_camera/* stays silent")
 
-        if cfg.unitree:
+        if cfg.unitree or cfg.webrtc:
             try:
                 from go2vlm.robots.go2_sim.unitree_bridge import UnitreeSimBridge
             except ImportError as exc:
@@ -440,6 +462,19 @@ class SimNode(Node):
                     f"unitree: true needs go2vlm.robots.go2_sim.unitree_bridge, which cannot be imported: {exc}"
                 ) from exc
             self.bridge = UnitreeSimBridge(self, self.sim, estop=lambda: self.estop.engaged)
+        if cfg.webrtc:
+            from go2vlm.robots.go2_sim.webrtc_server import SimWebRtcServer
+
+            self.webrtc = SimWebRtcServer(
+                self,
+                host=cfg.webrtc_host,
+                port=cfg.webrtc_port,
+                legacy_port=cfg.webrtc_legacy_port,
+                seal=cfg.webrtc_seal,
+                aes_key=cfg.webrtc_aes_key,
+                firmware=cfg.webrtc_firmware,
+                takeover=cfg.webrtc_takeover,
+            )
 
         self._publish_static_tf()
         for _, info_pub, info in self._cams.values():
@@ -522,6 +557,8 @@ class SimNode(Node):
         self._renderer.stop()
         if self.bridge is not None and hasattr(self.bridge, "close"):
             self.bridge.close()
+        if self.webrtc is not None:
+            self.webrtc.close()
         self.sim.close()
 
     @property
@@ -760,6 +797,8 @@ class SimNode(Node):
             "commander": self.cmd_vel.status(),
             "counters": dict(self.counters),
         }
+        if self.webrtc is not None:
+            status["webrtc"] = self.webrtc.status()
         self.pub_status.publish(String(data=json.dumps(status)))
 
     def _publish_frame(self, key: str, rgb: np.ndarray, stamp: float) -> None:
