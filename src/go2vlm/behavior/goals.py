@@ -29,6 +29,7 @@ __all__ = [
     "Target",
     "parse_goal",
     "parse_target",
+    "unknown_words",
 ]
 
 GOAL_KINDS = ("follow", "go_to", "look_for", "stop", "sit", "stand", "turn")
@@ -208,6 +209,16 @@ def parse_target(phrase: str) -> Target:
     return _target_from_words(_normalise_en(phrase).split(), phrase)
 
 
+def unknown_words(phrase: str) -> list[str]:
+    """Words of an English object phrase that are no colour, shape or filler: "purple" in "purple ball",
+    which parse_target passes over (it finds "ball"). Chinese phrases: none."""
+    if _is_cjk(phrase):
+        return []
+    return [
+        w for w in _normalise_en(phrase).split() if w not in _EN_COLORS and w not in _EN_SHAPES and w not in _EN_FILLER
+    ]
+
+
 def _parse_zh(raw: str) -> Goal:
     t = unicodedata.normalize("NFKC", raw)
     t = re.sub(r"[\s,.!?;:\"'\u3001\u3002\uff01\uff0c\uff1a\uff1b\uff1f\u201c\u201d\u2018\u2019~]+", "", t)
@@ -282,7 +293,9 @@ def _parse_en(raw: str) -> Goal:
         lite = _EN_POLITE.sub("", re.sub(r"\s+", " ", unicodedata.normalize("NFKC", raw).lower()).strip())
         turn = _EN_TURN.match(lite)
         if turn is None:
-            raise GoalParseError(f"turn how far? say e.g. 'turn left 20 degrees' (at most {MAX_TURN_DEG:g}); got {raw!r}")
+            raise GoalParseError(
+                f"turn how far? say e.g. 'turn left 20 degrees' (at most {MAX_TURN_DEG:g}); got {raw!r}"
+            )
         sides = {turn["side"], turn["side2"]} - {None}
         if len(sides) > 1:
             raise GoalParseError(f"turn left or right, not both ({raw!r})")
