@@ -30,6 +30,10 @@ from go2vlm.apps.mcp.rules import Refused, object_label
 
 __all__ = ["INSTRUCTIONS", "Session", "build_server", "is_loopback", "serve_http", "serve_stdio"]
 
+# A request body above this is refused by the transport (HTTP 413); below it, arguments reach the
+# tools, whose own bounds answer with a tool error that says why (a 10 MB object name included).
+MAX_HTTP_BODY_BYTES = 16 * 1024 * 1024
+
 INSTRUCTIONS = """go2vlm: a Unitree Go2 (or its MuJoCo twin) that sees with a camera and a VLM.
 Give it goals with go_to / look_for / follow (an object such as "blue cylinder"), turn (at most 30
 degrees), sit, stand; stop() and estop() stop it. Rules: one motion goal at a time (pass replace=true
@@ -429,7 +433,9 @@ def serve_http(app: Any, host: str, port: int, security: Any, ready: Callable[[i
     import anyio
     import uvicorn
 
-    starlette_app = app.streamable_http_app(host=host, transport_security=security)
+    starlette_app = app.streamable_http_app(
+        host=host, transport_security=security, max_request_body_size=MAX_HTTP_BODY_BYTES
+    )
     config = uvicorn.Config(starlette_app, host=host, port=port, log_level="warning", lifespan="on")
     server = uvicorn.Server(config)
 
