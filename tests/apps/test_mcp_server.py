@@ -267,6 +267,7 @@ def test_confirm_waits_for_a_person_at_the_terminal_or_on_the_bus(procs: Procs) 
                 p.stdin.flush()
             assert "did not confirm" in error(result["go_to"])
             # On the bus (the Foxglove view's panel publishes this): only 'yes <id>' of the open question.
+            result.clear()
             async with anyio.create_task_group() as tg:
                 tg.start_soon(call, "go_to", {"object": "red ball"})
                 assert await anyio.to_thread.run_sync(lambda: out.wait_line("(#3)", 60))
