@@ -59,6 +59,7 @@ from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check
 __all__ = ["McpBridgeConfig", "McpBridgeNode"]
 
 PENDING_TOPIC = "/mcp/pending"
+GATE_SILENT_S = 12.0  # a gate silent this long has gone (it reports every status_period_s, at most 10 s)
 CONFIRM_TOPIC = "/mcp/confirm"
 
 
@@ -199,9 +200,10 @@ class McpBridgeNode(Node):
         return seen.data
 
     def estop_reports(self) -> dict[str, bool]:
-        """Each gate's e-stop, as its newest /safety/status says."""
+        """Each live gate's e-stop, as its newest /safety/status says."""
+        now = time.monotonic()
         with self._cv:
-            return {k: v[0] for k, v in self._gates.items()}
+            return {k: v[0] for k, v in self._gates.items() if now - v[1] <= GATE_SILENT_S}
 
     def grounding(self) -> str | None:
         s = self.status_of("/target_tracker/status")
@@ -294,7 +296,7 @@ class McpBridgeNode(Node):
         deadline = time.monotonic() + timeout_s
         with self._cv:
             self._cv.wait_for(
-                lambda: bool(self._gates) and all(v[0] for v in self._gates.values()),
+                lambda: bool(self.estop_reports()) and all(self.estop_reports().values()),
                 max(0.0, deadline - time.monotonic()),
             )
         return self.estop_reports()
