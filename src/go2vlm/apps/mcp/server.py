@@ -143,32 +143,29 @@ def build_server(
 
     note = " Every motion passes the safety gate; refused while the e-stop is latched or another goal runs."
 
-    @app.tool(
-        description="Walk to an object and stop about 0.8 m short of it (searching by turning in place "
-        "first if it is not in view). Poll status() until its state is reached (or not_found)." + note,
-        annotations=motion,
-    )
-    @guarded
-    def go_to(object: OBJECT, replace: REPLACE = False) -> dict[str, Any]:
-        return goal(f"go to the {label(object)}", replace)
+    def object_goal(verb: str) -> Callable[..., dict[str, Any]]:
+        def tool(object: OBJECT, replace: REPLACE = False) -> dict[str, Any]:
+            return goal(f"{verb} the {label(object)}", replace)
 
-    @app.tool(
-        description="Turn in place until the object is in view and centred (state found), or give up after "
-        "30 s (not_found). Does not walk." + note,
-        annotations=motion,
-    )
-    @guarded
-    def look_for(object: OBJECT, replace: REPLACE = False) -> dict[str, Any]:
-        return goal(f"look for the {label(object)}", replace)
+        return guarded(tool)
 
-    @app.tool(
-        description="Follow an object at a distance until stop() (never ends by itself; the deadman still "
-        "applies: keep calling status())." + note,
-        annotations=motion,
-    )
-    @guarded
-    def follow(object: OBJECT, replace: REPLACE = False) -> dict[str, Any]:
-        return goal(f"follow the {label(object)}", replace)
+    def posture_goal(posture: str) -> Callable[..., dict[str, Any]]:
+        def tool(replace: REPLACE = False) -> dict[str, Any]:
+            return goal(posture, replace)
+
+        return guarded(tool)
+
+    for name, fn, what in (
+        ("go_to", object_goal("go to"), "Walk to an object and stop about 0.8 m short of it (searching by turning "
+         "in place first if it is not in view). Poll status() until its state is reached (or not_found)."),
+        ("look_for", object_goal("look for"), "Turn in place until the object is in view and centred (state "
+         "found), or give up after 30 s (not_found). Does not walk."),
+        ("follow", object_goal("follow"), "Follow an object at a distance until stop() (never ends by itself; "
+         "the deadman still applies: keep calling status())."),
+        ("sit", posture_goal("sit"), "Sit down (a posture command to the robot)."),
+        ("stand", posture_goal("stand"), "Stand up (a posture command to the robot)."),
+    ):  # fmt: skip
+        app.add_tool(fn, name=name, description=what + note, annotations=motion)
 
     @app.tool(
         description="Turn in place by at most 30 degrees (+ left, - right); a bigger angle is refused, not "
@@ -181,16 +178,6 @@ def build_server(
             raise Refused("degrees must be a finite number")
         side = "left" if degrees >= 0 else "right"
         return goal(f"turn {side} {abs(degrees):.1f} degrees", replace)
-
-    @app.tool(description="Sit down (a posture command to the robot)." + note, annotations=motion)
-    @guarded
-    def sit(replace: REPLACE = False) -> dict[str, Any]:
-        return goal("sit", replace)
-
-    @app.tool(description="Stand up (a posture command to the robot)." + note, annotations=motion)
-    @guarded
-    def stand(replace: REPLACE = False) -> dict[str, Any]:
-        return goal("stand", replace)
 
     @app.tool(
         description="Stop the running goal now: zero velocity through the safety gate. Always allowed.",
