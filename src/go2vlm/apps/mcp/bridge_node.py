@@ -15,7 +15,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
               /safety/status         std_msgs/String, latched: the gate's e-stop, guard and output
               /target_tracker/status std_msgs/String, latched: how it grounds (color | vlm)
               /vlm/status            std_msgs/String   the describe model's name and mode
-              /vlm/detection         std_msgs/String   a vlm node's answer text (mode=describe): describe()
+              /vlm/detection         std_msgs/String   a vlm node's answer text: describe(), while a
+                                     /vlm/status says mode=describe
               /objects               vision_msgs/Detection3DArray, latched: the object memory (frame odom;
                                      class_id = label, score = confidence, bbox.center = where): where_is()
               /emergency_stop/release std_msgs/String  the release token ends the hold (nothing here sends it)
@@ -103,6 +104,7 @@ class McpBridgeNode(Node):
         self._status: dict[str, _Seen] = {}  # topic -> newest JSON status
         self._gates: dict[str, tuple[bool, float]] = {}  # /safety/status writer -> (estop, arrival)
         self._vlm_text: tuple[str, float] | None = None
+        self._describing = -1e9  # when a /vlm/status last said mode=describe
         self._objects: tuple[Detection3DArray, float] | None = None
         self._frame: tuple[bytes, float] | None = None
         self._camera: Any = None
@@ -134,6 +136,8 @@ class McpBridgeNode(Node):
         with self._cv:
             self._seq += 1
             self._status[topic] = _Seen(data, time.monotonic(), self._seq)
+            if topic == "/vlm/status" and data.get("mode") == "describe":
+                self._describing = time.monotonic()
             if topic == "/commander/status":
                 kind = data.get("kind")
                 self.rules.observe(
@@ -211,10 +215,12 @@ class McpBridgeNode(Node):
         return g if isinstance(g, str) else None
 
     def vlm_text(self) -> tuple[str, float, dict[str, Any] | None] | None:
-        """The newest VLM answer text, its age (s) and the newest /vlm/status, if recent enough."""
+        """The newest answer of a vlm node in describe mode, its age (s) and the newest /vlm/status, if
+        recent enough (a detect node's answers are grounding JSON, not a description)."""
         with self._cv:
             item = self._vlm_text
-        if item is None:
+            describing = time.monotonic() - self._describing < 5.0
+        if item is None or not describing:
             return None
         age = time.monotonic() - item[1]
         if age > self.config.describe_max_age_s:
