@@ -13,8 +13,9 @@ from typing import Any
 
 from busutil import env
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node
+from go2vlm.bus import QOS_CLOCK, QOS_DEFAULT, QOS_LATCHED, Node
 from go2vlm.msgs.geometry_msgs import Twist
+from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 
@@ -71,8 +72,10 @@ class Probe(Node):
         self.lock = threading.Lock()
         self.poses: list[tuple[float, float, float, float]] = []  # sim t, x, y, yaw
         self.objects: dict[str, tuple[float, float]] = {}
-        self.cmd: list[tuple[float, float, float]] = []  # the newest sim t when it came, vx, wz
+        self.cmd: list[tuple[float, float, float]] = []  # the sim time when it came, vx, wz
         self.status: list[dict] = []
+        self.sim_time = 0.0  # the newest /clock (100 Hz)
+        self.create_subscription(Clock, "/clock", self._on_clock, QOS_CLOCK)
         self.create_subscription(TFMessage, "/sim/ground_truth", self._on_gt, QOS_DEFAULT)
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd, QOS_DEFAULT)
         self.create_subscription(String, "/commander/status", self._on_status, QOS_LATCHED)
@@ -88,10 +91,12 @@ class Probe(Node):
                 else:
                     self.objects[tf.child_frame_id.removeprefix("gt/")] = (p.x, p.y)
 
+    def _on_clock(self, msg: Clock) -> None:
+        self.sim_time = msg.clock.to_sec()
+
     def _on_cmd(self, msg: Twist) -> None:
         with self.lock:
-            t = self.poses[-1][0] if self.poses else 0.0
-            self.cmd.append((t, msg.linear.x, msg.angular.z))
+            self.cmd.append((self.sim_time, msg.linear.x, msg.angular.z))
 
     def _on_status(self, msg: String) -> None:
         with self.lock:
@@ -114,9 +119,10 @@ class Probe(Node):
             return self.status[-1].get("state", "") if self.status else ""
 
 
-def speed(poses: list[tuple[float, float, float, float]], i: int, window: int = 2) -> tuple[float, float]:
-    """(linear m/s, |yaw rate| rad/s) of the base around pose i, from ground truth."""
-    a, b = poses[max(0, i - window)], poses[i]
+def speed(poses: list[tuple[float, float, float, float]], i: int, window: int = 1) -> tuple[float, float]:
+    """(linear m/s, |yaw rate| rad/s) of the base around pose i (centred: `window` samples either side),
+    from ground truth."""
+    a, b = poses[max(0, i - window)], poses[min(len(poses) - 1, i + window)]
     dt = b[0] - a[0]
     if dt <= 0:
         return 0.0, 0.0
