@@ -35,11 +35,10 @@ def _footprints() -> dict[str, Footprint]:
     return world_footprints(world_model("vision_test")[0])
 
 
-def _still(probe: Probe, seconds: float) -> float:
-    """How far (m) the base moved in the next `seconds` of wall time."""
-    p0 = probe.pose()
-    time.sleep(seconds)
-    p1 = probe.pose()
+def _moved(probe: Probe, t0: float, t1: float) -> float:
+    """How far (m) the base moved from sim time t0 to t1 (waits for t1)."""
+    assert wait_for(lambda: probe.pose()[0] >= t1, 60), "the sim stopped"
+    p0, p1 = next(p for p in probe.since(t0)), probe.since(t1)[0]
     return ((p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) ** 0.5
 
 
@@ -162,10 +161,11 @@ def test_http_stop_midway_deadman_and_estop(procs: Procs) -> None:
             refused = error(await client.call_tool("go_to", {"object": "red ball"}))
             assert "e-stop is latched" in refused
             assert not any(t.name.startswith("release") for t in (await client.list_tools()).tools)
-            await anyio.sleep(0.5)
-            t_after = probe.pose()[0]
-            assert _still(probe, 2.0) < 0.02
-            assert probe.moving_cmds_since(t_after) == []
+            # The robot damps (lies down) at once; from then on it stays where it lies, and the gate sends
+            # nothing but zero.
+            moved = await anyio.to_thread.run_sync(lambda: _moved(probe, t_estop + 1.5, t_estop + 3.0))
+            assert moved < 0.01, moved
+            assert probe.moving_cmds_since(t_estop) == []
             found["t_estop"] = t_estop
         return found
 
