@@ -82,8 +82,11 @@ def build_world_xml(
         ball_radius=float(meta.get("ball_radius", "0.2")),
     )
 
-    # Everything here (robot ranges, world eulers) is in radians.
-    _child(root, "compiler").set("angle", "radian")
+    # Everything here (robot ranges, world eulers) is in radians. Files a world names (textures)
+    # are next to it: the MJCF is compiled from a string, which has no folder of its own.
+    compiler = _child(root, "compiler")
+    compiler.set("angle", "radian")
+    compiler.attrib.setdefault("assetdir", str(world_path(name).parent.resolve()))
     option = _child(root, "option")
     option.attrib.setdefault("timestep", "0.002")
     option.attrib.setdefault("integrator", "implicitfast")
