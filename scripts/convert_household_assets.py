@@ -40,6 +40,7 @@ ASSETS = (
     Asset("lego_brick", "lego/lego.obj", 0.16),
     Asset("tray", "tray/tray_textured.obj", 0.07, texture="tray/tray.jpg"),
     Asset("table_top", "table/table.obj", 1.0, texture="table/table.png"),
+    Asset("cone", "racecar/meshes/cone.obj", 0.32),
 )
 
 
