@@ -41,6 +41,7 @@ ASSETS = (
     Asset("tray", "tray/tray_textured.obj", 0.07, texture="tray/tray.jpg"),
     Asset("table_top", "table/table.obj", 1.0, texture="table/table.png"),
     Asset("cone", "racecar/meshes/cone.obj", 0.32),
+    Asset("toy_chest", "jenga/jenga.obj", 1.0),
 )
 
 
