@@ -59,8 +59,8 @@ def _refused(proc: subprocess.CompletedProcess[str], out: Path, *words: str) -> 
 
 def test_household_world_has_real_objects_and_seeded_lighting() -> None:
     bodies = world_bodies("household")
-    objects = {"teddy_bear", "duck", "soccer_ball", "tray", "cone", "toy_chest", "red_ball", "red_mug", "blue_mug", "red_lego_brick",
-               "yellow_lego_brick", "box_1", "box_2", "box_3", "box_4"}  # fmt: skip
+    objects = {"teddy_bear", "duck", "soccer_ball", "tray", "cone", "toy_chest", "red_ball", "red_mug", "blue_mug",
+               "red_lego_brick", "yellow_lego_brick", "box_1", "box_2", "box_3", "box_4"}  # fmt: skip
     assert objects <= set(bodies) and {"sofa", "coffee_table", "dining_table", "door"} <= set(bodies)
     assert len([b for b in bodies if b.startswith("red_")]) >= 3, "several objects of one colour"
     xml0, _ = build_world_xml("household", seed=0)
