@@ -111,6 +111,10 @@ def test_household_and_referring_suites() -> None:
     assert (
         graph_name(late) == "episode_vlm_delay" and node_overrides(late, 1.0, False)["answer_delay"]["latency_s"] == 2.5
     )
+    goals = load_suite("goals").episode(0, "oracle")
+    assert graph_name(goals) == "episode_oracle"  # no latency axis: the graph as before
+    zero = Episode.from_dict({**goals.to_dict(), "answer_latency_s": 0.0})
+    assert graph_name(zero) == "episode_oracle_delay", "every point of the axis, 0 too, runs one graph"
     with pytest.raises(ValueError, match="oracle and vlm"):
         Episode(world="household", goal="go to the duck", perception="color", answer_latency_s=1.0)
 

@@ -13,9 +13,9 @@ Perception variants (goal episodes): which grounding feeds the tracker, and noth
 
 An episode may name its `target`, the body its goal refers to ("the ball under the table" is
 red_ball): the metrics judge against that body, and the oracle answers with that body's box alone,
-labelled as the commander asked, as a perfect model would. `answer_latency_s` > 0 delivers the
+labelled as the commander asked, as a perfect model would. `answer_latency_s` (0 too) delivers the
 answers late (oracle: the ground truth; vlm: the model's own, held back) through the `answer_delay`
-node: the latency axis of `go2vlm eval --latency`.
+node: the latency axis of `go2vlm eval --latency` (every point of it, 0 too, runs that graph).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ class Episode:
     id: str = ""  # a name in a suite (e.g. goals/007)
     graph: str | None = None  # a launch file (name or path) instead of the perception's packaged graph
     target: str | None = None  # the body the goal refers to; None: the one body whose name fits the goal's object
-    answer_latency_s: float = 0.0  # sim seconds the grounding answers are held back (oracle, vlm)
+    answer_latency_s: float | None = None  # sim seconds the answers are held back (oracle, vlm); None: no latency axis
 
     def __post_init__(self) -> None:
         if self.perception not in PERCEPTIONS:
@@ -81,9 +81,9 @@ class Episode:
             raise ValueError("--robot go2 runs the follow article's loop only (no goal)")
         if self.duration_s <= 0:
             raise ValueError(f"duration must be positive, got {self.duration_s:g}")
-        if not self.answer_latency_s >= 0:
+        if self.answer_latency_s is not None and not self.answer_latency_s >= 0:
             raise ValueError(f"answer latency must be >= 0 s, got {self.answer_latency_s:g}")
-        if self.answer_latency_s > 0 and self.perception == "color":
+        if self.answer_latency_s is not None and self.perception == "color":
             raise ValueError(
                 "an answer latency is for the oracle and vlm variants (the colour grounder runs in the tracker)"
             )
@@ -119,9 +119,9 @@ def graph_name(ep: Episode) -> str:
         return ep.graph
     if ep.goal is None:
         return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
-    if ep.perception == "oracle" and (ep.target is not None or ep.answer_latency_s > 0):
+    if ep.perception == "oracle" and (ep.target is not None or ep.answer_latency_s is not None):
         return "episode_oracle_delay"
-    if ep.perception == "vlm" and ep.answer_latency_s > 0:
+    if ep.perception == "vlm" and ep.answer_latency_s is not None:
         return "episode_vlm_delay"
     return f"episode_{ep.perception}"
 
@@ -210,7 +210,7 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
     if graph_name(ep) in ("episode_oracle_delay", "episode_vlm_delay"):
         target = goal_target(ep.goal)
         out["answer_delay"] = {
-            "latency_s": ep.answer_latency_s,
+            "latency_s": ep.answer_latency_s or 0.0,
             "target_body": (ep.target or "") if ep.perception == "oracle" else "",
             "target_label": target.label if target is not None and ep.perception == "oracle" else "",
         }
