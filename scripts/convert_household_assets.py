@@ -116,10 +116,12 @@ most 256 px and saved as PNG).
 |---|---|---|
 {rows}
 
-Upstream notes, as far as they are known: `duck.obj`/`duckCM.png` is the COLLADA "Duck" sample model
-(Sony Computer Entertainment Inc., published with the COLLADA and glTF samples under the SCEA Shared
-Source License 1.0, which permits use and redistribution with this notice); the other meshes ship in
-bullet3's data folder without a separate licence file, so bullet3's zlib licence applies.
+Upstream notes, as far as they are known: `duck.obj`/`duckCM.png` looks like the COLLADA "Duck"
+sample model (Sony Computer Entertainment Inc.), which the COLLADA and glTF sample collections publish
+under the SCEA Shared Source License 1.0; pybullet ships it under zlib without a notice of its own, so
+check the SCEA terms before redistributing the duck outside go2vlm. The other meshes ship in bullet3's
+data folder without a separate licence file (the `jenga` and `domino` models beside them say "created
+by Erwin Coumans"), so bullet3's zlib licence applies.
 No file here is downloaded at run time.
 """
 
