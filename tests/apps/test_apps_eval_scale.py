@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -220,6 +221,7 @@ def ray_cluster() -> Iterator[str]:
             os.killpg(head.pid, signal.SIGKILL)  # a raylet or GCS that outlived the head
         except ProcessLookupError:
             pass
+        shutil.rmtree(temp, ignore_errors=True)
 
 
 def _outcomes(out: Path) -> dict[int, tuple[str, bool, str]]:
