@@ -172,8 +172,16 @@ def _target_from_words(words: list[str], raw: str) -> Target:
             rest.append(w)
     if color is None and shape is None and not rest:
         raise GoalParseError(f"no object named in {raw!r}; say e.g. 'the red ball' or 'the blue cylinder'")
-    if rest and color is None and shape is None:
-        return Target(label=" ".join(rest))  # free text for a VLM ("person", "chair")
+    if rest:
+        # A category or a referring phrase ("teddy bear", "soccer ball", "ball under the table", "red
+        # object nearest the door") is kept whole for a VLM; the colour and shape it names, if any,
+        # are what the colour-shape grounder can still try.
+        lo, hi = 0, len(words)
+        while words[lo] in _EN_FILLER:
+            lo += 1
+        while words[hi - 1] in _EN_FILLER:
+            hi -= 1
+        return Target(label=" ".join(words[lo:hi]), color=color, shape=shape)
     label = " ".join(x for x in (color, shape) if x)
     return Target(label=label, color=color, shape=shape)
 

@@ -10,6 +10,12 @@ Perception variants (goal episodes): which grounding feeds the tracker, and noth
           render): the upper bound of any detector
   color   the classical colour-shape grounder (perception/grounding.py), no weights
   vlm     the `vlm` node (mode=detect; a local model or an OpenAI-compatible server)
+
+An episode may name its `target`, the body its goal refers to ("the ball under the table" is
+red_ball): the metrics judge against that body, and the oracle answers with that body's box alone,
+labelled as the commander asked, as a perfect model would. `answer_latency_s` (0 too) delivers the
+answers late (oracle: the ground truth; vlm: the model's own, held back) through the `answer_delay`
+node: the latency axis of `go2vlm eval --latency` (every point of it, 0 too, runs that graph).
 """
 
 from __future__ import annotations
@@ -60,6 +66,8 @@ class Episode:
     params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node name -> more parameters
     id: str = ""  # a name in a suite (e.g. goals/007)
     graph: str | None = None  # a launch file (name or path) instead of the perception's packaged graph
+    target: str | None = None  # the body the goal refers to; None: the one body whose name fits the goal's object
+    answer_latency_s: float | None = None  # sim seconds the answers are held back (oracle, vlm); None: no latency axis
 
     def __post_init__(self) -> None:
         if self.perception not in PERCEPTIONS:
@@ -78,6 +86,12 @@ class Episode:
             raise ValueError("--robot go2 runs the follow article's loop only (no goal)")
         if self.duration_s <= 0:
             raise ValueError(f"duration must be positive, got {self.duration_s:g}")
+        if self.answer_latency_s is not None and not self.answer_latency_s >= 0:
+            raise ValueError(f"answer latency must be >= 0 s, got {self.answer_latency_s:g}")
+        if self.answer_latency_s is not None and self.perception == "color":
+            raise ValueError(
+                "an answer latency is for the oracle and vlm variants (the colour grounder runs in the tracker)"
+            )
 
     @property
     def kind(self) -> str:
@@ -112,6 +126,10 @@ def graph_name(ep: Episode) -> str:
         if ep.robot == "go2":
             return "follow_go2_sim_webrtc" if ep.transport == "webrtc" else "follow_go2_sim"
         return "follow_sim"
+    if ep.perception == "oracle" and (ep.target is not None or ep.answer_latency_s is not None):
+        return "episode_oracle_delay"
+    if ep.perception == "vlm" and ep.answer_latency_s is not None:
+        return "episode_vlm_delay"
     return f"episode_{ep.perception}"
 
 
@@ -125,20 +143,27 @@ def goal_target(goal: str | None) -> Target | None:
 
 
 def label_matches(target: Target, label: str) -> bool:
-    """True when a detection or body label names the target (colour and shape agree where the
-    target names them; "red_sphere" and "red ball" are the same thing)."""
+    """True when a detection or body label names the target: colour and shape agree where the target
+    names them ("red_sphere" and "red ball" are the same thing), and a category or phrase beyond them
+    ("soccer ball", "red mug", "teddy bear") is the same words."""
     try:
         t = parse_target(label.replace("_", " "))
     except GoalParseError:
         return False
-    if target.color is None and target.shape is None:
+    if t.label != _canonical(t) or target.label != _canonical(target):
         return t.label == target.label
     return (target.color is None or t.color == target.color) and (target.shape is None or t.shape == target.shape)
 
 
-def target_body(goal: str | None, names: list[str]) -> str | None:
-    """The world body the goal's object names (red_sphere for "the red ball", ...), if exactly one
-    body fits best: an exact colour-and-shape match wins over a partial one."""
+def _canonical(t: Target) -> str:
+    return " ".join(x for x in (t.color, t.shape) if x)
+
+
+def target_body(goal: str | None, names: list[str], target: str | None = None) -> str | None:
+    """The world body the goal refers to: `target` (an episode's own), else the body the goal's object
+    names (red_sphere for "the red ball", ...); the first by name when several fit."""
+    if target is not None:
+        return target if target in names else None
     target = goal_target(goal)
     if target is None:
         return None
@@ -201,6 +226,13 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
             out["go2"].update(ip="127.0.0.1", signal_port=port)
     if ep.goal is not None:
         out["commander"] = {"goal": ep.goal}
+    if graph_name(ep) in ("episode_oracle_delay", "episode_vlm_delay"):
+        target = goal_target(ep.goal)
+        out["answer_delay"] = {
+            "latency_s": ep.answer_latency_s or 0.0,
+            "target_body": (ep.target or "") if ep.perception == "oracle" else "",
+            "target_label": target.label if target is not None and ep.perception == "oracle" else "",
+        }
     for name, values in ep.params.items():
         out.setdefault(name, {}).update(values)
     return out

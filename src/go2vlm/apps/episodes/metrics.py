@@ -107,12 +107,20 @@ def _dedupe(states: list[Any]) -> list[Any]:
 
 
 def grounding_metrics(
-    answers: list[tuple[float, float, list[PixelBox]]], truth: dict[float, list[PixelBox]], goal: str | None
+    answers: list[tuple[float, float, list[PixelBox]]],
+    truth: dict[float, list[PixelBox]],
+    goal: str | None,
+    body: str | None = None,
 ) -> dict[str, Any] | None:
-    """Every answer against the ground truth of its frame (see the module docstring); None without answers."""
+    """Every answer against the ground truth of its frame (see the module docstring); None without answers.
+    `body`: the episode's own target body (a referring goal), the only ground truth of the goal."""
     target = goal_target(goal)
     if not answers or target is None:
         return None
+
+    def is_goal(label: str) -> bool:
+        return label == body if body is not None else label_matches(target, label)
+
     ious: list[float] = []
     hits = misses = wrong = false_pos = answered = visible_n = unscored = 0
     ages: list[float] = []
@@ -122,9 +130,9 @@ def grounding_metrics(
         if gt is None:
             unscored += 1  # no ground truth for that frame (scoring off, or the answer's stamp is not a frame's)
             continue
-        mine = [b for label, b, _ in boxes if label_matches(target, label)]
-        goal_boxes = [b for label, b, _ in gt if label_matches(target, label)]
-        others = [b for label, b, _ in gt if not label_matches(target, label)]
+        mine = [b for label, b, _ in boxes if label == body or label_matches(target, label)]
+        goal_boxes = [b for label, b, _ in gt if is_goal(label)]
+        others = [b for label, b, _ in gt if not is_goal(label)]
         visible = bool(goal_boxes)
         visible_n += visible
         answered += bool(mine)
@@ -231,7 +239,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     ep = ctx.episode
     kind = ep.kind
     names = sorted({*ctx.shapes, *(n for _, p in rec.poses for n in p if n != "go2")})
-    target = target_body(ep.goal, names)
+    target = target_body(ep.goal, names, ep.target)
     hfov = math.radians(spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height))
 
     # -- geometry over time, from ground truth --------------------------------------------------
@@ -353,6 +361,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             [(t, t, b) for t, b in sorted(rec.truth.items())] if ep.perception == "oracle" else rec.answers,
             rec.truth,
             ep.goal,
+            ep.target,
         ),
         "vlm": vlm_latency(rec.vlm_status),
         "tracker": tracker_metrics(rec.tracked, rec.cmds),
