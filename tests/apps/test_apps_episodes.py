@@ -31,7 +31,7 @@ from go2vlm.sim.worlds import world_footprints, world_model  # noqa: E402
 
 
 def test_packaged_suites_load_and_expand_reproducibly() -> None:
-    assert {"smoke", "goals", "follow", "distractors", "obstacles"} <= set(available_suites())
+    assert {"smoke", "goals", "follow", "distractors", "obstacles", "injection"} <= set(available_suites())
     for name in available_suites():
         suite = load_suite(name)
         assert suite.episodes >= 1 and suite.tasks

@@ -47,6 +47,9 @@ TYPES = [
     "vision_msgs/msg/ObjectHypothesisWithPose",
     "vision_msgs/msg/Detection2D",
     "vision_msgs/msg/Detection2DArray",
+    "vision_msgs/msg/BoundingBox3D",
+    "vision_msgs/msg/Detection3D",
+    "vision_msgs/msg/Detection3DArray",
     "go2vlm_msgs/msg/TrackedTarget",
     "tf2_msgs/msg/TFMessage",
     "rosgraph_msgs/msg/Clock",
@@ -128,6 +131,7 @@ def test_empty_sequences() -> None:
     check("sensor_msgs/msg/JointState", {"header": header, "name": [], "position": [], "velocity": [], "effort": []})
     check("tf2_msgs/msg/TFMessage", {"transforms": []})
     check("vision_msgs/msg/Detection2DArray", {"header": header, "detections": []})
+    check("vision_msgs/msg/Detection3DArray", {"header": header, "detections": []})
 
 
 @given(st.data())

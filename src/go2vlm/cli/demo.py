@@ -38,6 +38,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         choices=("sim", "go2"),
         help="sim: /cmd_vel straight into the sim; go2: through the Go2 driver and the Unitree protocol",
     )
+    p.add_argument(
+        "--transport",
+        default="dds",
+        choices=("dds", "webrtc"),
+        help="with --robot go2: dds (Unitree DDS, the EDU's Ethernet) or webrtc (the Unitree app's route, every Go2)",
+    )
     p.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
     p.add_argument("--bag", action="store_true", help="also record every topic into OUT/bag (rosbag2 MCAP)")
     add_foxglove_args(p)
@@ -105,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
             ball_speed=args.ball_speed,
             duration_s=args.duration,
             robot=args.robot,
+            transport=args.transport,
             params=vlm_node_params(args.perception, args.model, args.base_url, node_params(args.param)),
         )
     except ValueError as exc:

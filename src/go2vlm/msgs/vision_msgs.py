@@ -1,5 +1,6 @@
 """vision_msgs/msg (ROS 2 Jazzy, vision_msgs 4.x): Point2D, Pose2D, BoundingBox2D, ObjectHypothesis,
-ObjectHypothesisWithPose, Detection2D, Detection2DArray; and the one conversion between pixel boxes
+ObjectHypothesisWithPose, Detection2D, Detection2DArray, BoundingBox3D, Detection3D, Detection3DArray
+(objects in the world: the object memory's /objects); and the one conversion between pixel boxes
 (label, (x1, y1, x2, y2), score) and a Detection2DArray, both ways."""
 
 from collections.abc import Iterable
@@ -8,7 +9,7 @@ from dataclasses import dataclass
 from cyclonedds.idl import types
 
 from go2vlm.msgs._base import IdlStruct, default, register
-from go2vlm.msgs.geometry_msgs import PoseWithCovariance
+from go2vlm.msgs.geometry_msgs import Pose, PoseWithCovariance, Vector3
 from go2vlm.msgs.std_msgs import Header
 
 
@@ -62,6 +63,29 @@ class Detection2D(IdlStruct, typename="vision_msgs::msg::dds_::Detection2D_"):
 class Detection2DArray(IdlStruct, typename="vision_msgs::msg::dds_::Detection2DArray_"):
     header: Header = default(Header)
     detections: types.sequence[Detection2D] = default(list)
+
+
+@register
+@dataclass
+class BoundingBox3D(IdlStruct, typename="vision_msgs::msg::dds_::BoundingBox3D_"):
+    center: Pose = default(Pose)
+    size: Vector3 = default(Vector3)
+
+
+@register
+@dataclass
+class Detection3D(IdlStruct, typename="vision_msgs::msg::dds_::Detection3D_"):
+    header: Header = default(Header)
+    results: types.sequence[ObjectHypothesisWithPose] = default(list)
+    bbox: BoundingBox3D = default(BoundingBox3D)
+    id: str = ""
+
+
+@register
+@dataclass
+class Detection3DArray(IdlStruct, typename="vision_msgs::msg::dds_::Detection3DArray_"):
+    header: Header = default(Header)
+    detections: types.sequence[Detection3D] = default(list)
 
 
 PixelBox = tuple[str, tuple[float, float, float, float], float]  # label, (x1, y1, x2, y2), score

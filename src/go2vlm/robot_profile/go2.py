@@ -28,7 +28,7 @@ __all__ = [
 
 GO2 = RobotProfile(
     name="go2",
-    description="a Unitree Go2 through the go2 driver (Unitree's DDS protocol)",
+    description="a Unitree Go2 through the go2 driver (Unitree's DDS protocol or WebRTC)",
     # Sport-mode Move() ranges (Unitree's documented limits): the hard ceiling of every speed limit.
     ceilings=SpeedCeilings(vx_forward=3.8, vx_backward=2.5, vy=1.0, vyaw=4.0),
     stand_height=0.32,

@@ -24,7 +24,8 @@ A robot end subclasses `RobotEnd`, sets `profile` (robot_profile/), `postures`, 
     status()        its own status fields
 and applies `command()` in its own loop (the sim: its physics thread; the go2 driver: a Move timer
 on its transport). `on_stop(reason)` is called when the command was just forced to zero because
-driving is not allowed any more (another /cmd_vel writer): stop at once.
+driving is not allowed any more (`stop_now(reason)`: another /cmd_vel writer, or a transport that
+lost the robot): stop at once.
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ class RobotEnd(Node):
             on_release=self._on_release,
             released_note=released_note,
         )
-        self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self._on_cmd_stop)
+        self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self.stop_now)
         if take_postures:
             self.create_subscription(String, self.posture_topic, self._on_posture, QOS_DEFAULT)
 
@@ -149,8 +150,9 @@ class RobotEnd(Node):
             return
         self._set_command(self.profile.ceilings.clamp(*vals))
 
-    def _on_cmd_stop(self, reason: str) -> None:
-        """Driving is not allowed any more (another /cmd_vel writer): zero now."""
+    def stop_now(self, reason: str) -> None:
+        """Driving is not allowed any more (another /cmd_vel writer, a transport that lost the robot):
+        zero now, and `on_stop(reason)`."""
         self._set_command(ZERO)
         self.on_stop(reason)
 

@@ -34,7 +34,7 @@ class Go2Sim:
             max(1920, cfg.camera_width, cfg.world_camera_width),
             max(1080, cfg.camera_height, cfg.world_camera_height),
         )
-        xml, self.world_info = build_world_xml(cfg.world, cfg.spawn, off)
+        xml, self.world_info = build_world_xml(cfg.world, cfg.spawn, off, seed=cfg.seed)
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.model.opt.timestep = cfg.timestep
         self.data = mujoco.MjData(self.model)

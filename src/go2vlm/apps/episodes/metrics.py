@@ -112,12 +112,20 @@ def _dedupe(states: list[Any]) -> list[Any]:
 
 
 def grounding_metrics(
-    answers: list[tuple[float, float, list[PixelBox]]], truth: dict[float, list[PixelBox]], goal: str | None
+    answers: list[tuple[float, float, list[PixelBox]]],
+    truth: dict[float, list[PixelBox]],
+    goal: str | None,
+    body: str | None = None,
 ) -> dict[str, Any] | None:
-    """Every answer against the ground truth of its frame (see the module docstring); None without answers."""
+    """Every answer against the ground truth of its frame (see the module docstring); None without answers.
+    `body`: the episode's own target body (a referring goal), the only ground truth of the goal."""
     target = goal_target(goal)
     if not answers or target is None:
         return None
+
+    def is_goal(label: str) -> bool:
+        return label == body if body is not None else label_matches(target, label)
+
     ious: list[float] = []
     hits = misses = wrong = false_pos = answered = visible_n = unscored = 0
     ages: list[float] = []
@@ -127,9 +135,9 @@ def grounding_metrics(
         if gt is None:
             unscored += 1  # no ground truth for that frame (scoring off, or the answer's stamp is not a frame's)
             continue
-        mine = [b for label, b, _ in boxes if label_matches(target, label)]
-        goal_boxes = [b for label, b, _ in gt if label_matches(target, label)]
-        others = [b for label, b, _ in gt if not label_matches(target, label)]
+        mine = [b for label, b, _ in boxes if label == body or label_matches(target, label)]
+        goal_boxes = [b for label, b, _ in gt if is_goal(label)]
+        others = [b for label, b, _ in gt if not is_goal(label)]
         visible = bool(goal_boxes)
         visible_n += visible
         answered += bool(mine)
@@ -236,7 +244,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     ep = ctx.episode
     kind = ep.kind
     names = sorted({*ctx.shapes, *(n for _, p in rec.poses for n in p if n != "go2")})
-    target = target_body(ep.goal, names)
+    target = target_body(ep.goal, names, ep.target)
     robot_facts = profile(ep.robot)
     hfov = math.radians(robot_facts.head_camera.hfov_deg(ep.camera_width, ep.camera_height))
 
@@ -362,6 +370,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             [(t, t, b) for t, b in sorted(rec.truth.items())] if ep.perception == "oracle" else rec.answers,
             rec.truth,
             ep.goal,
+            ep.target,
         ),
         "vlm": vlm_latency(rec.vlm_status),
         "tracker": tracker_metrics(rec.tracked, rec.cmds),
@@ -389,7 +398,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
                 "cmd_rate_hz": round((len(cmds) - 1) / span, 2) if span > 0 else 0.0,
                 "mean_cmd_vx": round(float(np.mean([c[1] for c in cmds])), 4) if cmds else None,
                 "frames_dropped_by_renderer": rec.status[-1].get("frames_dropped") if rec.status else None,
-                "robot": ep.robot,
+                "robot": ep.robot if ep.transport == "dds" else f"{ep.robot} ({ep.transport})",
                 "rtf_target": None if ctx.fast else ctx.rtf,
                 "fast": ctx.fast,
                 "camera": f"{ep.camera_width}x{ep.camera_height}@{ep.camera_rate_hz:g}Hz",

@@ -1,4 +1,7 @@
-"""go2: drives a real Unitree Go2 (or the simulator's Unitree bridge) over Unitree's own DDS protocol.
+"""go2: drives a real Unitree Go2 (or the simulator) over Unitree's own DDS protocol (`transport: dds`,
+the EDU's Ethernet port) or over WebRTC (`transport: webrtc`, the Unitree app's route over Wi-Fi, every
+Go2 model). Over WebRTC the Unitree topics below travel as JSON on the data channel and the camera as
+a video track (robots/go2/webrtc/transport.py); everything on the ROS side is the same.
 
 Subscribes:
   /emergency_stop          std_msgs/Bool        true -> Damp (1001), latched: no Move, no standing up
@@ -53,6 +56,15 @@ default because two masters on one robot is the situation where nobody knows wha
 and Damp is the one action the other controller cannot make worse by accident. "report" only logs
 and counts. Either way the log says so loudly and /go2/status names the writer (GUID, node).
 
+WebRTC (`ip`, `serial`, `mode`, `signal_port`, `aes_key`, `connect_timeout_s`): the first connection
+is made at start; a robot that does not answer, a signalling answer that cannot be read or an unknown
+protocol is one line and exit 2. A link that drops later stops the robot (StopMove is not possible,
+so: nothing sent, nothing queued, /go2/status `link.connected` false, the gate stops on the silent
+/go2/lowstate), reconnects with backoff, and moves again only after /cmd_vel passed through zero. The
+robot closing the connection (another client took it over) or answering "reject" on reconnect counts
+as a foreign controller (`foreign_sport`). The firmware version is read on every connect and logged,
+with a warning for one go2vlm has not been tested on (docs/real_robot.md#firmware).
+
 Time: cmd_timeout_s, move_rate_hz, state_rate_hz, camera_rate_hz, the status period and the stamps
 are in the node's clock (sim time with use_sim_time, e.g. against the simulator); the sport and
 videohub RPC timeouts (rpc_timeout_s) are network timeouts, always wall time.
@@ -98,6 +110,23 @@ RETRY_S = 0.25  # an unanswered Damp or StopMove is sent again after this long
 
 @dataclass
 class Go2DriverConfig(RobotEndConfig):
+    transport: str = param(
+        "dds",
+        help="dds: Unitree DDS on the Ethernet port (EDU); webrtc: the Unitree app's route (every Go2)",
+        choices=("dds", "webrtc"),
+    )
+    ip: str = param("", help="webrtc: the robot's IP (its Wi-Fi address; 127.0.0.1 for go2vlm sim --webrtc)")
+    serial: str = param("", help="webrtc: find the robot on the LAN by its serial number instead of ip")
+    mode: str = param(
+        "sta", help="webrtc: sta (robot on your network) or ap (your PC on the robot's Wi-Fi)", choices=("sta", "ap")
+    )
+    signal_port: int = param(
+        p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
+    )
+    aes_key: str = param("", help="webrtc: the robot's AES-128 key (32 hex chars), needed on firmware >= 1.1.15")
+    connect_timeout_s: float = param(
+        10.0, help="webrtc: signalling + ICE + validation at start (wall s)", min=1.0, max=120.0
+    )
     interface: str = param("", help="network interface wired to the Go2 (enp3s0, eth0; lo for a local sim); '' = env")
     domain: int = param(-1, help="DDS domain; the Go2 uses 0; -1 = ROS_DOMAIN_ID (default 0)", min=-1, max=232)
     move_rate_hz: float = param(20.0, help="rate of sport Move requests while /cmd_vel is non-zero", min=1.0, max=100.0)
@@ -135,7 +164,9 @@ class Go2DriverNode(RobotEnd):
     """The robot end of a real Go2 (robots/base.py does the e-stop, /cmd_vel, postures and status).
     Its own part is Unitree's: the sport RPC (`self.sport`: Move, StopMove, Damp and the posture
     chains), the videohub camera (`self.video`), and the robot's state, lowstate and lidar cloud
-    turned into ROS topics. The transport is Unitree's DDS protocol (RpcClient over rt/api/*)."""
+    turned into ROS topics. The transport is Unitree's DDS protocol (RpcClient over rt/api/*) or WebRTC
+    (`self.link`, robots/go2/webrtc/transport.py: an RpcClient-shaped `sport` and the same callbacks
+    `_on_state`, `_on_lowstate`, `_on_cloud`, `_publish_camera`, fed on the driver's thread)."""
 
     name = "go2"
     Config = Go2DriverConfig
@@ -158,8 +189,16 @@ class Go2DriverNode(RobotEnd):
             released_note="the robot stays down until 'recover' or 'stand'",
             **kwargs,
         )
-        self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
-        self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
+        self.link: Any = None  # the WebRTC transport (robots/go2/webrtc/transport.py), with transport=webrtc
+        if cfg.transport == "webrtc":
+            from go2vlm.robots.go2.webrtc.transport import WebRtcTransport
+
+            self.link = WebRtcTransport(self, cfg)
+            self.sport: Any = self.link.sport
+            self.video: Any = None
+        else:
+            self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
+            self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
 
         self.moving = False  # a non-zero Move was sent since the last StopMove
         self._damp_acked = False
@@ -184,26 +223,42 @@ class Go2DriverNode(RobotEnd):
         self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
         self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
         if cfg.camera_rate_hz > 0:
-            self.pub_jpeg = self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+            self.pub_jpeg = (  # the robot's own JPEGs: videohub over DDS; WebRTC has H.264 video instead
+                self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
+                if self.video is not None
+                else None
+            )
             self.pub_image = self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE) if cfg.publish_raw else None
             self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
-            self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
+            if self.video is not None:  # over WebRTC the camera is a video track
+                self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
-        self.create_subscription(
-            Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
-        )
+        dds = self.link is None  # over WebRTC the transport feeds the same methods
+        if dds:
+            self.create_subscription(
+                Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
+            )
         self._names = discovery_info.directory(self.participant)
-        self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
+        if dds:
+            self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self._last_lowstate_pub = -math.inf
         if cfg.lowstate_topic:
             self.pub_lowstate = self.create_publisher(LowState, self.profile.health_topic, QOS_SENSOR)
-            self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
+            if dds:
+                self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
         if cfg.lidar:
             self._scan_spec, self._lidar_tfs = self.profile.scan_spec(), self.profile.lidar_transforms()
             self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
-            self.create_subscription(PointCloud2, self.profile.lidar.topic, self._on_cloud, QOS_SENSOR)
+            if dds:
+                self.create_subscription(PointCloud2, self.profile.lidar.topic, self._on_cloud, QOS_SENSOR)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self.publish_status)
+        if self.link is not None:
+            self.link.start()  # the first connection, or a LinkError: one line, exit 2
+
+    def close(self) -> None:
+        if self.link is not None:
+            self.link.stop()
 
     # -- the robot end's own parts (robots/base.py) --------------------------------------------
     def on_stop(self, reason: str) -> None:
@@ -224,15 +279,18 @@ class Go2DriverNode(RobotEnd):
         api = int(req.header.identity.api_id)
         if api not in p.SPORT_API_NAMES:
             return  # a query (API version), not a command
-        name = p.SPORT_API_NAMES[api]
         who = "an unknown writer" if sender is None else sender.guid
         node = self._names.node_of(sender.guid) if sender is not None else None
+        self._foreign_sport(p.SPORT_API_NAMES[api], who, None if sender is None else sender.participant, node)
+
+    def _foreign_sport(self, name: str, who: str, participant: Any, node: str | None) -> None:
+        """Another controller commands the robot (`foreign_sport`): damp and latch, or report."""
         self.foreign["requests"] += 1
         writers = self.foreign["writers"]
         if who not in writers and len(writers) >= 16:
             writers.pop(next(iter(writers)))  # the status names the latest few, the log every one
         writers[who] = {
-            "participant": None if sender is None else sender.participant,
+            "participant": participant,
             "node": node,
             "last_api": name,
         }
@@ -406,7 +464,7 @@ class Go2DriverNode(RobotEnd):
 
     def status(self) -> dict[str, Any]:
         s = self.state
-        return {
+        status: dict[str, Any] = {
             "connected": self.sport.matched,
             "state_age_s": None if s is None else round(self.clock.monotonic() - self._state_time, 3),
             "moving": self.moving,
@@ -421,7 +479,11 @@ class Go2DriverNode(RobotEnd):
             "foreign_sport": {"policy": self.config.foreign_sport, **self.foreign},
             "frames": self.frames,
             "errors": dict(self.counters),
+            "transport": self.config.transport,
         }
+        if self.link is not None:
+            status["link"] = self.link.status()
+        return status
 
     # -- camera ------------------------------------------------------------------------------
     def _poll_camera(self) -> None:
@@ -449,9 +511,14 @@ class Go2DriverNode(RobotEnd):
             self.count("bad_frames")
             self.log.throttled("error", 2.0, "videohub JPEG does not decode", key="camdec")
             return
+        self._publish_camera(bgr, stamp, bytes(jpeg))
+
+    def _publish_camera(self, bgr: np.ndarray, stamp: float, jpeg: bytes | None) -> None:
+        """One camera frame out: the JPEG as it came (DDS videohub), the bgr8 image, the camera info."""
         cfg: Go2DriverConfig = self.config
         header = self.header(cfg.camera_frame, t=stamp)
-        self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=bytes(jpeg)))
+        if jpeg is not None and self.pub_jpeg is not None:
+            self.pub_jpeg.publish(CompressedImage(header=header, format="jpeg", data=jpeg))
         if self.pub_image is not None:
             self.pub_image.publish(numpy_to_image(bgr, "bgr8", header))
         h, w = bgr.shape[:2]

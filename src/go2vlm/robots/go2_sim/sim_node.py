@@ -106,6 +106,12 @@ With `unitree: true` the node also serves the Unitree DDS protocol (rt/api/sport
 StandUp ..., rt/api/videohub/request camera JPEGs, rt/sportmodestate) through
 `go2vlm.robots.go2_sim.unitree_bridge.UnitreeSimBridge`, so `go2vlm run go2 --param interface=lo` drives it like
 a real Go2. While /cmd_vel is silent the sport API has the robot; a live /cmd_vel overrides it.
+
+With `webrtc: true` (implies `unitree`) it also answers the Go2's WebRTC route, the Unitree app's, on
+`webrtc_host`:`webrtc_port` (127.0.0.1:9991): signalling, the data channel relaying the Unitree topics
+above as JSON, and the head camera (/camera/image_raw: keep `camera` on) as an H.264 video track
+(robots/go2_sim/webrtc_server.py). `go2vlm run go2 --param transport=webrtc --param ip=127.0.0.1` and
+unitree_webrtc_connect drive it like a real Go2.
 """
 
 from __future__ import annotations
@@ -149,6 +155,21 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
     lidar_rate_hz: float = param(10.0, help="lidar cloud and /scan rate (sim time)", min=1.0, max=50.0)
     detections: bool = param(False, help="publish ground-truth boxes of each head frame on /sim/detections")
     unitree: bool = param(False, help="also serve the Unitree DDS protocol (UnitreeSimBridge)")
+    webrtc: bool = param(False, help="also serve the Go2's WebRTC (signalling, data channel, video); implies unitree")
+    webrtc_host: str = param("127.0.0.1", help="address of the WebRTC signalling server")
+    webrtc_port: int = param(protocol.SIGNAL_PORT, help="WebRTC signalling port (a Go2's is 9991)", min=1, max=65535)
+    webrtc_legacy_port: int = param(
+        0, help="also the legacy plain-text /offer signalling here (a Go2's is 8081); 0 = off", min=0, max=65535
+    )
+    webrtc_seal: int = param(
+        protocol.SEAL_STATIC,
+        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key",
+        min=1,
+        max=3,
+    )
+    webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
+    webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
+    webrtc_takeover: bool = param(False, help="a new WebRTC client replaces the connected one (as the phone app can)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
     lowstate_rate_hz: float = param(
         20.0, help="rate of /lowstate (sim time; a Go2's rt/lf/lowstate is ~20 Hz)", min=1.0, max=500.0
@@ -206,7 +227,7 @@ class SimNode(RobotEnd):
             cfg,
             held="Damp, no /cmd_vel, no standing up",
             released_note="the robot stays down until 'recover' or 'stand'; /cmd_vel must pass through zero",
-            take_postures=not cfg.unitree,  # with the Unitree bridge the driver sends sport RPCs instead
+            take_postures=not (cfg.unitree or cfg.webrtc),  # with the Unitree bridge the driver sends sport RPCs
             **kwargs,
         )
         try:
@@ -216,6 +237,7 @@ class SimNode(RobotEnd):
         self._cmd_timed_out = True
         self._started = False
         self.bridge: Any = None
+        self.webrtc: Any = None  # the Go2's WebRTC service (robots/go2_sim/webrtc_server.py), with `webrtc`
         self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
         if self.clock.sim:
             self.set_sim_time(self.sim.time)  # stamps from the start are sim time (0.0)
@@ -232,7 +254,7 @@ class SimNode(RobotEnd):
         )
         self.renderer = RenderThread(model, setup, self.outputs, self.log, self.node_name)
         self.physics = PhysicsThread(self)
-        if cfg.unitree:
+        if cfg.unitree or cfg.webrtc:
             try:
                 from go2vlm.robots.go2_sim.unitree_bridge import UnitreeSimBridge
             except ImportError as exc:
@@ -240,6 +262,20 @@ class SimNode(RobotEnd):
                     f"unitree: true needs go2vlm.robots.go2_sim.unitree_bridge, which cannot be imported: {exc}"
                 ) from exc
             self.bridge = UnitreeSimBridge(self, self.sim, estop=lambda: self.estop.engaged)
+        if cfg.webrtc:
+            from go2vlm.robots.go2_sim.webrtc_server import SimWebRtcServer
+
+            self.webrtc = SimWebRtcServer(
+                self,
+                self.profile,
+                host=cfg.webrtc_host,
+                port=cfg.webrtc_port,
+                legacy_port=cfg.webrtc_legacy_port,
+                seal=cfg.webrtc_seal,
+                aes_key=cfg.webrtc_aes_key,
+                firmware=cfg.webrtc_firmware,
+                takeover=cfg.webrtc_takeover,
+            )
         self.outputs.static(has_world_camera)
 
     # -- the robot end's own parts (robots/base.py) --------------------------------------------
@@ -285,7 +321,7 @@ class SimNode(RobotEnd):
         """Called on the physics thread (its state is the newest)."""
         cfg: SimNodeConfig = self.config
         s = self.physics.state if self.physics.state is not None else self.sim.state()
-        return {
+        status: dict[str, Any] = {
             "sim_time": round(s.time, 4),
             "wall_time": round(time.time(), 3),  # wall time whatever the clock: pairs sim time with the wall
             "use_sim_time": self.clock.sim,
@@ -307,6 +343,9 @@ class SimNode(RobotEnd):
             "lidar": cfg.lidar,
             "counters": dict(self.counters),
         }
+        if self.webrtc is not None:
+            status["webrtc"] = self.webrtc.status()
+        return status
 
     # -- inputs ------------------------------------------------------------------------------
     def _on_push(self, msg: Twist) -> None:
@@ -333,6 +372,8 @@ class SimNode(RobotEnd):
         self.renderer.stop()
         if self.bridge is not None:
             self.bridge.close()
+        if self.webrtc is not None:
+            self.webrtc.close()
         self.sim.close()
 
     @property
