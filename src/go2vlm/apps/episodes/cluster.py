@@ -15,7 +15,6 @@ optional extra: `pip install 'go2vlm[cluster]'`; nothing here imports it until -
 
 from __future__ import annotations
 
-import os
 import socket
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -52,19 +51,18 @@ def reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> str | None:
         return f"nothing answers at {hostport} ({exc.strerror or exc})"
 
 
-def _episode_task(index: int, episode: dict[str, Any], run: dict[str, Any], interface: str, log_level: str) -> dict:
-    """Runs in a Ray worker process: one episode on this process's own DDS domain."""
-    from go2vlm.apps.episodes.evaluate import EVAL_DOMAINS, run_worker_episode
-
-    if "domain" not in _TASK_STATE:
-        from go2vlm.bus import Logger
-        from go2vlm.bus.domain import claim_free_domain
-
-        os.environ["GO2VLM_IFACE"] = interface
-        Logger.set_level(log_level)
-        _TASK_STATE["domain"] = claim_free_domain(*EVAL_DOMAINS, interface)
+def _episode_task(
+    index: int, episode: dict[str, Any], run: dict[str, Any], interface: str, log_level: str, exclude: tuple[int, ...]
+) -> dict:
+    """Runs in a Ray worker process: one episode on this process's own DDS domain (none of `exclude`,
+    the domains where the robot is latched)."""
     import threading
 
+    from go2vlm.apps.episodes.worker import claim_eval_domain, run_worker_episode, setup_process
+
+    if "domain" not in _TASK_STATE:
+        setup_process(interface, log_level)
+        _TASK_STATE["domain"] = claim_eval_domain(interface, exclude)
     return run_worker_episode(index, episode, run, threading.Event(), interface, _TASK_STATE["domain"])
 
 
@@ -108,8 +106,10 @@ class RayEpisodes:
         stop: ShutdownRequested,
         finished: Callable[[int, Episode, dict[str, Any]], None],
         failed: Callable[[int, Episode, str], None],
+        exclude: tuple[int, ...] = (),
     ) -> bool:
-        """Every episode of `todo` as a task; `finished` / `failed` as each ends. True if interrupted."""
+        """Every episode of `todo` as a task; `finished` / `failed` as each ends; no task claims a domain of
+        `exclude`. True if interrupted."""
         ray = self.ray
         queue = list(todo)
         pending: dict[Any, tuple[int, Episode]] = {}
@@ -121,7 +121,7 @@ class RayEpisodes:
                 return True
             while queue and len(pending) < self.in_flight:
                 k, ep = queue.pop(0)
-                ref = self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level)
+                ref = self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level, exclude)
                 pending[ref] = (k, ep)
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=POLL_S)
             for ref in ready:
