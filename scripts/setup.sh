@@ -11,6 +11,9 @@ sudo=""
 [ "$(id -u)" = 0 ] || sudo="sudo"
 apt_pkgs=(libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libosmesa6 libglib2.0-0)
 "$python" -c "import ensurepip, venv" 2>/dev/null || apt_pkgs+=(python3-venv)
+# The test suite's WebRTC peer (the unmodified unitree-webrtc-connect, in a venv of its own) imports
+# sounddevice, which needs the PortAudio library.
+[ "$extras" = all ] && apt_pkgs+=(libportaudio2)
 missing=()
 for pkg in "${apt_pkgs[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")

@@ -23,7 +23,7 @@ from go2vlm.behavior.goals import parse_target  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
 from go2vlm.geometry.footprint import Footprint, clearance  # noqa: E402
 from go2vlm.launch.launcher import LaunchError, load_launch, with_overrides  # noqa: E402
-from go2vlm.robots.go2 import spec  # noqa: E402
+from go2vlm.robot_profile import go2 as spec  # noqa: E402
 from go2vlm.sim.render import segmentation_boxes  # noqa: E402
 from go2vlm.sim.worlds import world_footprints, world_model  # noqa: E402
 
@@ -31,7 +31,7 @@ from go2vlm.sim.worlds import world_footprints, world_model  # noqa: E402
 
 
 def test_packaged_suites_load_and_expand_reproducibly() -> None:
-    assert {"smoke", "goals", "follow", "distractors", "obstacles"} <= set(available_suites())
+    assert {"smoke", "goals", "follow", "distractors", "obstacles", "injection"} <= set(available_suites())
     for name in available_suites():
         suite = load_suite(name)
         assert suite.episodes >= 1 and suite.tasks

@@ -76,6 +76,15 @@ def test_demo_through_the_unitree_protocol(tmp_path: Path) -> None:
     assert m["robot"] == "go2"
 
 
+def test_demo_through_webrtc(tmp_path: Path) -> None:
+    """--robot go2 --transport webrtc: the driver reaches the sim as the Unitree app reaches a Go2
+    (signalling, data channel, the head camera as a video track) and the robot follows the ball."""
+    pytest.importorskip("aiortc", reason="the webrtc extra")
+    m = run_demo(tmp_path, "--robot", "go2", "--transport", "webrtc", "--mode", "kinematic", "--duration", "15")
+    check_follows(m, 15, min_frames=3 * 15)  # the video track carries the sim's 10 Hz camera
+    assert m["robot"] == "go2 (webrtc)"
+
+
 def test_demo_rejects_bad_options(tmp_path: Path) -> None:
     proc = subprocess.run(
         [*GO2VLM, "demo", "--out", str(tmp_path), "--duration", "-1"],
@@ -87,6 +96,11 @@ def test_demo_rejects_bad_options(tmp_path: Path) -> None:
         capture_output=True, text=True, timeout=60, env=env(),
     )  # fmt: skip
     assert proc.returncode == 2 and "no_such_param" in proc.stderr
+    proc = subprocess.run(
+        [*GO2VLM, "demo", "--out", str(tmp_path), "--transport", "webrtc", "--duration", "1"],
+        capture_output=True, text=True, timeout=60, env=env(),
+    )  # fmt: skip
+    assert proc.returncode == 2 and "--robot go2" in proc.stderr
 
 
 def test_demo_says_so_and_fails_when_the_robot_falls(tmp_path: Path) -> None:

@@ -125,6 +125,8 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
     box = BoundingBox2D(center=Pose2D(position=Point2D(x=450, y=150)), size_x=160, size_y=160)
     hyp = ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id="red ball", score=0.9))
     vlm.create_timer(0.1, lambda: dets.publish(Detection2DArray(Header(), [Detection2D(results=[hyp], bbox=box)])))
+    confirms: list[str] = []  # a person's answer to `go2vlm mcp --confirm`, from the Publish panel
+    vlm.create_subscription(String, "/mcp/confirm", lambda m: confirms.append(m.data))
 
     async def session() -> Client:
         async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None) as ws:
@@ -160,6 +162,8 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
             await c.advertise(2, "/cmd_vel", "cdr", "geometry_msgs/msg/Twist")
             await c.publish(2, Twist(linear=Vector3(x=1.0)).serialize())
             await c.publish(1, b'{"data": true}')
+            await c.advertise(3, "/mcp/confirm", "json", "std_msgs/msg/String")
+            await c.publish(3, b'{"data": "yes 1"}')
             latched = await c.pump(lambda: bool(c.received["/safety/status"]) and last_status(c)["estop"], 30)
             assert latched, last_status(c)
             await c.pump(lambda: any("/cmd_vel" in s.get("message", "") for s in c.statuses), 10)
@@ -176,6 +180,7 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
     assert c.channels["/detected_target"]["schemaName"] == "geometry_msgs/msg/PointStamped"  # raw, for plots
     assert any(b"red ball" in m for m in c.received["/vlm/detections/annotations"])  # the label, in protobuf
     assert any("refused" in s["message"] and "/cmd_vel" in s["message"] for s in c.statuses), c.statuses
+    assert wait_for(lambda: confirms == ["yes 1"], 10), confirms
     # Nobody but the safety gate publishes /cmd_vel.
     seen: dict[str, Any] = {}
     assert wait_for(lambda: bool(seen.update(discover(0.3)) or seen.get("/cmd_vel")), 10)

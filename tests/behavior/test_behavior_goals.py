@@ -32,6 +32,8 @@ CASES = [
     ("sit down", "sit", None, None),
     ("stand up", "stand", None, None),
     ("stand", "stand", None, None),
+    ("turn left 20 degrees", "turn", None, None),
+    ("turn -12.5", "turn", None, None),
     # Chinese
     ("跟着红球", "follow", "red", "ball"),
     ("跟随红色的球", "follow", "red", "ball"),
@@ -57,7 +59,7 @@ def test_parses(text: str, kind: str, color: str | None, shape: str | None) -> N
     goal = parse_goal(text)
     assert goal.kind == kind
     assert goal.text == text
-    if kind in ("stop", "sit", "stand"):
+    if kind in ("stop", "sit", "stand", "turn"):
         assert goal.target is None
         assert not goal.moves
     else:
@@ -77,6 +79,10 @@ def test_parses(text: str, kind: str, color: str | None, shape: str | None) -> N
         ("找", "no object"),
         ("follow the red ball " * 20, "characters"),
         ("follow the\x00 red ball", "control"),
+        ("turn 31 degrees", "at most 30"),
+        ("turn around", "how far"),
+        ("turn right -10", "not both"),
+        ("向左转45度", "at most 30"),
     ],
 )
 def test_rejects_with_a_reason(text: str, needle: str) -> None:
@@ -95,3 +101,20 @@ def test_free_text_objects_are_kept_for_a_vlm() -> None:
 def test_targets_alone() -> None:
     assert parse_target("red ball") == parse_target("红色的球")
     assert parse_target("blue cylinder").label == "blue cylinder"
+
+
+@pytest.mark.parametrize(
+    ("text", "angle"),
+    [
+        ("turn left 20 degrees", 20.0),
+        ("turn right 15", -15.0),
+        ("turn -12.5", -12.5),
+        ("Turn by 10 degrees to the right", -10.0),
+        ("please turn 30°", 30.0),
+        ("向左转20度", 20.0),
+        ("右转1.5度", -1.5),
+    ],
+)
+def test_a_turn_keeps_its_sign_and_decimals(text: str, angle: float) -> None:
+    goal = parse_goal(text)
+    assert goal.kind == "turn" and goal.angle_deg == angle and goal.target is None

@@ -1,5 +1,5 @@
 """Property tests of the commander's pure core (behavior/mission.py), in the manner of SafetyCore's: no
-sequence of goals (good, bad, hostile), tracker reports (right or wrong label, tracked or lost, NaN,
+sequence of goals (good, bad, hostile, bounded turns), tracker reports (right or wrong label, tracked or lost, NaN,
 late), VLM decisions (whitelisted or not) and timings makes it move toward a target the tracker does
 not confirm, exceed its speed limits, turn more than 30 degrees on one decision, or move at all in a
 terminal state, on "stop" or on a goal it cannot parse."""
@@ -24,6 +24,10 @@ GOALS = [
     "停下",
     "sit",
     "stand",
+    "turn left 20 degrees",
+    "turn -30",
+    "向右转15度",
+    "turn 45 degrees",
     "please do a backflip",
     "",
     "follow",
@@ -93,7 +97,10 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
             before = m.goal
             m.set_goal(ev[1], now)
             if m.goal is not before:  # a new goal (the running one sent again carries on)
-                newest, turn_left = None, 0.0
+                newest, turn_left, prev = None, 0.0, None
+                if m.goal is not None and m.goal.kind == "turn":
+                    assert abs(m.goal.angle_deg) <= 30.0
+                    turn_left = math.radians(abs(m.goal.angle_deg))  # a turn goal: its own budget
         elif kind == "seen":
             _, label, state, x, dist, _ = ev
             s = Sighting(now, label, state, x if state == "tracking" else math.nan, dist, "bottom")
@@ -138,7 +145,7 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
             assert out.vx == 0.0 and abs(out.wz) <= min(p.decision_turn_rate, p.max_angular) + 1e-12
             if prev is not None:
                 turn_left -= abs(prev[1]) * (now - prev[0])
-            assert turn_left >= -1e-9, "a turn decision turned further than it said"
+            assert turn_left >= -1e-9, "a turn (decision or goal) turned further than it said"
             prev = (now, out.wz)
             event("turning")
         else:
@@ -208,6 +215,22 @@ def test_an_ungroundable_object_rejects_the_goal_and_bad_goals_move_nothing() ->
     assert out.state == "rejected" and out.reason.startswith("cannot understand")
     _seen(m, 0.3, label="")
     assert m.step(0.3).vx == 0.0 and m.goal is not None and m.goal.text == "please do a backflip"
+
+
+def test_a_turn_goal_turns_in_place_by_its_angle_then_is_done() -> None:
+    m = Mission(MissionParams(decision_turn_rate=0.5))
+    m.set_goal("turn right 20 degrees", 0.0)
+    out = m.step(0.0)
+    assert out.state == "turning" and out.vx == 0.0 and out.wz == pytest.approx(-0.5) and out.query == ""
+    turned, t = 0.0, 0.0
+    while m.step(t).state == "turning":
+        turned += 0.5 * 0.01
+        t += 0.01
+    assert turned == pytest.approx(math.radians(20), abs=0.01)
+    out = m.step(t)
+    assert out.state == "done" and out.vx == out.wz == 0.0 and "turned -20" in out.reason
+    m.set_goal("turn 40", t)
+    assert m.step(t).state == "rejected" and m.step(t).wz == 0.0
 
 
 def test_sit_and_stand_are_posture_commands() -> None:

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import Mission, MissionParams, Sighting
 from go2vlm.geometry.camera import fovy_to_hfov
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.memory import ObjectMemory, View
 from go2vlm.world.objects_msg import Remembered
 from go2vlm.world.placement import Placed

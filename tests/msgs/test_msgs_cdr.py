@@ -136,6 +136,7 @@ def test_empty_sequences() -> None:
     check("sensor_msgs/msg/JointState", {"header": header, "name": [], "position": [], "velocity": [], "effort": []})
     check("tf2_msgs/msg/TFMessage", {"transforms": []})
     check("vision_msgs/msg/Detection2DArray", {"header": header, "detections": []})
+    check("vision_msgs/msg/Detection3DArray", {"header": header, "detections": []})
 
 
 @given(st.data())

@@ -1,7 +1,7 @@
 """commander: language goals -> what the robot does, over the target_tracker's confirmed target.
 
-"follow the red ball", "go to the blue cylinder", "look for the green box", "stop", "sit", "stand"
-(and Chinese: 跟着红球, 走到蓝色圆柱, 找一下绿色盒子, 停下, 坐下, 站起来; see behavior/goals.py).
+"follow the red ball", "go to the blue cylinder", "look for the green box", "stop", "sit", "stand",
+"turn left 20 degrees" (and Chinese: 跟着红球, 走到蓝色圆柱, 找一下绿色盒子, 停下, 坐下, 站起来; see behavior/goals.py).
 A thin node over the pure Mission core (behavior/mission.py has the rules); it does not look at
 images: the target_tracker grounds, tracks and ranges, the vlm node answers decisions.
 
@@ -43,6 +43,7 @@ Goals and states
   go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface);
             detouring while the local planner (behavior/planner.py) steers round an obstacle on /scan
   look for  searching -> aligning -> found (target centred), or not_found after search_timeout_s
+  turn      turning (in place at decision_turn_rate, |angle| <= 30 deg) -> done
   stop      stopped (zero velocity); sit / stand -> done; text it cannot parse -> rejected: reason on
             /commander/status, zero velocity, nothing else moves; an object the target_tracker cannot
             ground (free text with its colour grounder) -> rejected.
@@ -103,7 +104,7 @@ from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection3DArray
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.objects_msg import remembered
 
 __all__ = ["CommanderConfig", "CommanderNode"]

@@ -1,4 +1,6 @@
-"""Language goals -> a small typed `Goal`: follow / go to / look for an object, stop, sit, stand.
+"""Language goals -> a small typed `Goal`: follow / go to / look for an object, stop, sit, stand,
+and a bounded turn in place ("turn left 20 degrees", 向左转20度: |angle| <= MAX_TURN_DEG, the VLM
+decisions' whitelisted turn).
 
 English and Chinese, common phrasings ("follow the red ball", "find the yellow ball", 跟着红球,
 走到蓝色圆柱, 找一下绿色盒子, 停下, 坐下, 站起来). Anything else is a `GoalParseError` whose
@@ -13,6 +15,7 @@ import re
 import unicodedata
 from dataclasses import dataclass
 
+from go2vlm.behavior.decisions import MAX_TURN_DEG
 from go2vlm.errors import UsageError
 
 __all__ = [
@@ -20,15 +23,18 @@ __all__ = [
     "GOAL_KINDS",
     "MOTION_KINDS",
     "SHAPES",
+    "TIMED_KINDS",
     "Goal",
     "GoalParseError",
     "Target",
     "parse_goal",
     "parse_target",
+    "unknown_words",
 ]
 
-GOAL_KINDS = ("follow", "go_to", "look_for", "stop", "sit", "stand")
+GOAL_KINDS = ("follow", "go_to", "look_for", "stop", "sit", "stand", "turn")
 MOTION_KINDS = ("follow", "go_to", "look_for")  # kinds that need a target
+TIMED_KINDS = (*MOTION_KINDS, "turn")  # kinds that run for a while (the commander is busy)
 COLORS = ("red", "green", "blue", "yellow")
 SHAPES = ("ball", "box", "cylinder")
 
@@ -85,6 +91,13 @@ _ZH_STOP = ("停下来", "停下", "停止", "停住", "停", "别动", "不要�
 _ZH_STOP += ("等一下", "等等", "急停", "刹车")
 _ZH_SIT = ("坐下来", "坐下", "坐好", "坐", "趴下")
 _ZH_STAND = ("站起来", "站起", "站立", "起立", "起来", "站好")
+# Matched before _normalise_en, which would drop a minus sign and a decimal point.
+_EN_TURN = re.compile(
+    r"^(?:please )?turn(?: in place)?(?: to the)?(?: (?P<side>left|right))?(?: by)? ?(?P<num>[+-]?\d+(?:\.\d+)?)"
+    r" ?(?:°|degrees?|deg)?(?: to the)?(?: (?P<side2>left|right))?(?: please)?[.!]?$"
+)
+# Matched before the punctuation is stripped, which would make 1.5 度 into 15.
+_ZH_TURN = re.compile(r"^(?:请|请你)?(?:向|往)?(?P<side>左|右)?转(?:身)?(?P<num>[+-]?\d+(?:\.\d+)?)度?[。.!]?$")
 _ZH_VERBS: list[tuple[str, str]] = [
     ("跟着", "follow"), ("跟随", "follow"), ("跟踪", "follow"), ("追着", "follow"), ("追踪", "follow"),
     ("追", "follow"), ("跟", "follow"),
@@ -125,12 +138,15 @@ class Goal:
     kind: str  # one of GOAL_KINDS
     target: Target | None = None
     text: str = ""
+    angle_deg: float = 0.0  # turn: + = left, |angle| <= MAX_TURN_DEG
 
     @property
     def moves(self) -> bool:
         return self.kind in MOTION_KINDS
 
     def describe(self) -> str:
+        if self.kind == "turn":
+            return f"turn {self.angle_deg:+g} deg"
         return f"{self.kind} {self.target.label}" if self.target else self.kind
 
 
@@ -156,8 +172,16 @@ def _target_from_words(words: list[str], raw: str) -> Target:
             rest.append(w)
     if color is None and shape is None and not rest:
         raise GoalParseError(f"no object named in {raw!r}; say e.g. 'the red ball' or 'the blue cylinder'")
-    if rest and color is None and shape is None:
-        return Target(label=" ".join(rest))  # free text for a VLM ("person", "chair")
+    if rest:
+        # A category or a referring phrase ("teddy bear", "soccer ball", "ball under the table", "red
+        # object nearest the door") is kept whole for a VLM; the colour and shape it names, if any,
+        # are what the colour-shape grounder can still try.
+        lo, hi = 0, len(words)
+        while words[lo] in _EN_FILLER:
+            lo += 1
+        while words[hi - 1] in _EN_FILLER:
+            hi -= 1
+        return Target(label=" ".join(words[lo:hi]), color=color, shape=shape)
     label = " ".join(x for x in (color, shape) if x)
     return Target(label=label, color=color, shape=shape)
 
@@ -193,6 +217,16 @@ def parse_target(phrase: str) -> Target:
     return _target_from_words(_normalise_en(phrase).split(), phrase)
 
 
+def unknown_words(phrase: str) -> list[str]:
+    """Words of an English object phrase that are no colour, shape or filler: "purple" in "purple ball",
+    which parse_target passes over (it finds "ball"). Chinese phrases: none."""
+    if _is_cjk(phrase):
+        return []
+    return [
+        w for w in _normalise_en(phrase).split() if w not in _EN_COLORS and w not in _EN_SHAPES and w not in _EN_FILLER
+    ]
+
+
 def _parse_zh(raw: str) -> Goal:
     t = unicodedata.normalize("NFKC", raw)
     t = re.sub(r"[\s,.!?;:\"'\u3001\u3002\uff01\uff0c\uff1a\uff1b\uff1f\u201c\u201d\u2018\u2019~]+", "", t)
@@ -215,6 +249,9 @@ def _parse_zh(raw: str) -> Goal:
         return Goal("sit", None, raw)
     if t in _ZH_STAND:
         return Goal("stand", None, raw)
+    turn = _ZH_TURN.match(re.sub(r"\s+", "", unicodedata.normalize("NFKC", raw)))
+    if turn:
+        return _turn_goal(turn["num"], {"左": "left", "右": "right"}.get(turn["side"] or ""), raw)
     # The verb starts the command, after at most a short lead-in (我要你, 快): earliest, then longest.
     found = [(t.find(v), -len(v), v, k) for v, k in _ZH_VERBS if 0 <= t.find(v) <= 3]
     if found:
@@ -230,9 +267,20 @@ def _parse_zh(raw: str) -> Goal:
 
 
 _ACCEPTED = (
-    "accepted goals: follow <object>, go to <object>, look for <object>, stop, sit, stand "
-    "(跟着/走到/找 <物体>, 停, 坐下, 站起来); objects: red/green/blue/yellow ball/box/cylinder"
+    "accepted goals: follow <object>, go to <object>, look for <object>, stop, sit, stand, turn left|right "
+    f"<0-{MAX_TURN_DEG:g}> degrees (跟着/走到/找 <物体>, 停, 坐下, 站起来, 向左转20度); objects: "
+    "red/green/blue/yellow ball/box/cylinder"
 )
+
+
+def _turn_goal(number: str, side: str | None, raw: str) -> Goal:
+    """A turn of `number` degrees (+ = left, or unsigned with a side), bounded like a VLM decision's turn."""
+    if side is not None and number[:1] in "+-":
+        raise GoalParseError(f"say left or right, or give a signed angle, not both ({raw!r})")
+    angle = -float(number) if side == "right" else float(number)
+    if not abs(angle) <= MAX_TURN_DEG:
+        raise GoalParseError(f"a turn is at most {MAX_TURN_DEG:g} degrees either way, not {angle:g} ({raw!r})")
+    return Goal("turn", None, raw, angle_deg=angle)
 
 
 def _parse_en(raw: str) -> Goal:
@@ -249,6 +297,17 @@ def _parse_en(raw: str) -> Goal:
         return Goal("sit", None, raw)
     if _EN_STAND.match(t):
         return Goal("stand", None, raw)
+    if t == "turn" or t.startswith("turn "):
+        lite = _EN_POLITE.sub("", re.sub(r"\s+", " ", unicodedata.normalize("NFKC", raw).lower()).strip())
+        turn = _EN_TURN.match(lite)
+        if turn is None:
+            raise GoalParseError(
+                f"turn how far? say e.g. 'turn left 20 degrees' (at most {MAX_TURN_DEG:g}); got {raw!r}"
+            )
+        sides = {turn["side"], turn["side2"]} - {None}
+        if len(sides) > 1:
+            raise GoalParseError(f"turn left or right, not both ({raw!r})")
+        return _turn_goal(turn["num"], sides.pop() if sides else None, raw)
     for pattern, kind in _EN_VERBS:
         m = re.match(rf"^(?:{pattern})\b\s*(.*)$", t)
         if m:

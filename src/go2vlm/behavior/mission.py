@@ -9,7 +9,8 @@ its reason out. Driven by explicit timestamps so it can be tested exhaustively.
     intent = mission.step(now)                    # what goes on /behavior/cmd_vel, /go2/command, ...
 
 Rules
-- Goals (behavior/goals.py): follow | go to | look for <object>, stop, sit, stand. Text it cannot
+- Goals (behavior/goals.py): follow | go to | look for <object>, stop, sit, stand, turn (|angle| <=
+  30 deg: turns in place at the decisions' turn rate, then `done`). Text it cannot
   parse is `rejected`: zero velocity, the reply in `reason`, nothing moves. A goal that is already
   running, sent again, carries on.
 - The query is the goal's object while a motion goal runs, else '': the target_tracker grounds and
@@ -68,9 +69,9 @@ import numpy as np
 
 from go2vlm.behavior.approach import ApproachParams, approach_command
 from go2vlm.behavior.decisions import DecisionRejected, parse_decision
-from go2vlm.behavior.goals import Goal, GoalParseError, parse_goal
+from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner import PlannerParams, Steer, steer
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
@@ -235,6 +236,9 @@ class Mission:
         elif goal.kind in ("sit", "stand"):
             self._postures.append(goal.kind)
             self._enter("done", f"sent {goal.kind!r} on /go2/command", now)
+        elif goal.kind == "turn":  # the whitelisted turn of a VLM decision, asked for as a goal
+            self._start_turn(goal.angle_deg, now)
+            self._enter("turning", f"turning {goal.angle_deg:+g} deg in place", now)
         else:
             self._t_search = now
             label = self.label
@@ -320,17 +324,20 @@ class Mission:
         elif d.action == "continue":
             self._hold_until = -math.inf
         elif d.action == "turn":
-            rate = self._turn_rate
-            self._turn_dir = math.copysign(1.0, d.angle_deg) if d.angle_deg else 0.0
-            self._turn_until = now + (math.radians(abs(d.angle_deg)) / rate if rate > 0 else 0.0)
+            self._start_turn(d.angle_deg, now)
         elif d.action == "sit":
             self._postures.append("sit")
             self._enter("sat", "a VLM decision said sit: sent 'sit' on /go2/command", now)
 
+    def _start_turn(self, angle_deg: float, now: float) -> None:
+        rate = self._turn_rate
+        self._turn_dir = math.copysign(1.0, angle_deg) if angle_deg else 0.0
+        self._turn_until = now + (math.radians(abs(angle_deg)) / rate if rate > 0 else 0.0)
+
     # -- state ---------------------------------------------------------------------------------
     @property
     def active(self) -> bool:
-        return self.goal is not None and self.goal.moves and self.state not in TERMINAL
+        return self.goal is not None and self.goal.kind in TIMED_KINDS and self.state not in TERMINAL
 
     @property
     def label(self) -> str:
@@ -423,6 +430,12 @@ class Mission:
         p = self.params
         if now < self._hold_until:
             self._set("holding", "a VLM decision said stop", now)
+            return 0.0, 0.0, True, False
+        if goal.kind == "turn":
+            if now < self._turn_until:
+                self._set("turning", f"turning {goal.angle_deg:+g} deg in place", now)
+                return 0.0, self._turn_dir * self._turn_rate, True, False
+            self._enter("done", f"turned {goal.angle_deg:+g} deg", now)
             return 0.0, 0.0, True, False
         if now < self._turn_until:
             self._set("turning", "a VLM decision said turn", now)

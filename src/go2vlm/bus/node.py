@@ -134,6 +134,7 @@ class Node:
         self.subscriptions: list[Subscription[Any]] = []
         self.services: list[Service[Any, Any]] = []
         self._timers: list[Timer] = []
+        self._soon: list[Callable[[], None]] = []  # call_soon: work handed in by other threads
         self._lock = threading.RLock()
         self._waitset = WaitSet(self.participant)
         self._guard = GuardCondition(self.participant)
@@ -277,6 +278,13 @@ class Node:
         state derived from the parameters in `changed` (override where a node keeps such state)."""
 
     # -- execution ---------------------------------------------------------------------------
+    def call_soon(self, fn: Callable[[], None]) -> None:
+        """Run `fn()` on the executor thread at its next pass (after that pass's subscriptions); from
+        any thread, e.g. a network link's own loop handing its messages to the node."""
+        with self._lock:
+            self._soon.append(fn)
+        self._wake()
+
     def _wake(self) -> None:
         self._guard.set(True)
 
@@ -318,6 +326,16 @@ class Node:
         for svc in self.services:
             if svc.pending:
                 svc.flush()
+        with self._lock:
+            soon, self._soon = self._soon, []
+        for fn in soon:
+            try:
+                fn()
+            except Exception as exc:
+                self.count("callback_errors")
+                self.log.throttled(
+                    "error", 2.0, f"call_soon {fn!r:.60} failed: {type(exc).__name__}: {exc}", key="soon"
+                )
         if self.clock.sim:
             self._check_time_jump(timers)
         for t in timers:

@@ -1,12 +1,15 @@
 """`go2vlm doctor`: check the known traps, one line each with a verdict and the fix.
 
     go2vlm doctor [--interface enp3s0] [--model 3b|7b] [--quantization none|nf4|int8]
+    go2vlm doctor --robot 192.168.8.181 [--aes-key HEX]     # a Go2 over WebRTC (Wi-Fi, every model)
 
 Checks: the network interface (exists, up, an address; a Go2 needs 192.168.123.x), the DDS domain
 (ROS_DOMAIN_ID sane; who else speaks on it), the socket receive buffer against the kernel's limit
 (large camera frames), headless rendering for the sim (MUJOCO_GL: EGL or OSMesa), torch and CUDA
 for a local Qwen2.5-VL (GPU memory against the model's need, estimates), and a second /cmd_vel
-writer on the domain (only the safety gate may write it). Exit 0 when nothing fails (warnings
+writer on the domain (only the safety gate may write it). With --robot IP, the Go2's WebRTC route
+(robots/go2/webrtc/probe.py): the robot answers, its signalling port and protocol, the Unitree app
+(or another client) holding the connection, and the firmware version. Exit 0 when nothing fails (warnings
 included), 1 when something fails, 2 for bad arguments. It reads system settings, never changes
 them: where a fix needs root it prints the command to run.
 
@@ -24,6 +27,8 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+
+from go2vlm.cli.args import add_dds_args
 
 OK, WARN, FAIL = "ok", "warn", "FAIL"
 
@@ -68,11 +73,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--interface", default=None, help="the interface to check (default: GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p, interface_help="the interface to check (default: GO2VLM_IFACE)")
     p.add_argument("--wait", type=float, default=2.0, help="seconds of DDS discovery")
     p.add_argument("--model", choices=("3b", "7b"), default="3b", help="the Qwen2.5-VL size to check GPU memory for")
     p.add_argument("--quantization", choices=("none", "nf4", "int8"), default="none", help="as the vlm node's")
+    p.add_argument("--robot", default=None, metavar="IP", help="also check a Go2 over WebRTC at this address")
+    p.add_argument("--robot-port", type=int, default=9991, help="its signalling port (9991; the sim's --webrtc port)")
+    p.add_argument("--aes-key", default="", help="the robot's AES-128 key (32 hex chars), firmware >= 1.1.15")
     p.add_argument("--skip", action="append", default=[], metavar="CHECK", help="skip a check (e.g. render, torch)")
     p.set_defaults(func=run)
 
@@ -312,6 +319,11 @@ def run(args: argparse.Namespace) -> int:
                 print(v.line(), flush=True)
     add("render", check_render)
     add("torch", lambda: check_torch(args.model, args.quantization))
+    if args.robot:
+        from go2vlm.robots.go2.webrtc.probe import probe
+
+        for check, level, text, fix in probe(args.robot, args.robot_port, args.aes_key):
+            add(f"webrtc.{check}", lambda c=check, lv=level, t=text, f=fix: Verdict(f"webrtc.{c}", lv, t, f))
     failed = [v.check for v in verdicts if v.level == FAIL]
     warned = [v.check for v in verdicts if v.level == WARN]
     if failed:

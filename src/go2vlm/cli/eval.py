@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
-from go2vlm.cli.args import add_node_params, node_params
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -14,7 +15,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "eval",
         help="run a suite of seeded sim episodes and report success, SPL and grounding with confidence intervals",
         description=(
-            "Run the episodes of a suite (packaged: smoke, goals, follow, distractors, obstacles; or a path to a "
+            "Run the episodes of a suite (packaged: smoke, goals, follow, distractors, obstacles, household, "
+            "referring; or a path to a "
             "suite YAML) with one perception variant (oracle: the sim's ground-truth boxes; color: the colour-shape "
             "grounder; vlm: a vision-language model, local or OpenAI-compatible) and write results.jsonl (one line "
             "per episode, with its exact configuration), summary.json, report.md and plots to --out. Several "
@@ -29,6 +31,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--episodes", type=int, default=None, help="how many episodes (default: the suite's)")
     p.add_argument("--seed", type=int, default=None, help="seed of the spawns and draws (default: the suite's)")
     p.add_argument("--workers", type=int, default=1, help="episodes in parallel, one process and DDS domain each")
+    p.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="ADDRESS",
+        help="run each episode as a Ray task: alone, a local Ray on this machine (--workers tasks at once); "
+        "'auto' or HOST:PORT joins a running cluster (pip install 'go2vlm[cluster]')",
+    )
+    p.add_argument(
+        "--latency",
+        default=None,
+        metavar="L1,L2,...",
+        help="run the suite once per added answer latency in sim seconds, e.g. 0,1,2.5,5 (oracle: the ground "
+        "truth delivered late; vlm: the model's answers held back)",
+    )
     p.add_argument("--out", type=Path, default=None, help="the eval folder (results.jsonl, summary.json, report.md)")
     p.add_argument("--resume", action="store_true", help="finish an interrupted run in --out, skipping done episodes")
     speed = p.add_mutually_exclusive_group()
@@ -38,19 +56,43 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--video", action="store_true", help="also write each episode's run folder with video.mp4")
     p.add_argument("--bag", action="store_true", help="also record each episode's topics into its run folder's bag/")
     add_node_params(p, "a node parameter for every episode")
-    p.add_argument("--interface", default="lo", help="network interface of the workers' DDS (default lo)")
-    p.add_argument("--domain", type=int, default=None, help="a fixed DDS domain (--workers 1); default: a free one")
+    add_dds_args(
+        p,
+        interface="lo",
+        interface_help="network interface of the workers' DDS (default lo)",
+        domain_help="a fixed DDS domain (--workers 1); default: a free one",
+    )
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     p.add_argument("--list", action="store_true", help="list the packaged suites and exit")
     p.add_argument("--report", action="store_true", help="only rewrite summary.json and report.md of --out")
     p.set_defaults(func=run)
 
 
+def parse_latencies(text: str) -> list[float]:
+    """ "0,1,2.5,5" -> [0.0, 1.0, 2.5, 5.0]; ValueError naming the bad value."""
+    import math
+
+    out: list[float] = []
+    for part in text.split(","):
+        try:
+            v = float(part.strip())
+        except ValueError:
+            raise ValueError(f"--latency: {part.strip()!r} is not a number of seconds (e.g. 0,1,2.5,5)") from None
+        if not (math.isfinite(v) and 0 <= v <= 60):
+            raise ValueError(f"--latency: {part.strip()} s is not in 0..60")
+        if v in out:
+            raise ValueError(f"--latency: {part.strip()} is given twice")
+        out.append(v)
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
-    from go2vlm.apps.episodes.evaluate import EvalError, EvalOptions, run_eval
-    from go2vlm.apps.episodes.suites import SuiteError, available_suites, load_suite
+    import dataclasses
+
+    from go2vlm.apps.episodes.evaluate import EvalOptions, prepare, run_eval
+    from go2vlm.apps.episodes.suites import available_suites, load_suite
     from go2vlm.bus import ShutdownRequested
-    from go2vlm.launch.launcher import LaunchError
+    from go2vlm.errors import UsageError
 
     if args.list:
         for name in available_suites():
@@ -81,7 +123,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.fast and args.rtf <= 0:
         print("go2vlm eval: --rtf must be positive", file=sys.stderr)
         return 2
-    opts = EvalOptions(
+    try:
+        latencies: list[float | None] = [None] if args.latency is None else list(parse_latencies(args.latency))
+    except ValueError as exc:
+        print(f"go2vlm eval: {exc}", file=sys.stderr)
+        return 2
+    base = EvalOptions(
         suite=args.suite,
         perception=args.perception,
         out=args.out,
@@ -101,30 +148,43 @@ def run(args: argparse.Namespace) -> int:
         domain_id=args.domain,
         progress=args.progress,
         log_level=args.log_level or "error",
+        ray=args.ray,
     )
+    runs = [dataclasses.replace(base, latency=lat) for lat in latencies]
+    try:  # every latency's suite, episodes and graphs are checked before the first episode runs
+        prepared = [prepare(opts) for opts in runs]
+    except UsageError as exc:
+        print(f"go2vlm eval: {exc}", file=sys.stderr)
+        return 2
     stop = ShutdownRequested()
     stop.install()
+    code = 0
+    for opts, prep in zip(runs, prepared, strict=True):
+        code = max(code, _run_one(args, opts, prep, stop, run_eval))
+        if stop.event.is_set() or code == 2:
+            break
+    return code
+
+
+def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval: Any) -> int:
+    from go2vlm.errors import UsageError
+
     try:
-        outcome = run_eval(opts, stop)
-    except (EvalError, SuiteError, LaunchError) as exc:
+        outcome = run_eval(opts, stop, prep)
+    except UsageError as exc:  # RobotLatched too
         print(f"go2vlm eval: {exc}", file=sys.stderr)
         return 2
     except RuntimeError as exc:
         print(f"go2vlm eval: {exc}", file=sys.stderr)
         return 1
-    group = next(
-        (
-            g
-            for g in outcome.summary["groups"]
-            if (g["suite"], g["perception"]) == (outcome.run_id.split("-")[0], args.perception)
-        ),
-        None,
-    )
     rate = 3600 * outcome.done / outcome.wall_s if outcome.wall_s > 0 else 0.0
+    how = f"{args.workers} worker(s)" if opts.ray is None else f"Ray ({opts.ray})"
+    lat = "" if opts.latency is None else f", answers {opts.latency:g} s late"
     print(
         f"go2vlm eval: run {outcome.run_id}: {outcome.done_before + outcome.done}/{outcome.total} episodes "
-        f"({outcome.done} now, {rate:.0f} per hour with {args.workers} worker(s))"
+        f"({outcome.done} now, {rate:.0f} per hour with {how}{lat})"
     )
+    group = outcome.group
     if group is not None:
         ci = group["success_rate_ci95"] or [0, 0]
         spl = "" if group["spl_mean"] is None else f", SPL {group['spl_mean']:.3f}"

@@ -36,6 +36,7 @@ COMMANDS = {
     "estop": "go2vlm.cli.estop",
     "teleop": "go2vlm.cli.teleop",
     "doctor": "go2vlm.cli.doctor",
+    "mcp": "go2vlm.cli.mcp",
     "objects": "go2vlm.cli.objects",
 }
 

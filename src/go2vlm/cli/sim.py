@@ -1,4 +1,5 @@
-"""`go2vlm sim [--world NAME] [--duration S] [--rtf X | --fast] [--viewer] [--mode dynamic|kinematic]`.
+"""`go2vlm sim [--world NAME] [--duration S] [--rtf X | --fast] [--viewer] [--mode dynamic|kinematic]
+[--unitree] [--webrtc [HOST:PORT]]`.
 
 Time here is wall time (time.monotonic): a tool's deadlines, rates and waits are for the person at
 the terminal and for DDS discovery, not a node's clock.
@@ -11,6 +12,7 @@ import sys
 import time
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
+from go2vlm.cli.args import add_dds_args
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
@@ -33,9 +35,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=None, help="stop after this many sim seconds")
     p.add_argument("--viewer", action="store_true", help="open MuJoCo's interactive viewer (needs a display)")
     p.add_argument("--unitree", action="store_true", help="also serve the Unitree DDS protocol")
+    p.add_argument(
+        "--webrtc",
+        nargs="?",
+        const="127.0.0.1:9991",
+        default=None,
+        metavar="HOST:PORT",
+        help="also serve the Go2's WebRTC route (the Unitree app's; implies --unitree) on HOST:PORT (127.0.0.1:9991)",
+    )
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="any sim parameter")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     add_foxglove_args(p)
     p.set_defaults(func=run)
 
@@ -61,6 +70,11 @@ def run(args: argparse.Namespace) -> int:
     params = {"world": args.world, "mode": args.mode, "rtf": args.rtf, "fast": args.fast, "viewer": args.viewer}
     if args.unitree:
         params["unitree"] = True
+    if args.webrtc is not None:
+        host, _, port = args.webrtc.rpartition(":")
+        if not host or not port.isdigit():
+            raise UsageError(f"--webrtc takes HOST:PORT, e.g. 127.0.0.1:9991, not {args.webrtc!r}")
+        params.update(webrtc=True, webrtc_host=host, webrtc_port=int(port))
     params.update(parse_overrides(args.param))
     node = make_node("sim", params=params, domain_id=args.domain, interface=args.interface)
     view_params = foxglove_params(args)

@@ -1,7 +1,7 @@
 """vision_msgs/msg (ROS 2 Jazzy, vision_msgs 4.x): Point2D, Pose2D, BoundingBox2D, ObjectHypothesis,
-ObjectHypothesisWithPose, Detection2D, Detection2DArray, BoundingBox3D, Detection3D,
-Detection3DArray; and the one conversion between pixel boxes (label, (x1, y1, x2, y2), score) and a
-Detection2DArray, both ways."""
+ObjectHypothesisWithPose, Detection2D, Detection2DArray, BoundingBox3D, Detection3D, Detection3DArray
+(objects in the world: the object memory's /objects); and the one conversion between pixel boxes
+(label, (x1, y1, x2, y2), score) and a Detection2DArray, both ways."""
 
 from collections.abc import Iterable
 from dataclasses import dataclass

@@ -9,7 +9,8 @@ frames that arrive while it is busy are never looked at. Driven by the frames' s
 
 Answers come out when a later frame arrives whose stamp has reached the due time, so with a 10 Hz
 camera they are late by up to one frame period more than `latency_s` (as a real model's would be seen
-by a 10 Hz consumer).
+by a 10 Hz consumer). When answers arrive seldom (a real model's, held back), `due(now)` lets the
+caller's clock release them instead.
 """
 
 from __future__ import annotations
@@ -36,14 +37,18 @@ class AnswerDelay(Generic[T]):
     def offer(self, stamp: float, answer: T) -> list[tuple[float, T]]:
         """A new frame (its stamp and the answer a perfect model would give about it): the answers now
         due, oldest first (at most one), then this frame is taken if the model is free."""
-        out: list[tuple[float, T]] = []
-        if self.busy is not None and stamp + 1e-9 >= self.busy[0] + self.latency_s:
-            out.append(self.busy)
-            self.busy = None
-            self.counters["answered"] += 1
+        out = self.due(stamp)
         if self.busy is None:
             self.busy = (stamp, answer)
             self.counters["taken"] += 1
         else:
             self.counters["skipped"] += 1  # arrived while the model was busy
+        return out
+
+    def due(self, now: float) -> list[tuple[float, T]]:
+        """The answer held back, if `now` has reached its due time (at most one)."""
+        if self.busy is None or now + 1e-9 < self.busy[0] + self.latency_s:
+            return []
+        out, self.busy = [self.busy], None
+        self.counters["answered"] += 1
         return out

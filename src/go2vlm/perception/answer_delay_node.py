@@ -9,9 +9,15 @@ Topics
               /answer_delay/status  std_msgs/String, JSON every 1 s: latency_s, counters
 
 Parameters
-  latency_s     2.5   seconds from a frame's stamp to its answer (sim seconds with use_sim_time)
-  input_topic   /sim/detections
-  output_topic  /vlm/detections
+  latency_s          2.5   seconds from a frame's stamp to its answer (sim seconds with use_sim_time)
+  input_topic        /sim/detections
+  output_topic       /vlm/detections
+  target_body        ''    only this body's boxes pass ('' = every box as it came): the answer of a perfect
+                           model asked about one object, e.g. the referent of "the ball under the table"
+  target_label       ''    with target_body: the label its boxes get (what the commander asked for)
+  release_period_s   0     > 0: also release due answers on a timer of this period (node clock), for
+                           inputs that arrive seldom (a real model's answers, held back); 0: a due answer
+                           leaves with the next input
 
 It isolates latency from accuracy: the answers are right, only late, and they reach the target_tracker
 exactly where the vlm node's would (benchmarks/bench_vlm_latency.py). Time is the frames' stamps only.
@@ -36,6 +42,9 @@ class AnswerDelayConfig:
     latency_s: float = param(2.5, help="seconds from a frame's stamp to its answer", min=0.0, max=60.0)
     input_topic: str = param("/sim/detections", help="perfect answers, one per frame (vision_msgs/Detection2DArray)")
     output_topic: str = param("/vlm/detections", help="where the delayed answers go")
+    target_body: str = param("", help="only this body's boxes pass ('' = all, unchanged)")
+    target_label: str = param("", help="with target_body: the label its boxes get")
+    release_period_s: float = param(0.0, help="> 0: release due answers on a timer too", min=0.0, max=10.0)
 
 
 class AnswerDelayNode(Node):
@@ -50,10 +59,23 @@ class AnswerDelayNode(Node):
         self.pub_status = self.create_publisher(String, "/answer_delay/status", QOS_DEFAULT)
         self.create_subscription(Detection2DArray, cfg.input_topic, self.on_answer, QOS_DEFAULT)
         self.create_timer(1.0, self.publish_status)
+        if cfg.release_period_s > 0:
+            self.create_timer(cfg.release_period_s, self.release)
         self.log.info(f"{cfg.input_topic} -> {cfg.output_topic}, {cfg.latency_s:g} s after each frame")
 
     def on_answer(self, msg: Detection2DArray) -> None:
+        cfg: AnswerDelayConfig = self.config
+        if cfg.target_body:
+            msg.detections = [
+                d for d in msg.detections if d.results and d.results[0].hypothesis.class_id == cfg.target_body
+            ]
+            for d in msg.detections:
+                d.results[0].hypothesis.class_id = cfg.target_label or cfg.target_body
         for _, held in self.delay.offer(msg.header.stamp.to_sec(), msg):
+            self.pub.publish(held)
+
+    def release(self) -> None:
+        for _, held in self.delay.due(self.clock.now()):
             self.pub.publish(held)
 
     def publish_status(self) -> None:

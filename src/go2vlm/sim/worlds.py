@@ -2,8 +2,12 @@
 
 A world is a plain MJCF file.  Optional ``<custom>`` entries carry metadata:
 ``go2_spawn`` (x y yaw), ``ball_path_type`` (text, "ellipse" or
-"figure8"), ``ball_path`` (cx cy rx ry start_angle) and ``ball_radius``.
+"figure8"), ``ball_path`` (cx cy rx ry start_angle), ``ball_radius`` and
+``light_jitter`` (a fraction: every light's intensity and tint, and the headlight's,
+vary by up to it, drawn from the sim's seed, so that each episode sees other lighting).
 Angles in world files are radians (the loader forces ``<compiler angle="radian"/>``).
+Mesh and texture folders (``<compiler meshdir texturedir assetdir>``) are relative to
+the world file, as MuJoCo reads them from a file.
 """
 
 from __future__ import annotations
@@ -62,14 +66,43 @@ def _custom(root: ET.Element) -> dict[str, str]:
     return out
 
 
+def _jitter_lights(root: ET.Element, amount: float, seed: int) -> None:
+    """Scale each light's diffuse (and the headlight's ambient and diffuse) by 1 +- amount, with a
+    small tint, drawn from `seed`: the same seed gives the same lighting."""
+    rng = np.random.default_rng([seed, 7919])
+
+    def vary(el: ET.Element, attr: str, default: str) -> None:
+        rgb = np.array([float(v) for v in el.get(attr, default).split()])
+        gain = 1.0 + rng.uniform(-amount, amount)
+        tint = 1.0 + rng.uniform(-amount / 4, amount / 4, size=3)
+        el.set(attr, " ".join(f"{v:.4f}" for v in np.clip(rgb * gain * tint, 0.0, 1.0)))
+
+    for light in root.iter("light"):
+        vary(light, "diffuse", "0.7 0.7 0.7")
+    head = root.find("visual/headlight")
+    if head is not None:
+        vary(head, "ambient", "0.1 0.1 0.1")
+        vary(head, "diffuse", "0.4 0.4 0.4")
+
+
 def build_world_xml(
     name: str,
     spawn: tuple[float, float, float] | None = None,
     offscreen: tuple[int, int] = (1920, 1080),
+    seed: int | None = None,
 ) -> tuple[str, WorldInfo]:
-    """Return the MJCF of world ``name`` with the Go2 inserted, and its metadata."""
-    root = ET.parse(world_path(name)).getroot()
+    """Return the MJCF of world ``name`` with the Go2 inserted, and its metadata. `seed` draws the
+    lighting of worlds with ``light_jitter`` (None: the file's own)."""
+    file = world_path(name)
+    root = ET.parse(file).getroot()
     meta = _custom(root)
+    compiler = root.find("compiler")
+    if compiler is not None:  # the XML is compiled from a string: make its asset folders absolute
+        for attr in ("meshdir", "texturedir", "assetdir"):
+            if attr in compiler.attrib and not Path(compiler.attrib[attr]).is_absolute():
+                compiler.set(attr, str((file.parent / compiler.attrib[attr]).resolve()))
+    if seed is not None and float(meta.get("light_jitter", "0")) > 0:
+        _jitter_lights(root, float(meta["light_jitter"]), seed)
     if spawn is None:
         vals = [float(v) for v in meta.get("go2_spawn", "0 0 0").split()]
         spawn = (vals[0], vals[1], vals[2])
@@ -82,8 +115,11 @@ def build_world_xml(
         ball_radius=float(meta.get("ball_radius", "0.2")),
     )
 
-    # Everything here (robot ranges, world eulers) is in radians.
-    _child(root, "compiler").set("angle", "radian")
+    # Everything here (robot ranges, world eulers) is in radians. Files a world names (textures)
+    # are next to it: the MJCF is compiled from a string, which has no folder of its own.
+    compiler = _child(root, "compiler")
+    compiler.set("angle", "radian")
+    compiler.attrib.setdefault("assetdir", str(world_path(name).parent.resolve()))
     option = _child(root, "option")
     option.attrib.setdefault("timestep", "0.002")
     option.attrib.setdefault("integrator", "implicitfast")
@@ -126,8 +162,9 @@ def gazebo_rpy_to_xyaxes(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 def world_footprints(model: mujoco.MjModel) -> dict[str, Footprint]:
     """Floor footprints of the named world bodies at their initial poses (spheres, cylinders and
-    capsules as circles, boxes as oriented rectangles; the first geom of a body counts). A moving
-    body (the mocap ball) takes its pose from ground truth at run time (`Footprint.moved`)."""
+    capsules as circles, boxes as oriented rectangles, meshes as the rectangle of their bounding box;
+    the first geom of a body counts). A moving body (the mocap ball) takes its pose from ground truth
+    at run time (`Footprint.moved`)."""
     circles = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE)
     bodies = labelled_bodies(model)
     out: dict[str, Footprint] = {}
@@ -143,7 +180,25 @@ def world_footprints(model: mujoco.MjModel) -> dict[str, Footprint]:
             out[name] = Footprint("circle", float(pos[0]), float(pos[1]), r=float(size[0]))
         elif t == mujoco.mjtGeom.mjGEOM_BOX:
             out[name] = Footprint("rect", float(pos[0]), float(pos[1]), yaw, hx=float(size[0]), hy=float(size[1]))
+        elif t == mujoco.mjtGeom.mjGEOM_MESH:  # the box of its vertices in the body frame, turned by the body's yaw
+            lo, hi = _mesh_xy_bounds(model, g)
+            c, s = math.cos(yaw), math.sin(yaw)
+            mx, my = (lo + hi) / 2
+            cx, cy = pos[0] + c * mx - s * my, pos[1] + s * mx + c * my
+            hx, hy = (hi - lo) / 2
+            out[name] = Footprint("rect", float(cx), float(cy), yaw, hx=float(hx), hy=float(hy))
     return out
+
+
+def _mesh_xy_bounds(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray]:
+    """x, y bounds of a mesh geom's vertices in its body's frame (MuJoCo re-centres meshes on their
+    inertial frame, so the geom's pose is applied)."""
+    mesh = int(model.geom_dataid[g])
+    adr, n = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.geom_quat[g])
+    pts = model.mesh_vert[adr : adr + n] @ rot.reshape(3, 3).T + model.geom_pos[g]
+    return pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
 
 
 def world_model(name: str, spawn: tuple[float, float, float] | None = None) -> tuple[mujoco.MjModel, WorldInfo]:

@@ -97,7 +97,7 @@ from go2vlm.msgs.visualization_msgs import MarkerArray
 from go2vlm.perception.color import PRESETS, color_mask
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.labels import normalize_label
 from go2vlm.world.memory import MemoryParams, ObjectMemory, View
 from go2vlm.world.memory_file import MemoryFileError, dumps, loads
@@ -129,7 +129,7 @@ class ObjectMemoryConfig:
     odom_topic: str = param("/odom", help="nav_msgs/Odometry in world_frame: the pose history")
     scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link: lidar ranges ('' = none)")
     world: str = param("", help="the place this memory is of; a memory file of another world is refused")
-    world_frame: str = param(spec.ODOM_FRAME, help="the frame objects are remembered in (/odom's)")
+    world_frame: str = param(spec.GO2.frames.odom, help="the frame objects are remembered in (/odom's)")
     memory_file: str = param("", help="a memory file to load at start ('' = start empty)")
     save_on_exit: bool = param(False, help="write memory_file when the node stops")
     history_s: float = param(30.0, help="poses, scans and frames kept: the oldest answer placed (s)", min=1.0,

@@ -36,7 +36,7 @@ import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.perception.ranging import RangeEstimator
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.poses import Pose2D, wrap_angle
 
 __all__ = ["CameraMount", "Placed", "PlacementError", "PlacementParams", "check_box", "place", "rebase"]

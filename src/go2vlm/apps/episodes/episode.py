@@ -10,6 +10,12 @@ Perception variants (goal episodes): which grounding feeds the tracker, and noth
           render): the upper bound of any detector
   color   the classical colour-shape grounder (perception/grounding.py), no weights
   vlm     the `vlm` node (mode=detect; a local model or an OpenAI-compatible server)
+
+An episode may name its `target`, the body its goal refers to ("the ball under the table" is
+red_ball): the metrics judge against that body, and the oracle answers with that body's box alone,
+labelled as the commander asked, as a perfect model would. `answer_latency_s` (0 too) delivers the
+answers late (oracle: the ground truth; vlm: the model's own, held back) through the `answer_delay`
+node: the latency axis of `go2vlm eval --latency` (every point of it, 0 too, runs that graph).
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ class Episode:
     duration_s: float = 60.0  # sim seconds: how long a follow runs; the timeout of other goals
     settle_s: float = 1.0  # sim seconds kept running after a goal ends (it must stay put)
     robot: str = "sim"  # sim | go2 (the follow loop through the Unitree protocol and the go2 driver)
+    transport: str = "dds"  # robot go2: dds (Unitree DDS) | webrtc (the Unitree app's route)
     camera_width: int = 640
     camera_height: int = 480
     camera_rate_hz: float = 10.0
@@ -59,6 +66,8 @@ class Episode:
     params: dict[str, dict[str, Any]] = field(default_factory=dict)  # node name -> more parameters
     id: str = ""  # a name in a suite (e.g. goals/007)
     graph: str | None = None  # a launch file (name or path) instead of the perception's packaged graph
+    target: str | None = None  # the body the goal refers to; None: the one body whose name fits the goal's object
+    answer_latency_s: float | None = None  # sim seconds the answers are held back (oracle, vlm); None: no latency axis
 
     def __post_init__(self) -> None:
         if self.perception not in PERCEPTIONS:
@@ -69,10 +78,20 @@ class Episode:
             raise ValueError(f"mode {self.mode!r} is not kinematic or dynamic")
         if self.robot not in ("sim", "go2"):
             raise ValueError(f"robot {self.robot!r} is not sim or go2")
+        if self.transport not in ("dds", "webrtc"):
+            raise ValueError(f"transport {self.transport!r} is not dds or webrtc")
+        if self.transport != "dds" and self.robot != "go2":
+            raise ValueError("--transport is how the go2 driver reaches the robot: it needs --robot go2")
         if self.robot == "go2" and self.goal is not None:
             raise ValueError("--robot go2 runs the follow article's loop only (no goal)")
         if self.duration_s <= 0:
             raise ValueError(f"duration must be positive, got {self.duration_s:g}")
+        if self.answer_latency_s is not None and not self.answer_latency_s >= 0:
+            raise ValueError(f"answer latency must be >= 0 s, got {self.answer_latency_s:g}")
+        if self.answer_latency_s is not None and self.perception == "color":
+            raise ValueError(
+                "an answer latency is for the oracle and vlm variants (the colour grounder runs in the tracker)"
+            )
 
     @property
     def kind(self) -> str:
@@ -104,7 +123,13 @@ def graph_name(ep: Episode) -> str:
     if ep.graph is not None:
         return ep.graph
     if ep.goal is None:
-        return "follow_go2_sim" if ep.robot == "go2" else "follow_sim"
+        if ep.robot == "go2":
+            return "follow_go2_sim_webrtc" if ep.transport == "webrtc" else "follow_go2_sim"
+        return "follow_sim"
+    if ep.perception == "oracle" and (ep.target is not None or ep.answer_latency_s is not None):
+        return "episode_oracle_delay"
+    if ep.perception == "vlm" and ep.answer_latency_s is not None:
+        return "episode_vlm_delay"
     return f"episode_{ep.perception}"
 
 
@@ -118,20 +143,27 @@ def goal_target(goal: str | None) -> Target | None:
 
 
 def label_matches(target: Target, label: str) -> bool:
-    """True when a detection or body label names the target (colour and shape agree where the
-    target names them; "red_sphere" and "red ball" are the same thing)."""
+    """True when a detection or body label names the target: colour and shape agree where the target
+    names them ("red_sphere" and "red ball" are the same thing), and a category or phrase beyond them
+    ("soccer ball", "red mug", "teddy bear") is the same words."""
     try:
         t = parse_target(label.replace("_", " "))
     except GoalParseError:
         return False
-    if target.color is None and target.shape is None:
+    if t.label != _canonical(t) or target.label != _canonical(target):
         return t.label == target.label
     return (target.color is None or t.color == target.color) and (target.shape is None or t.shape == target.shape)
 
 
-def target_body(goal: str | None, names: list[str]) -> str | None:
-    """The world body the goal's object names (red_sphere for "the red ball", ...), if exactly one
-    body fits best: an exact colour-and-shape match wins over a partial one."""
+def _canonical(t: Target) -> str:
+    return " ".join(x for x in (t.color, t.shape) if x)
+
+
+def target_body(goal: str | None, names: list[str], target: str | None = None) -> str | None:
+    """The world body the goal refers to: `target` (an episode's own), else the body the goal's object
+    names (red_sphere for "the red ball", ...); the first by name when several fit."""
+    if target is not None:
+        return target if target in names else None
     target = goal_target(goal)
     if target is None:
         return None
@@ -158,6 +190,14 @@ def vlm_node_params(
     return out
 
 
+def free_tcp_port(host: str) -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
 def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, Any]]:
     """Parameters per node name that make the graph run this episode (the user's own `params` last)."""
     sim: dict[str, Any] = {
@@ -176,12 +216,23 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
         sim["spawn"] = list(ep.spawn)
     out: dict[str, dict[str, Any]] = {"sim": sim}
     if ep.robot == "go2":
-        from go2vlm.robots.go2 import spec
+        from go2vlm.robot_profile.go2 import GO2
 
-        hfov = spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height)
+        hfov = GO2.head_camera.hfov_deg(ep.camera_width, ep.camera_height)
         out["go2"] = {"camera_rate_hz": ep.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
+        if ep.transport == "webrtc":  # a free port on loopback, so that runs side by side do not meet
+            port = free_tcp_port("127.0.0.1")
+            sim.update(webrtc_host="127.0.0.1", webrtc_port=port)
+            out["go2"].update(ip="127.0.0.1", signal_port=port)
     if ep.goal is not None:
         out["commander"] = {"goal": ep.goal}
+    if graph_name(ep) in ("episode_oracle_delay", "episode_vlm_delay"):
+        target = goal_target(ep.goal)
+        out["answer_delay"] = {
+            "latency_s": ep.answer_latency_s or 0.0,
+            "target_body": (ep.target or "") if ep.perception == "oracle" else "",
+            "target_label": target.label if target is not None and ep.perception == "oracle" else "",
+        }
     for name, values in ep.params.items():
         out.setdefault(name, {}).update(values)
     return out

@@ -14,18 +14,32 @@ Several runs share a folder (oracle, color and vlm side by side); the report com
 interrupted run goes on with --resume: finished episodes are kept and skipped, the unfinished one is
 run again from its start.
 
-Workers: every worker is a process with its own DDS domain (bus/domain.py claim_free_domain), so
-episodes in parallel never hear each other; each runs its episodes one after the other, every node
-in the worker process. A vlm variant's workers all ask the one server at --base-url.
+Workers (apps/episodes/worker.py): every worker is a process with its own DDS domain (bus/domain.py
+claim_free_domain), so episodes in parallel never hear each other; each runs its episodes one after
+the other, every node in the worker process. A vlm variant's workers all ask the one server at --base-url.
+
+The e-stop (apps/episodes/latch.py): with a fixed --domain, an eval on a latched robot is refused
+before any worker starts (exit 2, one line with the release command); the free domains the workers
+(and the Ray tasks) claim leave out every domain whose latch file on this machine holds the suite's
+robot latched.
+
+Ray (`--ray [ADDRESS]`, apps/episodes/cluster.py): every episode is a Ray task instead, on a local Ray
+started for the run or on a cluster; each Ray worker process claims its DDS domain on the node it
+runs on, as a worker does. Results stream into the same results.jsonl as they finish. A task whose
+worker dies is retried once, then recorded in errors.jsonl (it is not in results.jsonl, so --resume
+runs it again); the eval goes on.
+
+Latency (`--latency L`, `EvalOptions.latency`): every episode's grounding answers are held back L sim
+seconds (Episode.answer_latency_s): a run of its own per latency, side by side in the report.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
-import signal
 import subprocess
 import sys
 import time
@@ -37,12 +51,11 @@ from typing import Any
 from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides, vlm_node_params
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
+from go2vlm.apps.episodes.worker import EVAL_DOMAINS, worker_init, worker_run
 from go2vlm.bus import ShutdownRequested
 from go2vlm.errors import UsageError
 
 __all__ = ["EvalError", "EvalOptions", "EvalOutcome", "run_eval"]
-
-EVAL_DOMAINS = (102, 232)  # claimed per worker; test sessions claim 1..101, a robot speaks on 0
 
 
 class EvalError(UsageError):
@@ -70,6 +83,8 @@ class EvalOptions:
     domain_id: int | None = None  # one fixed domain (one worker only)
     log_level: str = "error"  # of the nodes in the workers (every episode's start and stop would bury the progress)
     progress: bool = True
+    latency: float | None = None  # sim seconds every grounding answer is held back (None: no latency axis)
+    ray: str | None = None  # None: worker processes; "local": a Ray of this machine; "auto" or an address: a cluster
 
 
 @dataclass
@@ -159,6 +174,8 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
         "mode": opts.mode,
         "params": params,
     }
+    if opts.latency is not None:  # only then, so that the ids of runs without a latency axis stay as they were
+        decides["answer_latency_s"] = opts.latency
     digest = hashlib.sha256(json.dumps(decides, sort_keys=True).encode()).hexdigest()[:10]
     return {
         "run_id": f"{suite.name}-{opts.perception}-{digest}",
@@ -168,54 +185,6 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
         "git": _git(),
         "versions": _versions(),
         "machine": _machine(),
-    }
-
-
-# -- worker processes ----------------------------------------------------------------------------
-
-_WORKER: dict[str, Any] = {}
-
-
-def _worker_init(stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str) -> None:
-    # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
-    # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    os.environ["GO2VLM_IFACE"] = interface
-    from go2vlm.bus import Logger
-    from go2vlm.bus.domain import claim_free_domain
-
-    Logger.set_level(log_level)  # the nodes' start-up chatter of every episode would bury the progress
-    _WORKER["stop"] = stop_event
-    _WORKER["domain"] = domain_id if domain_id is not None else claim_free_domain(lo, hi, interface)
-    _WORKER["interface"] = interface
-
-
-def _worker_run(index: int, episode: dict[str, Any], run: dict[str, Any]) -> dict[str, Any]:
-    from go2vlm.apps.episodes.runner import RunOptions, run_episode
-
-    ep = Episode.from_dict(episode)
-    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] or run["bag"] else None
-    opts = RunOptions(
-        rtf=run["rtf"],
-        fast=run["fast"],
-        out=out,
-        video=run["video"],
-        plot=run["video"],
-        bag=run["bag"],
-        interface=_WORKER["interface"],
-        domain_id=_WORKER["domain"],
-    )
-    started = time.time()
-    result = run_episode(ep, opts, ShutdownRequested(event=_WORKER["stop"]))
-    metrics = {k: v for k, v in result.metrics.items() if k != "options"}
-    return {
-        "index": index,
-        "metrics": metrics,
-        "interrupted": result.interrupted,
-        "started_at": started,
-        "finished_at": time.time(),
-        "worker": {"pid": os.getpid(), "domain": _WORKER["domain"]},
     }
 
 
@@ -234,7 +203,12 @@ def _episodes(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict
         values.update(params=merged)
         if opts.mode is not None:
             values["mode"] = opts.mode
-        out.append(Episode.from_dict(values))
+        if opts.latency is not None:
+            values["answer_latency_s"] = opts.latency
+        try:
+            out.append(Episode.from_dict(values))
+        except ValueError as exc:
+            raise EvalError(str(exc)) from None
     return out
 
 
@@ -252,6 +226,31 @@ def _check(episodes: list[Episode], opts: EvalOptions) -> None:
         check_entries(with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True}))
 
 
+def _latched(episodes: list[Episode], opts: EvalOptions) -> tuple[int, ...]:
+    """With a fixed domain: RobotLatched (exit 2) if the robot is latched there. Else the domains
+    of EVAL_DOMAINS where a latch file holds the robot latched, for the workers to leave out."""
+    from go2vlm.apps.episodes.latch import gate_latch, refuse_if_latched
+    from go2vlm.apps.episodes.runner import RunOptions, episode_entries
+    from go2vlm.safety.estop import LatchFile
+
+    run = RunOptions(rtf=opts.rtf, fast=opts.fast)
+    graphs = {graph_name(ep): episode_entries(ep, run) for ep in episodes}
+    if opts.domain_id is not None:
+        for entries in graphs.values():
+            refuse_if_latched(entries, opts.domain_id, opts.interface)
+        return ()
+    out = set()
+    for d in range(EVAL_DOMAINS[0], EVAL_DOMAINS[1] + 1):
+        for entries in graphs.values():
+            found = gate_latch(entries, d)
+            state = LatchFile(found[1]).read() if found is not None else None
+            if state is not None and state.engaged:
+                out.add(d)
+    if len(out) > EVAL_DOMAINS[1] - EVAL_DOMAINS[0]:
+        raise EvalError("the e-stop is latched for this suite's robot on every eval domain; `go2vlm estop --release`")
+    return tuple(sorted(out))
+
+
 def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
     try:
         return vlm_node_params(opts.perception, opts.model, opts.base_url, opts.params)
@@ -259,20 +258,43 @@ def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
         raise EvalError(str(exc)) from None
 
 
-def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
-    """Run the suite's episodes that the folder does not hold yet; rewrite the report."""
-    from go2vlm.apps.episodes.report import write_report
+@dataclass
+class _Prepared:
+    suite: Suite
+    seed: int
+    params: dict[str, dict[str, Any]]
+    episodes: list[Episode]
+    config: dict[str, Any]
+    exclude: tuple[int, ...] = ()  # eval domains where the suite's robot is latched: no worker claims them
 
+
+def prepare(opts: EvalOptions) -> _Prepared:
+    """Everything that can be checked before an episode runs: the options, the suite (its worlds load,
+    its objects are in them), every episode and graph, the e-stop latch. EvalError / SuiteError / LaunchError /
+    RobotLatched otherwise."""
     if opts.workers < 1:
         raise EvalError("--workers must be at least 1")
-    if opts.domain_id is not None and opts.workers > 1:
+    if opts.domain_id is not None and (opts.workers > 1 or opts.ray is not None):
         raise EvalError("--domain gives every worker the same domain: use it with --workers 1 only")
+    if opts.latency is not None and not (math.isfinite(opts.latency) and 0 <= opts.latency <= 60):
+        raise EvalError(f"--latency: {opts.latency:g} s is not in 0..60")
+    if opts.latency is not None and opts.perception == "color":
+        raise EvalError("--latency is for --perception oracle and vlm (the colour grounder runs in the tracker)")
     suite = load_suite(opts.suite)
     seed = suite.seed if opts.seed is None else opts.seed
     params = _vlm_params(opts)
     episodes = _episodes(suite, opts, seed, params)
     _check(episodes, opts)
-    config = run_config(suite, opts, seed, params)
+    exclude = _latched(episodes, opts)
+    return _Prepared(suite, seed, params, episodes, run_config(suite, opts, seed, params), exclude)
+
+
+def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | None = None) -> EvalOutcome:
+    """Run the suite's episodes that the folder does not hold yet; rewrite the report."""
+    from go2vlm.apps.episodes.report import write_report
+
+    prep = prepared or prepare(opts)
+    suite, seed, episodes, config = prep.suite, prep.seed, prep.episodes, prep.config
     run_id = config["run_id"]
     out = Path(opts.out)
     (out / "runs").mkdir(parents=True, exist_ok=True)
@@ -283,8 +305,14 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
         line["config"]["run_id"]
         for line in lines
         if line["config"]["run_id"] != run_id
-        and (line["config"]["suite"], line["config"]["perception"], line["config"].get("model"), line["config"]["seed"])
-        == (suite.name, opts.perception, opts.model, seed)
+        and (
+            line["config"]["suite"],
+            line["config"]["perception"],
+            line["config"].get("model"),
+            line["config"]["seed"],
+            line["config"].get("answer_latency_s"),
+        )
+        == (suite.name, opts.perception, opts.model, seed, opts.latency)
     }
     if clash:
         raise EvalError(
@@ -293,7 +321,6 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
         )
     if mine and not opts.resume:
         raise EvalError(f"{out} already holds {len(mine)} episode(s) of run {run_id}; --resume finishes it")
-    write_json(out / "runs" / f"{run_id}.json", config)
     todo = [(k, ep) for k, ep in enumerate(episodes) if k not in mine]
     session = time.strftime("%Y%m%dT%H%M%S")
     session_t0 = time.time()  # wall time: the session's throughput
@@ -304,66 +331,106 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested) -> EvalOutcome:
         "bag": opts.bag,
         "episodes_dir": str(out / "episodes"),
     }
+    cluster = None
+    if opts.ray is not None and todo and not stop.event.is_set():
+        from go2vlm.apps.episodes.cluster import RayEpisodes
+
+        cluster = RayEpisodes.connect(opts.ray, opts.workers, opts.interface, opts.log_level)  # EvalError if not
+    write_json(out / "runs" / f"{run_id}.json", config)
     errors: list[str] = []
     done = 0
     interrupted = False
     bar = _bar(opts, len(episodes), len(mine), suite.name)
     wins = sum(bool(line["metrics"]["success"]) for line in lines if line["config"]["run_id"] == run_id)
-    import multiprocessing
 
-    ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no DDS or GL state inherited
-    stop_ev = ctx.Event()
+    def finished(k: int, ep: Episode, r: dict[str, Any]) -> None:
+        nonlocal done, wins
+        line = {
+            "config": config,
+            "index": k,
+            "episode": ep.to_dict(),
+            "metrics": r["metrics"],
+            "session": session,
+            "session_started_at": session_t0,
+            "started_at": r["started_at"],
+            "finished_at": r["finished_at"],
+            "worker": r["worker"],
+            "workers": opts.workers,
+            **({"ray": opts.ray} if opts.ray is not None else {}),
+        }
+        append_jsonl(results, line)
+        done += 1
+        wins += bool(r["metrics"]["success"])
+        _tick(bar, opts, ep, r, len(mine) + done, len(episodes), wins)
+
+    def failed(k: int, ep: Episode, why: str) -> None:
+        errors.append(f"{ep.id}: {why}")
+        append_jsonl(out / "errors.jsonl", {"run_id": run_id, "index": k, "episode": ep.id, "error": why,
+                                            "session": session, "at": time.time()})  # fmt: skip
+
     with stop.hold("the results"):
         if todo and not stop.event.is_set():
-            with ProcessPoolExecutor(
-                max_workers=min(opts.workers, len(todo)),
-                mp_context=ctx,
-                initializer=_worker_init,
-                initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level),
-            ) as pool:
-                futs: dict[Future[dict[str, Any]], Episode] = {
-                    pool.submit(_worker_run, k, ep.to_dict(), run): ep for k, ep in todo
-                }
-                pending = set(futs)
-                while pending:
-                    finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
-                    if (stop.event.is_set() or errors) and not stop_ev.is_set():
-                        stop_ev.set()  # running episodes end now; queued ones never start
-                        for f in pending:
-                            f.cancel()
-                    for f in finished:
-                        if f.cancelled():
-                            continue
-                        ep = futs[f]
-                        exc = f.exception()
-                        if exc is not None:
-                            errors.append(f"{ep.id}: {type(exc).__name__}: {exc}")
-                            continue
-                        r = f.result()
-                        if r["interrupted"]:
-                            interrupted = True
-                            continue
-                        line = {
-                            "config": config,
-                            "index": r["index"],
-                            "episode": ep.to_dict(),
-                            "metrics": r["metrics"],
-                            "session": session,
-                            "session_started_at": session_t0,
-                            "started_at": r["started_at"],
-                            "finished_at": r["finished_at"],
-                            "worker": r["worker"],
-                            "workers": opts.workers,
-                        }
-                        append_jsonl(results, line)
-                        done += 1
-                        wins += bool(r["metrics"]["success"])
-                        _tick(bar, opts, ep, r, len(mine) + done, len(episodes), wins)
+            if cluster is not None:
+                try:
+                    interrupted = cluster.run(todo, run, stop, finished, failed, prep.exclude)
+                finally:
+                    cluster.close()
+            else:
+                interrupted = _run_pool(todo, run, opts, stop, finished, failed, prep.exclude)
         interrupted = interrupted or stop.event.is_set()
         if bar is not None:
             bar.close()
         summary = write_report(out)
     return EvalOutcome(run_id, len(episodes), len(mine), done, interrupted, errors, summary, time.time() - session_t0)
+
+
+def _run_pool(
+    todo: list[tuple[int, Episode]],
+    run: dict[str, Any],
+    opts: EvalOptions,
+    stop: ShutdownRequested,
+    finished: Any,
+    failed: Any,
+    exclude: tuple[int, ...],
+) -> bool:
+    """The episodes in worker processes; True if interrupted. The first error stops the rest."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")  # a fresh interpreter: no DDS or GL state inherited
+    stop_ev = ctx.Event()
+    interrupted = False
+    errors = False
+    with ProcessPoolExecutor(
+        max_workers=min(opts.workers, len(todo)),
+        mp_context=ctx,
+        initializer=worker_init,
+        initargs=(stop_ev, opts.interface, opts.domain_id, opts.log_level, exclude),
+    ) as pool:
+        futs: dict[Future[dict[str, Any]], tuple[int, Episode]] = {
+            pool.submit(worker_run, k, ep.to_dict(), run): (k, ep) for k, ep in todo
+        }
+        pending = set(futs)
+        while pending:
+            done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+            if (stop.event.is_set() or errors) and not stop_ev.is_set():
+                stop_ev.set()  # running episodes end now; queued ones never start
+                for f in pending:
+                    f.cancel()
+            for f in done:
+                if f.cancelled():
+                    continue
+                k, ep = futs[f]
+                exc = f.exception()
+                if exc is not None:
+                    errors = True
+                    failed(k, ep, f"{type(exc).__name__}: {exc}")
+                    continue
+                r = f.result()
+                if r["interrupted"]:
+                    interrupted = True
+                    continue
+                finished(k, ep, r)
+    return interrupted
 
 
 def _bar(opts: EvalOptions, total: int, initial: int, name: str) -> Any:

@@ -19,11 +19,15 @@ Per episode (every task):
   time_to_goal_s   sim seconds from the start to `reached` / `found`.
   path_length_m    the base's path (ground truth at 20 Hz).
   collisions       times the robot's footprint (0.70 x 0.31 m around the base: the Go2's size,
-                   robots/go2/spec.py) began to overlap an object's footprint; min_clearance_m is
+                   its robot profile, robot_profile/go2.py) began to overlap an object's footprint; min_clearance_m is
                    the smallest gap; collided_with names the bodies. Geometric, so it is the same
                    in kinematic and dynamic physics (and a moving body, such as a world's red
                    ball, that runs into a robot standing still counts too).
   fell             the sim reported a fall.
+  estop            the latches of the safety gate's e-stop that held the robot during the run
+                   (apps/episodes/latch.py): {latched, latched_s, latched_at_end, latches: [{at_s,
+                   for_s, why, released}]}, sim seconds from the start; `stopped` is then true and a
+                   goal's result is "stopped", whatever the commander's last state says.
   target_in_view_fraction  ground-truth samples with the target's centre inside the head camera's
                    horizontal field of view (geometric: occlusion is not checked); *_at_end likewise.
 Grounding (answers on /vlm/detections, or the oracle's /sim/detections), each answer against the
@@ -64,13 +68,14 @@ from typing import Any
 import numpy as np
 
 from go2vlm.apps.episodes.episode import Episode, goal_target, label_matches, target_body
+from go2vlm.apps.episodes.latch import estop_metrics
 from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.behavior.goals import GoalParseError, parse_target
 from go2vlm.behavior.mission import MissionParams
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import profile
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
@@ -121,12 +126,20 @@ def _dedupe(states: list[Any]) -> list[Any]:
 
 
 def grounding_metrics(
-    answers: list[tuple[float, float, list[PixelBox]]], truth: dict[float, list[PixelBox]], goal: str | None
+    answers: list[tuple[float, float, list[PixelBox]]],
+    truth: dict[float, list[PixelBox]],
+    goal: str | None,
+    body: str | None = None,
 ) -> dict[str, Any] | None:
-    """Every answer against the ground truth of its frame (see the module docstring); None without answers."""
+    """Every answer against the ground truth of its frame (see the module docstring); None without answers.
+    `body`: the episode's own target body (a referring goal), the only ground truth of the goal."""
     target = goal_target(goal)
     if not answers or target is None:
         return None
+
+    def is_goal(label: str) -> bool:
+        return label == body if body is not None else label_matches(target, label)
+
     ious: list[float] = []
     hits = misses = wrong = false_pos = answered = visible_n = unscored = 0
     ages: list[float] = []
@@ -136,9 +149,9 @@ def grounding_metrics(
         if gt is None:
             unscored += 1  # no ground truth for that frame (scoring off, or the answer's stamp is not a frame's)
             continue
-        mine = [b for label, b, _ in boxes if label_matches(target, label)]
-        goal_boxes = [b for label, b, _ in gt if label_matches(target, label)]
-        others = [b for label, b, _ in gt if not label_matches(target, label)]
+        mine = [b for label, b, _ in boxes if label == body or label_matches(target, label)]
+        goal_boxes = [b for label, b, _ in gt if is_goal(label)]
+        others = [b for label, b, _ in gt if not is_goal(label)]
         visible = bool(goal_boxes)
         visible_n += visible
         answered += bool(mine)
@@ -300,8 +313,9 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     ep = ctx.episode
     kind = ep.kind
     names = sorted({*ctx.shapes, *(n for _, p in rec.poses for n in p if n != "go2")})
-    target = target_body(ep.goal, names)
-    hfov = math.radians(spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height))
+    target = target_body(ep.goal, names, ep.target)
+    robot_facts = profile(ep.robot)
+    hfov = math.radians(robot_facts.head_camera.hfov_deg(ep.camera_width, ep.camera_height))
 
     # -- geometry over time, from ground truth --------------------------------------------------
     track: list[tuple[float, float, float, float]] = []  # t, x, y, yaw
@@ -317,7 +331,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         x, y, _, qw, qx, qy, qz = p["go2"]
         yaw = quat_yaw(qw, qx, qy, qz)
         track.append((t, x, y, yaw))
-        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        robot = Footprint.rect(x, y, yaw, robot_facts.footprint_length, robot_facts.footprint_width)
         worst, worst_name = math.inf, ""
         for name, shape in ctx.shapes.items():
             if name in p:
@@ -392,6 +406,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
 
     rtf, rtf_all = _rtf(rec.status)
     duration = max([rec.sim_time, *(float(s["sim_time"]) for s in rec.status if "sim_time" in s)])
+    estop = estop_metrics(rec.estop, ctx.t0, max(rec.sim_time, ctx.t0))
     m: dict[str, Any] = {
         "episode": ep.id or None,
         "kind": kind,
@@ -411,6 +426,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         "collided_with": sorted(collided_with),
         "min_clearance_m": _r(min_clear),
         "fell": fell,
+        "estop": estop,
+        "stopped": estop["latched"],
         "target_in_view_fraction": _r(sum(in_view) / len(in_view), 4) if in_view else None,
         "target_in_view_at_end": bool(in_view[-1]) if in_view else None,
         "final_distance_m": _r(final_dist),
@@ -422,6 +439,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             [(t, t, b) for t, b in sorted(rec.truth.items())] if ep.perception == "oracle" else rec.answers,
             rec.truth,
             ep.goal,
+            ep.target,
         ),
         "vlm": vlm_latency(rec.vlm_status),
         "tracker": tracker_metrics(rec.tracked, rec.cmds, _memory_confirmed(rec, ep)),
@@ -454,7 +472,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
                 "cmd_rate_hz": round((len(cmds) - 1) / span, 2) if span > 0 else 0.0,
                 "mean_cmd_vx": round(float(np.mean([c[1] for c in cmds])), 4) if cmds else None,
                 "frames_dropped_by_renderer": rec.status[-1].get("frames_dropped") if rec.status else None,
-                "robot": ep.robot,
+                "robot": ep.robot if ep.transport == "dds" else f"{ep.robot} ({ep.transport})",
                 "rtf_target": None if ctx.fast else ctx.rtf,
                 "fast": ctx.fast,
                 "camera": f"{ep.camera_width}x{ep.camera_height}@{ep.camera_rate_hz:g}Hz",
@@ -464,6 +482,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     else:  # a language goal: `go2vlm demo --goal`'s figures
         m.update(
             {
+                "result": "stopped" if estop["latched"] else (states[-1] if states else None),
                 "final_state": states[-1] if states else None,
                 "final_reason": final.get("reason"),
                 "states": _dedupe(states),

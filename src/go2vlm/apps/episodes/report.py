@@ -1,6 +1,6 @@
 """summary.json, report.md and the plots of an eval folder, from its results.jsonl.
 
-Groups: one row per (suite, perception variant, model). Confidence intervals, 95 %:
+Groups: one row per (suite, perception variant, model, added answer latency). Confidence intervals, 95 %:
   rates (success, grounding precision and recall at IoU 0.5)  Wilson score interval;
   means (SPL, time to goal)                                   percentile bootstrap, 10,000 resamples
                                                               of the episodes, seeded (reproducible).
@@ -56,18 +56,20 @@ def _ci(ci: tuple[float, float] | None) -> list[float] | None:
     return None if ci is None else [round(ci[0], 4), round(ci[1], 4)]
 
 
-def group_key(line: dict[str, Any]) -> tuple[str, str, str]:
+def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
+    """(suite, variant, model, added answer latency; -1: no latency axis)."""
     run = line["config"]
-    return run["suite"], run["perception"], run.get("model") or ""
+    lat = run.get("answer_latency_s")
+    return run["suite"], run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
 
 
 def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """One summary per (suite, variant, model)."""
-    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
+    """One summary per (suite, variant, model, latency)."""
+    groups: dict[tuple[str, str, str, float], list[dict[str, Any]]] = defaultdict(list)
     for line in lines:
         groups[group_key(line)].append(line)
     out = []
-    for (suite, perception, model), rows in sorted(groups.items()):
+    for (suite, perception, model, latency), rows in sorted(groups.items()):
         ms = [r["metrics"] for r in rows]
         n = len(ms)
         wins = sum(bool(m["success"]) for m in ms)
@@ -93,6 +95,7 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "suite": suite,
                 "perception": perception,
                 "model": model or None,
+                "answer_latency_s": None if latency < 0 else latency,
                 "episodes": n,
                 "success": wins,
                 "success_rate": _r(wins / n),
@@ -159,9 +162,10 @@ def write_report(out: Path) -> dict[str, Any]:
         "bootstrap for means. SPL: go-to episodes only, shortest path = straight-line distance from the start",
         "to the object's surface minus the commander's stop distance (0.8 m).",
         "",
-        "| suite | perception | model | episodes | success [95 % CI] | SPL [95 % CI] | time to goal (s) | "
-        "collisions | fell | grounding precision / recall @0.5 | mean IoU | VLM latency (ms) | episodes/h |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| suite | perception | model | added latency (s) | episodes | success [95 % CI] | SPL [95 % CI] | "
+        "time to goal (s) | collisions | fell | grounding precision / recall @0.5 | mean IoU | VLM latency (ms) | "
+        "episodes/h |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         spl = "n/a" if r["spl_mean"] is None else f"{r['spl_mean']:.3f}{_range(r['spl_ci95'], pct=False)}"
@@ -174,15 +178,17 @@ def write_report(out: Path) -> dict[str, Any]:
         iou = "n/a" if r["grounding_mean_iou"] is None else f"{r['grounding_mean_iou']:.3f}"
         lat = "n/a" if r["vlm_latency_ms_mean"] is None else f"{r['vlm_latency_ms_mean']:.0f}"
         eph = "n/a" if r["episodes_per_hour_last_session"] is None else f"{r['episodes_per_hour_last_session']:.0f}"
+        added = "-" if r["answer_latency_s"] is None else f"{r['answer_latency_s']:g}"
         md.append(
-            f"| {r['suite']} | {r['perception']} | {r['model'] or '-'} | {r['episodes']} | "
+            f"| {r['suite']} | {r['perception']} | {r['model'] or '-'} | {added} | {r['episodes']} | "
             f"{_pct(r['success_rate'])}{_range(r['success_rate_ci95'])} | {spl} | {ttg} | {r['collisions']} | "
             f"{r['fell']} | {pr} | {iou} | {lat} | {eph} |"
         )
     md += ["", "By task kind (successes / episodes):", ""]
     for r in rows:
         kinds = ", ".join(f"{k} {v['success']}/{v['episodes']}" for k, v in r["success_by_kind"].items())
-        md.append(f"- {r['suite']} / {r['perception']}{' / ' + r['model'] if r['model'] else ''}: {kinds}")
+        lat = "" if r["answer_latency_s"] is None else f" / {r['answer_latency_s']:g} s late"
+        md.append(f"- {r['suite']} / {r['perception']}{' / ' + r['model'] if r['model'] else ''}{lat}: {kinds}")
     md += ["", *[f"![{name}]({name})" for name in plots], ""]
     md += ["## Runs", ""]
     for c in configs.values():
@@ -206,7 +212,7 @@ def _plots(out: Path, rows: list[dict[str, Any]], lines: list[dict[str, Any]]) -
     names = []
     if rows:  # success by variant, with the Wilson interval
         fig, ax = plt.subplots(figsize=(max(5, 1.2 * len(rows) + 2), 3.6))
-        labels = [f"{r['suite']}\n{r['perception']}{chr(10) + r['model'] if r['model'] else ''}" for r in rows]
+        labels = [_label(r, "\n") for r in rows]
         rates = [r["success_rate"] or 0.0 for r in rows]
         lo = [rate - (r["success_rate_ci95"] or [rate, rate])[0] for rate, r in zip(rates, rows, strict=True)]
         hi = [(r["success_rate_ci95"] or [rate, rate])[1] - rate for rate, r in zip(rates, rows, strict=True)]
@@ -220,11 +226,11 @@ def _plots(out: Path, rows: list[dict[str, Any]], lines: list[dict[str, Any]]) -
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     any_iou = False
     for r in rows:
-        ious = [v for line in lines if group_key(line) == (r["suite"], r["perception"], r["model"] or "")
+        ious = [v for line in lines if group_key(line) == _key(r)
                 for v in ((line["metrics"].get("grounding") or {}).get("iou") or [])]  # fmt: skip
         if ious:
             any_iou = True
-            ax.hist(ious, bins=20, range=(0, 1), alpha=0.5, label=f"{r['suite']}/{r['perception']}")
+            ax.hist(ious, bins=20, range=(0, 1), alpha=0.5, label=_label(r, "/"))
     ax.axvline(0.5, color="0.4", lw=0.8, ls="--")
     ax.set_xlabel("IoU of the answer with the ground-truth box of its frame")
     ax.set_ylabel("answers")
@@ -257,7 +263,51 @@ def _plots(out: Path, rows: list[dict[str, Any]], lines: list[dict[str, Any]]) -
     ax.set_ylabel("success (0/1)")
     ax.set_ylim(-0.1, 1.1)
     names.append(_save(fig, out / "success_vs_latency.png", plt))
+    curves: dict[tuple[str, str, str], list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        if r["answer_latency_s"] is not None:
+            curves[(r["suite"], r["perception"], r["model"] or "")].append(r)
+    if curves:  # success and SPL against the added answer latency, with their 95 % bands
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.8))
+        for (suite, perception, model), rs in sorted(curves.items()):
+            rs = sorted(rs, key=lambda r: r["answer_latency_s"])
+            x = [r["answer_latency_s"] for r in rs]
+            name = f"{suite}/{perception}{'/' + model if model else ''}"
+            _band(ax1, x, [r["success_rate"] for r in rs], [r["success_rate_ci95"] for r in rs], name)
+            _band(ax2, x, [r["spl_mean"] for r in rs], [r["spl_ci95"] for r in rs], name)
+        for ax, what in ((ax1, "success rate (95 % Wilson CI)"), (ax2, "SPL, go to (95 % bootstrap CI)")):
+            ax.set_xlabel("added answer latency (s)")
+            ax.set_ylabel(what)
+            ax.set_ylim(-0.02, 1.05)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        ax1.set_title("success against the answer latency", fontsize=9)
+        ax2.set_title("SPL against the answer latency", fontsize=9)
+        names.append(_save(fig, out / "success_spl_vs_added_latency.png", plt))
     return names
+
+
+def _key(r: dict[str, Any]) -> tuple[str, str, str, float]:
+    lat = r["answer_latency_s"]
+    return r["suite"], r["perception"], r["model"] or "", -1.0 if lat is None else float(lat)
+
+
+def _label(r: dict[str, Any], sep: str) -> str:
+    parts = [r["suite"], r["perception"], r["model"] or ""]
+    if r["answer_latency_s"] is not None:
+        parts.append(f"+{r['answer_latency_s']:g} s")
+    return sep.join(p for p in parts if p)
+
+
+def _band(ax: Any, x: list[float], y: list[float | None], ci: list[list[float] | None], name: str) -> None:
+    pts = [(a, b, c) for a, b, c in zip(x, y, ci, strict=True) if b is not None]
+    if not pts:
+        return
+    xs, ys, cs = zip(*pts, strict=True)
+    line = ax.plot(xs, ys, "-o", label=name)[0]
+    lo = [c[0] if c else v for v, c in zip(ys, cs, strict=True)]
+    hi = [c[1] if c else v for v, c in zip(ys, cs, strict=True)]
+    ax.fill_between(xs, lo, hi, color=line.get_color(), alpha=0.2)
 
 
 def _save(fig: Any, path: Path, plt: Any) -> str:

@@ -1,7 +1,7 @@
 """Suites: YAML files of tasks that expand into seeded episodes.
 
 A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
-obstacles) or a path to a file of your own (copy a packaged one and edit it):
+obstacles, household, referring) or a path to a file of your own (copy a packaged one and edit it):
 
     name: goals
     description: go to and look for each object of the VLM article's world from seeded random spawns
@@ -21,6 +21,11 @@ obstacles) or a path to a file of your own (copy a packaged one and edit it):
           min_goal_distance_m: 1.5   # base centre <-> the goal object's surface (default 1.3)
         ball_speed: {choice: [0.2, 0.4]}   # any numeric field: a number, [lo, hi] or {choice: [...]}
         params: {commander: {search_timeout_s: 20}}   # node name -> parameters
+        target: red_ball    # the body the goal refers to (needed when its words do not name one body:
+                            # "the ball under the table"); left out, the body whose name fits the goal
+
+A suite is checked before any episode runs: every world must load (its meshes too), and every goal's
+object must be a body of its world (`target`, or the one its words name).
 
 Reproducible: episode k draws from numpy's generator seeded with (seed, k) and nothing else, so an
 episode is the same whatever --episodes, --workers or the order they run in.
@@ -110,17 +115,18 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
     """A spawn pose in the task's region, clear of every object and not already at the goal."""
     from go2vlm.apps.episodes.episode import target_body
     from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
-    from go2vlm.robots.go2 import spec
+    from go2vlm.robot_profile.go2 import SIM
 
     sp = task["spawn"]
     shapes = _shapes(task["world"])
     goal = task.get("goal")
-    target = shapes.get(target_body(goal, list(shapes)) or "") if goal and task_kind(goal) != "follow" else None
+    body = target_body(goal, list(shapes), task.get("target"))
+    target = shapes.get(body or "") if goal and task_kind(goal) != "follow" else None
     min_clear = float(sp.get("min_clearance_m", 0.4))
     min_goal = float(sp.get("min_goal_distance_m", 1.3))
     for _ in range(_MAX_TRIES):
         x, y, yaw = (float(_draw(sp.get(a, 0.0), rng, f"spawn.{a}")) for a in ("x", "y", "yaw"))
-        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        robot = Footprint.rect(x, y, yaw, SIM.footprint_length, SIM.footprint_width)
         if any(clearance(robot, s) < min_clear for s in shapes.values()):
             continue
         if target is not None and surface_distance(x, y, target) < min_goal:
@@ -133,9 +139,29 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
 
 @functools.lru_cache(maxsize=16)
 def _shapes(world: str) -> dict[str, Any]:
-    from go2vlm.sim.worlds import world_footprints, world_model
+    from go2vlm.sim.worlds import world_footprints
 
-    return world_footprints(world_model(world)[0])
+    return world_footprints(_model(world))
+
+
+@functools.lru_cache(maxsize=16)
+def _model(world: str) -> Any:
+    from go2vlm.sim.worlds import world_model
+
+    return world_model(world)[0]
+
+
+@functools.lru_cache(maxsize=16)
+def world_bodies(world: str) -> tuple[str, ...]:
+    """The labelled bodies of a world (the objects a goal may name); SuiteError when it does not load."""
+    from go2vlm.sim.render import labelled_bodies
+
+    try:
+        model = _model(world)
+    except Exception as exc:  # MuJoCo's XML, mesh and texture errors are ValueErrors; a bad file may be others
+        first = str(exc).strip().splitlines()
+        raise SuiteError(f"world {world!r} does not load: {first[0] if first else type(exc).__name__}") from None
+    return tuple(sorted(labelled_bodies(model).values()))
 
 
 def load_suite(name: str) -> Suite:
@@ -198,6 +224,15 @@ def _check_task(task: dict[str, Any], where: str) -> None:
     goal = task.get("goal")
     if goal is not None and task_kind(goal) == "invalid":
         raise SuiteError(f"{where}: cannot understand the goal {goal!r}")
+    if goal is not None and task_kind(goal) in ("follow", "go_to", "look_for"):
+        from go2vlm.apps.episodes.episode import target_body
+
+        bodies = list(world_bodies(task["world"]))
+        named = task.get("target")
+        if named is not None and named not in bodies:
+            raise SuiteError(f"{where}: target {named!r} is not an object of world {task['world']!r}")
+        if target_body(goal, bodies, named) is None:
+            raise SuiteError(f"{where}: no object of world {task['world']!r} is what {goal!r} names")
     try:  # every drawn value must make a valid Episode: try the first draw
         rng = np.random.default_rng(0)
         vals = {k: _draw(v, rng, k) for k, v in task.items() if k not in _TASK_ONLY and k != "params"}

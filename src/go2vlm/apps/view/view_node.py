@@ -19,11 +19,12 @@ Topics (every one only while a client subscribes to its channel: no client, no c
               size of the last image or camera_info seen
   serves      /view/robot  foxglove.SceneUpdate: a Go2-sized box on base_frame (base_link), every
               second, for the 3D panel (with /tf)
-  publishes   only for clients (capability clientPublish), only these topics and types, only into
-              the safety gate's inputs:
+  publishes   only for clients (capability clientPublish), only these topics and types: the safety
+              gate's inputs, and a person's answer to `go2vlm mcp --confirm`:
                 /emergency_stop          std_msgs/Bool    (reliable)
                 /emergency_stop/release  std_msgs/String  (reliable)
                 /teleop/cmd_vel          geometry_msgs/Twist (reliable)
+                /mcp/confirm             std_msgs/String  (reliable): "yes <id>" for /mcp/pending
               client messages in cdr or json encoding; anything else a client advertises or sends
               (/cmd_vel included) is refused, logged and counted (client_publish_refused), and the
               client is told so in a status message
@@ -51,17 +52,21 @@ from go2vlm.msgs.msgdef import msgdef, ros_type
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.robot_profile.go2 import SIM
+from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOPIC
 
 __all__ = ["CLIENT_TOPICS", "ViewConfig", "ViewNode"]
 
-# What a Foxglove client may publish: the safety gate's inputs, nothing else (never /cmd_vel).
+# What a Foxglove client may publish: the safety gate's inputs and a person's yes to an MCP agent's
+# goal (`go2vlm mcp --confirm`), nothing else (never /cmd_vel).
 CLIENT_TOPICS: dict[str, type] = {
-    "/emergency_stop": Bool,
-    "/emergency_stop/release": String,
+    ESTOP_TOPIC: Bool,
+    RELEASE_TOPIC: String,
     "/teleop/cmd_vel": Twist,
+    "/mcp/confirm": String,
 }
 ROBOT_TOPIC = "/view/robot"
-GO2_BOX = (0.70, 0.31, 0.40)  # metres: the Go2 standing, as one box
+GO2_BOX = (SIM.footprint_length, SIM.footprint_width, 0.40)  # metres: the Go2 standing, as one box
 
 
 @dataclass
@@ -380,7 +385,7 @@ class ViewNode(Node):
             return
         self.client_pubs[topic].publish(msg)
         self.count("client_published")
-        if topic == "/emergency_stop" and msg.data:
+        if topic == ESTOP_TOPIC and msg.data:
             self.log.warning("a Foxglove client engaged the e-stop")
 
     def _refuse(self, why: str, quiet: bool = False) -> None:

@@ -26,7 +26,7 @@ from go2vlm.msgs.unitree import (
     ResponseHeader,
     ResponseStatus,
 )
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile.go2 import GO2
 
 SPORT_SERVICE = "sport"
 VIDEO_SERVICE = "videohub"
@@ -232,7 +232,7 @@ def parse_move(params: Any) -> tuple[float, float, float]:
     if not isinstance(params, dict):
         raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter must be a JSON object, got {params!r:.80}")
     vx, vy, vyaw = _number(params, "x"), _number(params, "y"), _number(params, "z")
-    return spec.clamp_velocity(vx, vy, vyaw)
+    return GO2.ceilings.clamp(vx, vy, vyaw)
 
 
 @dataclass(frozen=True)
@@ -258,7 +258,10 @@ def result_from_response(request_api_id: int, response: Response) -> RpcResult:
     return RpcResult(int(response.header.status.code), response.data, bytes(response.binary))
 
 
-# -- posture commands (driver topic /go2/command and `go2vlm go2 ...`) -------------------------
+# -- posture commands (/go2/command, `go2vlm go2 ...`): the one vocabulary -------------------
+# Every robot end of a Go2 (the go2 driver, the sim) takes these words on POSTURE_TOPIC, and
+# `go2vlm go2` offers exactly these verbs.
+POSTURE_TOPIC = "/go2/command"
 # name -> sequence of sport API ids sent in order, each after the previous one answered.
 # "stand" = StandUp (joints locked upright) then BalanceStand (balancing, accepts Move).
 COMMANDS: dict[str, tuple[int, ...]] = {
@@ -272,9 +275,82 @@ COMMANDS: dict[str, tuple[int, ...]] = {
     "hello": (HELLO,),
     "stop": (STOP_MOVE,),
 }
+POSTURES: tuple[str, ...] = tuple(COMMANDS)
 # Allowed while the emergency stop is latched: nothing that makes the robot stand or move.
 ESTOP_ALLOWED = frozenset({"damp", "standdown", "stop"})
 ESTOP_ALLOWED_APIS = frozenset(api for name in ESTOP_ALLOWED for api in COMMANDS[name])
 # The stops: they travel in a priority lane (a server applies them before anything queued, and a
 # client retries them until they are acknowledged), and a Damp supersedes whatever came before it.
 STOP_APIS = frozenset({DAMP, STOP_MOVE})
+
+# -- WebRTC: the route of the Unitree app (every Go2: AIR, PRO, EDU) ---------------------------
+# Facts about the robot's WebRTC service, as the Unitree app and unitree_webrtc_connect speak it
+# (robots/go2/webrtc/ has the codec and the link; robots/go2_sim/webrtc_server.py the sim's side).
+# The data channel carries the DDS topics under their DDS names ("rt/..."), as JSON.
+RTC_SPORT_REQUEST = "rt/api/sport/request"
+RTC_SPORT_RESPONSE = "rt/api/sport/response"
+RTC_BASH_REQUEST = "rt/api/bashrunner/request"
+RTC_BASH_RESPONSE = "rt/api/bashrunner/response"
+RTC_SPORT_STATE = "rt/sportmodestate"
+RTC_LF_SPORT_STATE = "rt/lf/sportmodestate"  # the low-rate copy the app reads
+RTC_LOW_STATE = "rt/lowstate"
+RTC_LF_LOW_STATE = "rt/lf/lowstate"
+RTC_LIDAR_VOXELS = "rt/utlidar/voxel_map_compressed"  # LZ4 voxel bitmap, binary frame
+RTC_LIDAR_SWITCH = "rt/utlidar/switch"  # "on" / "off"
+# Data-channel message types ("type" of every JSON message).
+DC_VALIDATION = "validation"
+DC_SUBSCRIBE = "subscribe"
+DC_UNSUBSCRIBE = "unsubscribe"
+DC_MSG = "msg"
+DC_REQUEST = "req"
+DC_RESPONSE = "res"
+DC_VIDEO = "vid"
+DC_AUDIO = "aud"
+DC_ERR = "err"
+DC_HEARTBEAT = "heartbeat"
+DC_RTC_INNER_REQ = "rtc_inner_req"
+DC_ERRORS = frozenset({"errors", "add_error", "rm_error"})
+VALIDATION_OK = "Validation Ok."
+VALIDATION_NEEDED = "Validation Needed."
+VALIDATION_PREFIX = "UnitreeGo2_"  # the answer is base64(md5(prefix + key)) of the robot's key
+# Firmware version: the app runs this built-in script through the bashrunner service on connect.
+BASH_RUN_SCRIPT = 1001
+VERSION_SCRIPT = "get_whole_packet_version.sh"
+# Signalling: HTTP on the robot. 9991 (con_notify, then con_ing_<path>) on firmware >= 1.1.x; 8081
+# (/offer, plaintext) on older firmware. The robot as access point is always 192.168.12.1.
+SIGNAL_PORT = 9991
+LEGACY_SIGNAL_PORT = 8081
+AP_IP = "192.168.12.1"
+# con_notify's "data2": how "data1" (the robot's RSA public key) is sealed. 1: plain; 2: AES-GCM with
+# the app's static key (firmware 1.1.1 to 1.1.14); 3: AES-GCM with the robot's own AES-128 key, which
+# Unitree's cloud hands to the robot's owner (firmware >= 1.1.15). Anything else: unknown protocol.
+SEAL_PLAIN, SEAL_STATIC, SEAL_DEVICE = 1, 2, 3
+SIGNAL_SEALS = frozenset({SEAL_PLAIN, SEAL_STATIC, SEAL_DEVICE})
+STATIC_GCM_KEY = bytes.fromhex("e85682bd16549b008e04a6682bb3ebe3")  # the app's key for data2 == 2
+# Firmware versions: the ones unitree_webrtc_connect 2.2 lists as working with its protocol (go2vlm
+# speaks the same), and the ones go2vlm itself has met. None has met go2vlm yet: only the sim has.
+FIRMWARE_KNOWN = ("1.0.19-1.0.25", "1.1.1-1.1.14 (data2=2)", "1.1.15+ (data2=3, needs the robot's AES key)")
+FIRMWARE_TESTED: tuple[str, ...] = ()  # firmware versions go2vlm has been run against on a real Go2
+SIM_FIRMWARE = "1.1.7-sim"  # what the simulator reports
+
+
+def firmware_tuple(version: str) -> tuple[int, ...] | None:
+    """ "1.1.7" (also "V1.1.7", "1.1.7-sim") -> (1, 1, 7); None when it is not a version."""
+    text = version.strip().lstrip("vV").split("-")[0].split(" ")[0]
+    parts = text.split(".")
+    if not 2 <= len(parts) <= 4 or not all(part.isdigit() for part in parts):
+        return None
+    return tuple(int(part) for part in parts)
+
+
+def firmware_note(version: str) -> str | None:
+    """None for a firmware go2vlm has been tested on; else one line saying what is known of it."""
+    if version in FIRMWARE_TESTED or version == SIM_FIRMWARE:
+        return None
+    v = firmware_tuple(version)
+    if v is None:
+        return f"firmware {version!r} is not a version go2vlm can read; untested"
+    known = (1, 0, 19) <= v <= (1, 0, 25) or v >= (1, 1, 1)
+    if not known:
+        return f"firmware {version} is older than any known to speak this WebRTC protocol (1.0.19); untested"
+    return f"firmware {version} is untested with go2vlm (known to speak this protocol: {', '.join(FIRMWARE_KNOWN)})"
