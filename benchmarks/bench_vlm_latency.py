@@ -44,6 +44,7 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(20, 220)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 
 from go2vlm.apps.episodes import Episode, RunOptions, run_episode  # noqa: E402
+from go2vlm.apps.episodes.episode import TIMEOUT_PER_LATENCY_S  # noqa: E402
 from go2vlm.apps.episodes.suites import load_suite  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
 from go2vlm.cli.args import node_params  # noqa: E402
@@ -97,7 +98,7 @@ def run_one(
 ) -> dict[str, Any]:
     params = {**ep.params, **(extra or {})}
     params["answer_delay"] = {**params.get("answer_delay", {}), "latency_s": latency}
-    duration = ep.duration_s + (timeout_per_latency * latency if ep.kind != "follow" else 0.0)
+    duration = ep.duration_s + (timeout_per_latency * latency if ep.kind != "follow" else 0.0)  # latency_timeout's rule
     ep = dataclasses.replace(ep, graph=str(graph), params=params, duration_s=duration)
     m = run_episode(ep, RunOptions(rtf=rtf, fast=fast, video=False), ShutdownRequested()).metrics
     keep = ("episode", "kind", "goal", "success", "time_to_goal_s", "target_in_view_fraction", "collisions",
@@ -171,8 +172,8 @@ def main() -> int:
     ap.add_argument(
         "--timeout-per-latency",
         type=float,
-        default=20.0,
-        help="go to: timeout = the suite's + this many seconds per second of latency",
+        default=TIMEOUT_PER_LATENCY_S,
+        help="go to: timeout = the suite's + this many seconds per second of latency (the eval's rule)",
     )
     ap.add_argument("--no-memory", action="store_true", help="without the object memory (the commander before it)")
     ap.add_argument("--rtf", type=float, default=2.0, help="target real-time factor (sim time is what counts)")
