@@ -14,7 +14,11 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
               /scan               sensor_msgs/LaserScan  best-effort, keep-last 5 (`scan_topic`, frame
                                   base_link): obstacles for the local planner (avoid_obstacles)
               /odom               nav_msgs/Odometry     (`odom_topic`): keeps the target's last confirmed
-                                  place while a detour takes it out of view
+                                  place while a detour takes it out of view; where the robot is, for
+                                  the remembered objects
+              /objects            vision_msgs/Detection3DArray, latched (`objects_topic`): the object
+                                  memory (world/object_memory_node.py): remembered objects in the odom
+                                  frame, and (header.stamp) the newest answer it has taken in
   publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
@@ -29,7 +33,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   the source frame's header; the follower drives
               /go2/command        std_msgs/String       "sit" / "stand" (the Go2 driver / sim acts)
               /commander/status   std_msgs/String       latched JSON: goal, kind, target, state, reason,
-                                  seen, x, distance_m, range_method, tracker, cmd, decision, counters;
+                                  seen, x, distance_m, range_method, tracker, cmd, decision, counters,
+                                  basis (tracker | memory | ''), remembered (the goal's remembered object:
+                                  id, x, y, confidence, distance_m), memory (objects, answer latency);
                                   on every change and every status_period_s
 
 Goals and states
@@ -44,6 +50,17 @@ Goals and states
   The target counts only while the tracker confirms it (its newest report says tracking, younger than
   lost_timeout_s): otherwise zero at once (`lost`), then go to / look for search (turn in place
   towards where it was last seen) if search_on_loss.
+
+The world (use_memory, with an object_memory running): go to / look for use the most confident
+remembered object of the goal's label while the tracker does not confirm it: turn to it, approach
+its remembered place with the local planner once the memory is sure of it (memory_confirm_confidence),
+and stop there only when an answer about a frame taken at the stop placed it within reach (or the
+tracker confirms it); look for ends found when an answer about a frame taken facing it saw it. A goal
+for an object already remembered goes straight there. Search, with answers so slow that turning at
+search_yaw_rate would turn more than search_view_per_answer of the view between two of them: stop and
+look (hold still until an answer about a frame taken at this heading has come back, then turn
+search_step_deg at search_step_rate). The memory never commands a velocity: every
+command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
 
 Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow (follow_control=self)
 steer round what lies between the robot and the target, planner_margin_m each side of the footprint.
@@ -61,12 +78,14 @@ Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_tim
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
-search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s; goal (use
-/goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates are read-only.
+search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
+settings; goal (use /goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates
+are read-only.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -75,7 +94,7 @@ from typing import Any
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
 from go2vlm.behavior.planner import PlannerParams
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
-from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.geometry.target import normalized_target
@@ -84,11 +103,14 @@ from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.vision_msgs import Detection3DArray
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.objects_msg import remembered
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
 MAX_IMAGE_SIDE = 100_000  # a TrackedTarget claiming a bigger image is garbage
+_MP = MissionParams()
 
 
 @dataclass
@@ -132,6 +154,32 @@ class CommanderConfig:
     detour_memory_s: float = param(
         8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
     )
+    use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
+    objects_topic: str = param("/objects", help="vision_msgs/Detection3DArray: the object memory")
+    memory_min_confidence: float = param(
+        _MP.memory_min_confidence, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
+    )
+    memory_confirm_confidence: float = param(
+        _MP.memory_confirm_confidence, help="... and this sure walked to", min=0.01, max=1.0, live=True
+    )
+    reach_slack_m: float = param(
+        _MP.reach_slack_m, help="a remembered place within reach: stop + tolerance + this (m)", min=0.0, max=2.0,
+        live=True,
+    )  # fmt: skip
+    confirm_looks: int = param(_MP.confirm_looks, help="answered looks without it before giving up", min=1, max=20,
+                               live=True)  # fmt: skip
+    search_step_deg: float = param(_MP.search_step_deg, help="stop and look: the turn between looks", min=5.0,
+                                   max=90.0, live=True)  # fmt: skip
+    search_view_per_answer: float = param(
+        _MP.search_view_per_answer, help="turning on would turn more of the view than this per answer: stop and look",
+        min=0.05, max=2.0, live=True,
+    )  # fmt: skip
+    search_step_rate: float = param(_MP.search_step_rate, help="stop and look: the turn between looks (rad/s)",
+                                    min=0.05, max=1.5, live=True)  # fmt: skip
+    look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
+                                 min=0.0, max=5.0, live=True)  # fmt: skip
+    look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
+                                  min=0.5, max=120.0, live=True)  # fmt: skip
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
     decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
@@ -162,6 +210,17 @@ class CommanderConfig:
             scan_timeout_s=self.scan_timeout_s,
             detour_memory_s=self.detour_memory_s,
             planner=PlannerParams(margin=self.planner_margin_m, max_angular=self.max_angular),
+            use_memory=self.use_memory,
+            memory_min_confidence=self.memory_min_confidence,
+            memory_confirm_confidence=self.memory_confirm_confidence,
+            reach_slack_m=self.reach_slack_m,
+            confirm_looks=self.confirm_looks,
+            search_step_deg=self.search_step_deg,
+            search_view_per_answer=self.search_view_per_answer,
+            search_step_rate=self.search_step_rate,
+            look_settle_s=self.look_settle_s,
+            look_timeout_s=self.look_timeout_s,
+            hfov_rad=fovy_to_hfov(self.camera_fovy_deg, 640, 480),
         )
 
 
@@ -214,6 +273,8 @@ class CommanderNode(Node):
         self.create_subscription(String, "/vlm/decision", self.on_decision, QOS_DEFAULT)
         self.create_subscription(LaserScan, cfg.scan_topic, self.on_scan, QOS_SENSOR)
         self.create_subscription(Odometry, cfg.odom_topic, self.on_odom, QOS_DEFAULT)
+        self.create_subscription(Detection3DArray, cfg.objects_topic, self.on_objects, QOS_LATCHED)
+        self._odom_frame = ""
         self._query: str | None = None
         self._tracked: TrackedTarget | None = None  # the newest report for the goal's object, not yet relayed
         self._last_key: tuple[str, str] | None = None
@@ -270,11 +331,24 @@ class CommanderNode(Node):
         self.mission.observe_scan(pts, now)
 
     def on_odom(self, msg: Odometry) -> None:
+        self._odom_frame = msg.header.frame_id
         pose = msg.pose.pose
         q = pose.orientation
         self.mission.observe_pose(
             pose.position.x, pose.position.y, quat_yaw(q.w, q.x, q.y, q.z), self.clock.monotonic()
         )
+
+    def on_objects(self, msg: Detection3DArray) -> None:
+        if self._odom_frame and msg.header.frame_id != self._odom_frame:
+            n = self.count("objects_wrong_frame")
+            self.log.throttled("error", 5.0, f"ignoring {self.config.objects_topic} in frame {msg.header.frame_id!r} "
+                               f"({n} so far): /odom is in {self._odom_frame!r}", key="objects")  # fmt: skip
+            return
+        shift = self.clock.monotonic() - self.clock.now()  # stamps -> this node's clock (0 on sim time)
+        objs = [dataclasses.replace(r, last_seen=r.last_seen + shift)
+                for r in map(remembered, msg.detections) if r is not None]  # fmt: skip
+        stamp = msg.header.stamp.to_sec()
+        self.mission.observe_memory(objs, stamp + shift if stamp > 0 else None, self.clock.monotonic())
 
     def on_decision(self, msg: String) -> None:
         before = self.mission.counters["decisions_rejected"]
@@ -335,7 +409,23 @@ class CommanderNode(Node):
             "planner": m.planner_note,
             "decision": m.last_decision,
             "counters": {**m.counters, **self.counters},
-        }
+            "basis": m.basis,
+            "remembered": self._remembered_status(now),
+            "memory": None if m.memory is None else {
+                "objects": len(m.memory),
+                "answer_latency_s": None if m.answer_latency is None else round(m.answer_latency, 3),
+            },
+        }  # fmt: skip
+
+    def _remembered_status(self, now: float) -> dict[str, Any] | None:
+        o = self.mission.target_obj
+        if o is None:
+            return None
+        rel = self.mission.relative(o, now)
+        return {
+            "id": o.id, "label": o.label, "x": round(o.x, 3), "y": round(o.y, 3),
+            "confidence": round(o.confidence, 3), "distance_m": None if rel is None else round(rel[1], 3),
+        }  # fmt: skip
 
     def publish_status(self) -> None:
         self._last_key = (self.mission.state, self.mission.reason)

@@ -18,6 +18,11 @@ Topics
                                      tracking; image size; confidence; distance_m (camera -> the object's
                                      near surface, NaN unknown) and range_method; grounding_age_s (NaN
                                      before any answer). Every behaviour reads this.
+              /target_tracker/detections  vision_msgs/Detection2DArray (reliable), grounding=color only:
+                                     the colour grounder's own answers, one per run (every frame while
+                                     searching, every reground_period_s while tracking), stamped with
+                                     the frame, the box it found for the query (label = the query) or
+                                     none: what the object memory places (world/object_memory_node.py)
               /target_tracker/status std_msgs/String, latched JSON: query, state, grounding, last_refusal,
                                      counters (refused.<reason>, accepted, tracks_lost, ...); on every
                                      state change and every status_period_s
@@ -55,8 +60,8 @@ from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
-from go2vlm.perception.ranging import DEFAULT_SIZES
+from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D, detection_array
+from go2vlm.perception.ranging import DEFAULT_SIZES, check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
 from go2vlm.robot_profile import go2 as spec
 
@@ -99,11 +104,7 @@ class TargetTrackerConfig:
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:
-        for key, value in self.object_sizes.items():
-            if key not in DEFAULT_SIZES:
-                raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
-                raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+        check_object_sizes(self.object_sizes)
 
     def tracking_params(self) -> TrackingParams:
         return TrackingParams(
@@ -173,6 +174,8 @@ class TargetTrackerNode(Node):
         self.create_subscription(CameraInfo, cfg.camera_info_topic, self.on_camera_info, QOS_SENSOR)
         if cfg.grounding == "vlm":
             self.create_subscription(Detection2DArray, "/vlm/detections", self.on_detections, QOS_DEFAULT)
+        else:
+            self.pub_answers = self.create_publisher(Detection2DArray, "/target_tracker/detections", QOS_DEFAULT)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.publish_status()
         self.log.info(f"grounding={cfg.grounding}, query={cfg.query!r}, listening on {self.resolve(cfg.image_topic)}")
@@ -226,6 +229,10 @@ class TargetTrackerNode(Node):
         self.last = obs
         stamp = Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec)
         self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id)))
+        for _, box in self.tracking.color_answers:  # the colour grounder's answers (about this frame), as a VLM's
+            h = Header(stamp=stamp, frame_id=header.frame_id)
+            self.pub_answers.publish(detection_array(h, [] if box is None else [(obs.label, box, 1.0)]))
+        self.tracking.color_answers.clear()
         self._status_if_changed()
 
     # -- status --------------------------------------------------------------------------------

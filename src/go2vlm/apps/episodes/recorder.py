@@ -4,8 +4,8 @@ the sim time at which a message arrived).
 
 Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
 /detected_target, /commander/status, /safety/status (the e-stop), /camera/camera_info,
-/sim/detections, /vlm/detections, /vlm/status, /target/tracked and, for the video,
-/camera/image_raw (kept as small JPEGs).
+/sim/detections, /vlm/detections, /vlm/status, /target/tracked, /objects (the object memory) and,
+for the video, /camera/image_raw (kept as small JPEGs).
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.msgs.vision_msgs import Detection2DArray, PixelBox, detection_boxes
+from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray, PixelBox, detection_boxes
+from go2vlm.world.objects_msg import Remembered, remembered
 
 __all__ = ["THUMB_WIDTH", "EpisodeRecorder", "Recording"]
 
@@ -54,6 +55,7 @@ class Recording:
     vlm_status: list[dict[str, Any]] = field(default_factory=list)
     # /target/tracked: sim t received, frame stamp, state name, grounding_age_s (NaN before any answer)
     tracked: list[tuple[float, float, str, float]] = field(default_factory=list)
+    memory: list[tuple[float, list[Remembered]]] = field(default_factory=list)  # sim t, /objects
     estop: list[tuple[float, bool, str]] = field(default_factory=list)  # sim t, the gate's e-stop and why, on change
 
 
@@ -83,6 +85,7 @@ class EpisodeRecorder(Node):
         self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
         self.create_subscription(String, "/vlm/status", self._on_vlm_status, QOS_DEFAULT)
         self.create_subscription(TrackedTarget, "/target/tracked", self._on_tracked, QOS_DEFAULT)
+        self.create_subscription(Detection3DArray, "/objects", self._on_objects, QOS_LATCHED)
         if video:
             self.create_subscription(JointState, "/joint_states", self._on_joints, QOS_DEFAULT)
             self.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_SENSOR)
@@ -114,6 +117,7 @@ class EpisodeRecorder(Node):
                 list(r.answers),
                 list(r.vlm_status),
                 list(r.tracked),
+                list(r.memory),
                 list(r.estop),
             )
 
@@ -216,6 +220,11 @@ class EpisodeRecorder(Node):
         state = STATE_NAMES.get(int(msg.state), "unknown")
         with self.lock:
             self.rec.tracked.append((self.now(), msg.header.stamp.to_sec(), state, float(msg.grounding_age_s)))
+
+    def _on_objects(self, msg: Detection3DArray) -> None:
+        objs = [r for r in map(remembered, msg.detections) if r is not None]
+        with self.lock:
+            self.rec.memory.append((self.now(), objs))
 
     def _on_image(self, msg: Image) -> None:
         import cv2
