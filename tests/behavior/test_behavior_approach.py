@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from go2vlm.behavior.approach import ApproachParams, approach_command
+from go2vlm.behavior.approach import approach_command
+from go2vlm.behavior.mission import MissionParams
 
 
 def test_approach_command_turns_first_then_walks_and_stops_at_the_distance() -> None:
-    p = ApproachParams(stop_distance=0.8, max_linear=0.4, max_angular=0.8)
+    p = MissionParams(max_linear=0.4, max_angular=0.8).approach(0.8)
     vx, wz, done = approach_command(0.8, 3.0, p)
     assert vx == 0.0 and wz < 0 and not done  # target on the right: turn right, do not walk yet
     vx, wz, done = approach_command(0.0, 3.0, p)

@@ -15,13 +15,15 @@ __all__ = ["ApproachParams", "approach_command"]
 
 @dataclass(frozen=True)
 class ApproachParams:
-    stop_distance: float = 0.8  # base -> surface (m)
-    tolerance: float = 0.05
-    kp_linear: float = 0.8
-    kp_angular: float = 1.5
-    max_linear: float = 0.4
-    min_linear: float = 0.08  # below this the gait barely moves: creep at least this fast
-    max_angular: float = 0.8
+    """The gains and limits are the commander's (behavior/mission.py MissionParams.approach)."""
+
+    stop_distance: float  # base -> surface (m)
+    tolerance: float
+    kp_linear: float
+    kp_angular: float
+    max_linear: float
+    max_angular: float
+    min_linear: float = 0.08  # below this the gait barely moves: creep at least this fast (max_linear caps it)
     align_start: float = 0.15  # |x| where forward speed starts to drop
     align_stop: float = 0.4  # |x| where the robot only turns
 

@@ -92,8 +92,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
-from go2vlm.behavior.planner import PlannerParams
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
 from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
@@ -115,45 +114,65 @@ _MP = MissionParams()
 
 @dataclass
 class CommanderConfig:
+    """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
+
     goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
     follow_control: str = param(
-        "follower", choices=("follower", "self"), help="follow: /detected_target for the follower, or own control"
-    )
+        _MP.follow_control, choices=("follower", "self"),
+        help="follow: /detected_target for the follower, or own control",
+    )  # fmt: skip
     stop_distance_m: float = param(
-        0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
+        _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
     )
-    follow_distance_m: float = param(1.2, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True)
+    follow_distance_m: float = param(
+        _MP.follow_distance_m, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True
+    )
     distance_tolerance_m: float = param(
-        0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
+        _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
     )
     max_linear: float = param(
-        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+        _MP.max_linear, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
     )
-    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
-    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
-    kp_angular: float = param(1.5, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True)
-    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True)
-    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0, live=True)
-    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost", live=True)
+    max_angular: float = param(_MP.max_angular, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    kp_linear: float = param(
+        _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
+    )
+    kp_angular: float = param(
+        _MP.kp_angular, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True
+    )
+    search_yaw_rate: float = param(
+        _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
+    )
+    search_timeout_s: float = param(
+        _MP.search_timeout_s, help="give up searching after this long", min=1.0, max=600.0, live=True
+    )
+    search_on_loss: bool = param(
+        _MP.search_on_loss, help="go to / look for: search again when the target is lost", live=True
+    )
     lost_timeout_s: float = param(
-        1.0, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
+        _MP.lost_timeout_s, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
     )
     camera_forward_m: float = param(
-        spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
+        _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
     )
     camera_fovy_deg: float = param(
         spec.HEAD_CAMERA_FOVY_DEG, help="the camera's vertical field of view: a box's bearing", min=1.0, max=170.0
     )
-    avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
+    avoid_obstacles: bool = param(
+        _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
+    )
     scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the local planner")
     odom_topic: str = param("/odom", help="nav_msgs/Odometry: the target's place while a detour hides it")
-    scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
+    scan_timeout_s: float = param(
+        _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
+    )
     planner_margin_m: float = param(
-        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
+        _MP.planner.margin, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
     )
     detour_memory_s: float = param(
-        8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
-    )
+        _MP.detour_memory_s, help="a detour out of view lasts this long after the last sighting (s)", min=0.0,
+        max=60.0, live=True,
+    )  # fmt: skip
     use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
     objects_topic: str = param("/objects", help="vision_msgs/Detection3DArray: the object memory")
     memory_min_confidence: float = param(
@@ -182,44 +201,21 @@ class CommanderConfig:
                                   min=0.5, max=120.0, live=True)  # fmt: skip
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
-    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
+    decision_hold_s: float = param(
+        _MP.decision_hold_s, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True
+    )
+    decision_turn_rate: float = param(
+        _MP.decision_turn_rate, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True
+    )
     max_turn_deg: float = param(
-        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
+        _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
     )
 
     def mission_params(self) -> MissionParams:
-        return MissionParams(
-            follow_control=self.follow_control,
-            stop_distance_m=self.stop_distance_m,
-            follow_distance_m=self.follow_distance_m,
-            distance_tolerance_m=self.distance_tolerance_m,
-            max_linear=self.max_linear,
-            max_angular=self.max_angular,
-            kp_linear=self.kp_linear,
-            kp_angular=self.kp_angular,
-            search_yaw_rate=self.search_yaw_rate,
-            search_timeout_s=self.search_timeout_s,
-            search_on_loss=self.search_on_loss,
-            lost_timeout_s=self.lost_timeout_s,
-            camera_forward_m=self.camera_forward_m,
-            decision_hold_s=self.decision_hold_s,
-            decision_turn_rate=self.decision_turn_rate,
-            max_turn_deg=self.max_turn_deg,
-            avoid_obstacles=self.avoid_obstacles,
-            scan_timeout_s=self.scan_timeout_s,
-            detour_memory_s=self.detour_memory_s,
-            planner=PlannerParams(margin=self.planner_margin_m, max_angular=self.max_angular),
-            use_memory=self.use_memory,
-            memory_min_confidence=self.memory_min_confidence,
-            memory_confirm_confidence=self.memory_confirm_confidence,
-            reach_slack_m=self.reach_slack_m,
-            confirm_looks=self.confirm_looks,
-            search_step_deg=self.search_step_deg,
-            search_view_per_answer=self.search_view_per_answer,
-            search_step_rate=self.search_step_rate,
-            look_settle_s=self.look_settle_s,
-            look_timeout_s=self.look_timeout_s,
+        return core_params(
+            MissionParams,
+            self,
+            planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
             hfov_rad=fovy_to_hfov(self.camera_fovy_deg, 640, 480),
         )
 

@@ -133,7 +133,6 @@ class MissionParams:
             kp_linear=self.kp_linear,
             kp_angular=self.kp_angular,
             max_linear=self.max_linear,
-            min_linear=min(0.08, self.max_linear),
             max_angular=self.max_angular,
         )
 
@@ -394,8 +393,9 @@ class Mission:
         speed, _, _ = approach_command(0.0, dist, ap)
         side = self._side if now - self._side_t < 3.0 else 0.0
         st = steer(
-            vx, wz, speed, bearing, dist, scan[0], self.params.planner, reach_m=dist - ap.stop_distance, side=side
-        )
+            vx, wz, speed, bearing, dist, scan[0], self.params.planner, max_angular=ap.max_angular,
+            reach_m=dist - ap.stop_distance, side=side,
+        )  # fmt: skip
         if st.blocked:
             self._detour_t = now
             if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:

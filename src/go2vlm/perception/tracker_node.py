@@ -53,7 +53,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
@@ -61,7 +61,7 @@ from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D, detection_array
-from go2vlm.perception.ranging import DEFAULT_SIZES, check_object_sizes
+from go2vlm.perception.ranging import check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
 from go2vlm.robot_profile import go2 as spec
 
@@ -72,50 +72,53 @@ TOPIC_TRACKED = "/target/tracked"
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
+_TP = TrackingParams()
+
+
 @dataclass
 class TargetTrackerConfig:
+    """The target_tracker's parameters; each default the TargetTracking core knows is its TrackingParams'."""
+
     query: str = param("", help="label to track until /target/query says otherwise, e.g. 'red ball'")
-    grounding: str = param("color", choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    grounding: str = param(_TP.grounding, choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
     image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
     camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo input")
-    reground_period_s: float = param(0.5, help="color: re-ground this often while tracking", min=0.0)
-    min_shape_score: float = param(0.35, help="color: shape score the grounder needs", min=0.0, max=1.0)
+    reground_period_s: float = param(_TP.reground_period_s, help="color: re-ground this often while tracking", min=0.0)
+    min_shape_score: float = param(_TP.min_shape_score, help="color: shape score the grounder needs", min=0.0, max=1.0)
     min_label_color: float = param(
-        0.15, help="an answer's box must hold this fraction of the colour its label names", min=0.0, max=1.0
+        _TP.min_label_color, help="an answer's box must hold this fraction of the colour its label names", min=0.0,
+        max=1.0,
+    )  # fmt: skip
+    max_answer_age_s: float = param(
+        _TP.max_answer_age_s, help="refuse answers about frames older than this", min=0.1, max=60.0
     )
-    max_answer_age_s: float = param(5.0, help="refuse answers about frames older than this", min=0.1, max=60.0)
     max_grounding_age_s: float = param(
-        15.0, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
+        _TP.max_grounding_age_s, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
     )
     max_unconfirmed_answers: int = param(
-        3, help="vlm: drop a track this many answers in a row did not confirm (0 = never)", min=0, max=100
+        _TP.max_unconfirmed_answers, help="vlm: drop a track this many answers in a row did not confirm (0 = never)",
+        min=0, max=100,
+    )  # fmt: skip
+    camera_height_m: float = param(_TP.camera_height_m, help="camera height above the floor (ranging)", min=0.05)
+    camera_pitch_deg: float = param(
+        math.degrees(_TP.camera_pitch_rad), help="camera pitch, + = looking down", min=-45.0, max=45.0
     )
-    camera_height_m: float = param(spec.HEAD_CAMERA_HEIGHT, help="camera height above the floor (ranging)", min=0.05)
-    camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
     default_hfov_deg: float = param(
         round(spec.head_camera_hfov_deg(640, 480), 1),
         help="horizontal FOV used until a CameraInfo arrives",
         min=10.0,
         max=170.0,
     )
-    object_sizes: dict = param(
-        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width (m)"
-    )
+    object_sizes: dict = param(_TP.object_sizes, help="ranging before calibration: ball/cylinder radius, box width (m)")
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:
         check_object_sizes(self.object_sizes)
 
     def tracking_params(self) -> TrackingParams:
-        return TrackingParams(
-            grounding=self.grounding,
-            reground_period_s=self.reground_period_s,
-            min_shape_score=self.min_shape_score,
-            min_label_color=self.min_label_color,
-            max_answer_age_s=self.max_answer_age_s,
-            max_grounding_age_s=self.max_grounding_age_s,
-            max_unconfirmed_answers=self.max_unconfirmed_answers,
-            camera_height_m=self.camera_height_m,
+        return core_params(
+            TrackingParams,
+            self,
             camera_pitch_rad=math.radians(self.camera_pitch_deg),
             object_sizes={k: float(v) for k, v in self.object_sizes.items()},
         )

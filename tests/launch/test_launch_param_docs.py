@@ -1,0 +1,175 @@
+"""Every documented parameter default is the code's: what a node's contract (its module docstring) and
+docs/*.md say a parameter defaults to, against the node's Config dataclass.
+
+What counts as a documented default:
+- in a node's docstring, one of its parameters followed by a value in brackets: `rate_hz (50 Hz)`,
+  ``margin`` (0.3 m), `release_token ("RELEASE")`, `period_s (5 s by default)`;
+- in docs/*.md, a parameter in backticks followed by a value in brackets (`` `stop_distance_m` (0.8 m) ``),
+  and the `default` column of a table that lists parameters in its first column (`| name | default |`).
+A value is a number (with a unit: s, m, Hz, m/s, rad/s, %, ...), true or false, a quoted string or a
+topic, then a closing bracket, `;`, `,` or "default" (`(true: ...)` says what a value does). A
+parameter several nodes declare with different defaults belongs to the node last named (in
+backticks) before it in the same paragraph; a table's parameters to the one node that has them all.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from go2vlm.launch.registry import NODES
+
+DOCS = Path(__file__).resolve().parents[2] / "docs"
+UNITS = r"(?:m/s\^2|m/s|rad/s\^2|rad/s|rad|ms|s|m|Hz|%|deg|px|°|MiB|KiB)"
+VALUE = r"(?P<value>-?\d+(?:\.\d+)?|true|false|\"[^\"\n]*\"|/[\w/]+)"
+# After a unit a colon may follow ("(0.1 s: ...)"); after a bare value it starts what the value means.
+END = r"(?:\s*" + UNITS + r"(?=\s*(?:\)|;|:|,|\s+by default|\s+default))|(?=\s*(?:\)|;|,|\s+by default|\s+default)))"
+
+
+def _module_and_config(kind: str) -> tuple[Any, type]:
+    module, _, cls = NODES[kind].partition(":")
+    mod = importlib.import_module(module)
+    return mod, getattr(mod, cls).Config
+
+
+def _defaults(config: type) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(config):
+        if f.default is not dataclasses.MISSING:
+            out[f.name] = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            out[f.name] = f.default_factory()
+    return out
+
+
+@pytest.fixture(scope="module")
+def nodes() -> dict[str, tuple[str, dict[str, Any]]]:
+    """node kind -> (its contract docstring, its parameters' defaults)."""
+    out = {}
+    for kind in NODES:
+        mod, config = _module_and_config(kind)
+        out[kind] = (mod.__doc__ or "", _defaults(config))
+    return out
+
+
+def _parse(text: str) -> Any:
+    text = text.strip()
+    if re.fullmatch(r"-?\d+(?:\.\d+)?", text):
+        return float(text)
+    if text.startswith('"') and text.endswith('"'):
+        return text[1:-1]
+    if text.startswith("/"):
+        return text
+    return yaml.safe_load(text)
+
+
+def _agrees(doc: Any, raw: str, unit: str, code: Any) -> bool:
+    """A documented value against the code's default; a number as precisely as it is written."""
+    if isinstance(doc, float) and isinstance(code, (int, float)) and not isinstance(code, bool):
+        places = len(raw.partition(".")[2])
+        if unit.strip() == "%":
+            doc, places = doc / 100.0, places + 2
+        return round(float(code), places) == round(doc, places)
+    if isinstance(code, list | tuple) and isinstance(doc, list | tuple):
+        return list(code) == list(doc)
+    return doc == code
+
+
+def _prose_claims(text: str, names: set[str], backticks: bool) -> list[tuple[str, int, str, Any, str]]:
+    """(name, offset, raw value, parsed value, unit) for each `name (value)` in `text`."""
+    tick = "`" if backticks else "`?"
+    pattern = re.compile(tick + r"(?P<name>[a-z][a-z0-9_]*)" + tick + r"\s*\(\s*" + VALUE + END)
+    out = []
+    for m in pattern.finditer(text):
+        if m.group("name") in names:
+            unit = text[m.end("value") : m.end()].strip()
+            out.append((m.group("name"), m.start(), m.group("value"), _parse(m.group("value")), unit))
+    return out
+
+
+def _line(text: str, offset: int) -> int:
+    return text.count("\n", 0, offset) + 1
+
+
+def test_node_contracts_give_the_code_defaults(nodes: dict[str, tuple[str, dict[str, Any]]]) -> None:
+    wrong, seen = [], 0
+    for kind, (doc, defaults) in nodes.items():
+        for name, _, raw, value, unit in _prose_claims(doc, set(defaults), backticks=False):
+            seen += 1
+            if not _agrees(value, raw, unit, defaults[name]):
+                wrong.append(f"{kind}: {name} documented as {raw} {unit}, code default {defaults[name]!r}")
+    assert seen >= 10, "the contracts' defaults are no longer found: update this test's patterns"
+    assert not wrong, "\n".join(wrong)
+
+
+def _owner(name: str, before: str, nodes: dict[str, tuple[str, dict[str, Any]]]) -> list[str]:
+    """The nodes a parameter mentioned after `before` (its paragraph so far) can belong to."""
+    owners = [k for k, (_, d) in nodes.items() if name in d]
+    named = [m.group(1) for m in re.finditer(r"`(\w+)`", before) if m.group(1) in owners]
+    return [named[-1]] if named else owners
+
+
+def _tables(text: str) -> list[tuple[int, list[list[str]], int]]:
+    """(first line, rows of cells, index of the default column) of each markdown table with one."""
+    out, lines, i = [], text.splitlines(), 0
+    while i < len(lines):
+        if not lines[i].startswith("|"):
+            i += 1
+            continue
+        start = i
+        while i < len(lines) and lines[i].startswith("|"):
+            i += 1
+        rows = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines[start:i]]
+        header = [c.lower() for c in rows[0]]
+        if "default" in header and len(rows) > 2:
+            out.append((start + 1, rows[2:], header.index("default")))
+    return out
+
+
+def _cell_value(cell: str) -> tuple[str, Any] | None:
+    m = re.match(r"`([^`]*)`|(-?\d+(?:\.\d+)?)", cell)
+    if m is None:
+        return None
+    raw = m.group(1) if m.group(1) is not None else m.group(2)
+    return raw, (_parse(raw) if m.group(2) is not None else yaml.safe_load(raw) if raw else "")
+
+
+def test_docs_give_the_code_defaults(nodes: dict[str, tuple[str, dict[str, Any]]]) -> None:
+    names = {n for _, d in nodes.values() for n in d}
+    wrong, seen = [], 0
+    for path in sorted(DOCS.glob("*.md")):
+        text = path.read_text()
+        for name, offset, raw, value, unit in _prose_claims(text, names, backticks=True):
+            para_start = text.rfind("\n\n", 0, offset) + 1
+            owners = _owner(name, text[para_start:offset], nodes)
+            seen += 1
+            codes = {k: nodes[k][1][name] for k in owners}
+            if not any(_agrees(value, raw, unit, c) for c in codes.values()):
+                wrong.append(f"{path.name}:{_line(text, offset)}: {name} documented as {raw} {unit}, code: {codes}")
+            elif len(owners) > 1 and len({repr(c) for c in codes.values()}) > 1:
+                wrong.append(f"{path.name}:{_line(text, offset)}: {name} of which node? ({sorted(owners)}: name it)")
+        for first, rows, col in _tables(text):
+            listed = [m.group(1) for r in rows if (m := re.fullmatch(r"`(\w+)`", r[0])) and m.group(1) in names]
+            if not listed:
+                continue
+            holders = [k for k, (_, d) in nodes.items() if all(n in d for n in listed)]
+            for r in rows:
+                m = re.fullmatch(r"`(\w+)`", r[0])
+                if m is None or m.group(1) not in names or col >= len(r) or r[col] == "(required)":
+                    continue
+                name, cell = m.group(1), _cell_value(r[col])
+                if cell is None:
+                    continue
+                owners = holders if len(holders) == 1 else [k for k, (_, d) in nodes.items() if name in d]
+                codes = {k: nodes[k][1][name] for k in owners}
+                seen += 1
+                if not any(_agrees(cell[1], cell[0], "", c) for c in codes.values()):
+                    wrong.append(f"{path.name}:{first} (table): {name} documented as {r[col]!r}, code: {codes}")
+    assert seen >= 40, "the docs' defaults are no longer found: update this test's patterns"
+    assert not wrong, "\n".join(wrong)
