@@ -115,8 +115,8 @@ def _owner(name: str, before: str, nodes: dict[str, tuple[str, dict[str, Any]]])
     return [named[-1]] if named else owners
 
 
-def _tables(text: str) -> list[tuple[int, list[list[str]], int]]:
-    """(first line, rows of cells, index of the default column) of each markdown table with one."""
+def _tables(text: str, column: str = "default") -> list[tuple[int, list[list[str]], int]]:
+    """(first line, rows of cells, index of `column`) of each markdown table with that column."""
     out, lines, i = [], text.splitlines(), 0
     while i < len(lines):
         if not lines[i].startswith("|"):
@@ -127,8 +127,8 @@ def _tables(text: str) -> list[tuple[int, list[list[str]], int]]:
             i += 1
         rows = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines[start:i]]
         header = [c.lower() for c in rows[0]]
-        if "default" in header and len(rows) > 2:
-            out.append((start + 1, rows[2:], header.index("default")))
+        if column in header and len(rows) > 2:
+            out.append((start + 1, rows[2:], header.index(column)))
     return out
 
 
@@ -172,4 +172,32 @@ def test_docs_give_the_code_defaults(nodes: dict[str, tuple[str, dict[str, Any]]
                 if not any(_agrees(cell[1], cell[0], "", c) for c in codes.values()):
                     wrong.append(f"{path.name}:{first} (table): {name} documented as {r[col]!r}, code: {codes}")
     assert seen >= 40, "the docs' defaults are no longer found: update this test's patterns"
+    assert not wrong, "\n".join(wrong)
+
+
+def _live(kind: str) -> dict[str, bool]:
+    _, config = _module_and_config(kind)
+    return {f.name: bool(f.metadata.get("live")) for f in dataclasses.fields(config)}
+
+
+def test_bus_md_says_which_parameters_change_at_runtime() -> None:
+    """docs/bus.md's "What can change, per node": every parameter a row names exists, and is live in
+    the live column and read-only in the other."""
+    text = (DOCS / "bus.md").read_text()
+    rows = [r for first, rows, _ in _tables(text, "live") for r in rows]
+    wrong, seen = [], 0
+    for row in rows:
+        kinds = [k for k in re.findall(r"`(\w+)`", row[0]) if k in NODES]
+        if not kinds or len(row) < 3:
+            continue
+        for kind in kinds:
+            live = _live(kind)
+            for col, want in ((row[1], True), (row[2], False)):
+                for name in re.findall(r"`([a-z][a-z0-9_]*)`", col):
+                    seen += 1
+                    if name not in live:
+                        wrong.append(f"{kind}: {name} is not a parameter")
+                    elif live[name] != want:
+                        wrong.append(f"{kind}: {name} is {'live' if live[name] else 'read-only'}")
+    assert seen >= 20, "the table is no longer found: update this test"
     assert not wrong, "\n".join(wrong)
