@@ -8,7 +8,8 @@ images: the target_tracker grounds, tracks and ranges, the vlm node answers deci
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
-                                  frame; only `tracking` reports for the goal's object count
+                                  frame; only `tracking` reports for the goal's object count; their
+                                  bearing_rad and hfov_rad (from the real CameraInfo) place it
               /vlm/decision       std_msgs/String       raw VLM scene decisions (the vlm node in
                                   mode=decide), mapped onto the whitelist of behavior/decisions.py
               /scan               sensor_msgs/LaserScan  best-effort, keep-last 5 (`scan_topic`, frame
@@ -79,8 +80,7 @@ decision_hold_s, turns, the zero burst) is in the node's clock: sim time with us
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
 search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
-settings; goal (use /goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates
-are read-only.
+settings; goal (use /goal), follow_control, the topics, scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
@@ -93,10 +93,9 @@ from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
-from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.geometry.target import normalized_target
+from go2vlm.geometry.target import circle_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
@@ -154,9 +153,6 @@ class CommanderConfig:
     )
     camera_forward_m: float = param(
         _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
-    )
-    camera_fovy_deg: float = param(
-        spec.HEAD_CAMERA_FOVY_DEG, help="the camera's vertical field of view: a box's bearing", min=1.0, max=170.0
     )
     avoid_obstacles: bool = param(
         _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
@@ -216,37 +212,35 @@ class CommanderConfig:
             MissionParams,
             self,
             planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
-            hfov_rad=fovy_to_hfov(self.camera_fovy_deg, 640, 480),
         )
 
 
-def sighting_of(
-    msg: TrackedTarget, t: float, fovy_deg: float = spec.HEAD_CAMERA_FOVY_DEG
-) -> tuple[Sighting, str | None]:
+def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
+    hfov = float(msg.hfov_rad) if math.isfinite(msg.hfov_rad) and 0.0 < msg.hfov_rad < math.pi else math.nan
     state = STATE_NAMES.get(int(msg.state))
     if state is None:
-        return Sighting(t, msg.label, "lost"), f"unknown state {msg.state}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"unknown state {msg.state}"
     if state != "tracking":
-        return Sighting(t, msg.label, state), None
+        return Sighting(t, msg.label, state, hfov=hfov), None
     b, w, h = msg.bbox, int(msg.image_width), int(msg.image_height)
     vals = (b.center.position.x, b.center.position.y, b.size_x, b.size_y)
     if not all(math.isfinite(v) for v in vals) or b.size_x <= 0 or b.size_y <= 0:
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad box {vals}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad box {vals}"
     if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad image size {w}x{h}"
-    x, _, _ = normalized_target(_xyxy(msg), w, h)
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad image size {w}x{h}"
+    x, _, _ = _target(msg)
     d = msg.distance_m
     distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
-    cam = PinholeCamera.from_fovy(w, h, fovy_deg)
-    bearing = -math.atan2(b.center.position.x - cam.cx, cam.fx)
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing), None
+    bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
+    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov), None
 
 
-def _xyxy(msg: TrackedTarget) -> tuple[float, float, float, float]:
+def _target(msg: TrackedTarget) -> tuple[float, float, float]:
+    """The tracked box in the /detected_target convention (geometry/target.py)."""
     b = msg.bbox
-    cx, cy = b.center.position.x, b.center.position.y
-    return cx - b.size_x / 2, cy - b.size_y / 2, cx + b.size_x / 2, cy + b.size_y / 2
+    r = max(b.size_x, b.size_y) / 2.0
+    return circle_target(b.center.position.x, b.center.position.y, r, int(msg.image_width), int(msg.image_height))
 
 
 class CommanderNode(Node):
@@ -301,7 +295,7 @@ class CommanderNode(Node):
         self.tick()
 
     def on_tracked(self, msg: TrackedTarget) -> None:
-        sighting, bad = sighting_of(msg, self.clock.monotonic(), self.config.camera_fovy_deg)
+        sighting, bad = sighting_of(msg, self.clock.monotonic())
         if bad is not None:
             n = self.count("bad_tracked")
             self.log.throttled("error", 5.0, f"ignoring a bad /target/tracked ({n} so far): {bad}", key="tracked")
@@ -378,7 +372,7 @@ class CommanderNode(Node):
             self.log.info(f"{self._last_key[0]} -> {intent.state}: {intent.reason}")
 
     def _relay(self, msg: TrackedTarget) -> None:
-        x, y, z = normalized_target(_xyxy(msg), int(msg.image_width), int(msg.image_height))
+        x, y, z = _target(msg)
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
         self.pub_target.publish(PointStamped(header=header, point=Point(x=x, y=y, z=z)))
 

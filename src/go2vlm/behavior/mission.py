@@ -40,9 +40,10 @@ Rules
 - The world (`observe_memory`: the object memory's remembered objects from /objects, and the stamp
   of the newest answer it has taken in, on this clock): go to and look for use the most confident
   remembered object of the goal's label (at least `memory_min_confidence`) while the tracker does not
-  confirm the target. Go to turns to it, then approaches its remembered place with the local planner,
-  but only once the memory confirms it (at least `memory_confirm_confidence`: two answers that agree
-  on its place); less sure, it holds still facing it and looks. At its remembered place it stops and
+  confirm the target, once a tracker report has said how wide the camera's view is (`hfov`). Go to
+  turns to it, then approaches its remembered place with the local planner, but only once the memory
+  confirms it (at least `memory_confirm_confidence`: two answers that agree on its place); less
+  sure, it holds still facing it and looks. At its remembered place it stops and
   looks: `reached` only when an answer about a frame taken there (its stamp after the stop) placed the
   object within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`), or the tracker
   confirms it within reach. Look for turns to face it and ends `found` when an answer about a frame
@@ -50,7 +51,8 @@ Rules
   it is seen again) and the search goes on. A goal for an object already remembered goes straight there.
 - Search, with a memory whose answers are so slow that turning at `search_yaw_rate` would turn more
   than `search_view_per_answer` of the view between two answers (the latency is measured: the stamps
-  of the answers against when the memory had them): stop and look. Hold still until an answer about a
+  of the answers against when the memory had them; the view is the tracker reports' `hfov`, and
+  unknown counts as too slow): stop and look. Hold still until an answer about a
   frame taken at this heading has come back (a frame `look_settle_s` after the stop; at most 2.5 x the
   answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg` at
   `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
@@ -116,7 +118,6 @@ class MissionParams:
     search_step_rate: float = 0.5  # stop and look: rad/s of the turn between two looks
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
     look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
-    hfov_rad: float = math.radians(spec.head_camera_hfov_deg(640, 480))  # the camera's horizontal view
 
     def __post_init__(self) -> None:
         if self.follow_control not in ("follower", "self"):
@@ -148,6 +149,7 @@ class Sighting:
     distance: float | None = None  # camera -> near surface (m)
     range_method: str = "none"
     bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
+    hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
 
     @property
     def tracked(self) -> bool:
@@ -208,6 +210,7 @@ class Mission:
         self._turned = 0.0  # rad turned (in steps) since the search began
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
         self.target_obj: Remembered | None = None
+        self.view: float | None = None  # the camera's horizontal field of view (rad), from the tracker's reports
 
     # -- inputs ------------------------------------------------------------------------------
     def set_goal(self, text: str, now: float) -> None:
@@ -247,7 +250,9 @@ class Mission:
                 self._enter("searching", f"looking for the {label}", now)
 
     def observe(self, s: Sighting) -> None:
-        """A target_tracker report; reports about another label are ignored."""
+        """A target_tracker report; reports about another label are ignored (but for the camera's view)."""
+        if math.isfinite(s.hfov) and 0.0 < s.hfov < math.pi:
+            self.view = s.hfov
         if not self.active or s.label != self.label:
             self.counters["sightings_ignored"] += 1
             return
@@ -582,8 +587,8 @@ class Mission:
     def _memory_control(self, now: float) -> tuple[float, float, bool, bool] | None:
         """Go to / look for on a remembered object while the tracker does not confirm it (the module
         docstring's rules); None: no remembered target (search)."""
-        p, goal, o = self.params, self.goal, self.target_obj
-        if goal is None or goal.kind not in ("go_to", "look_for") or o is None:
+        p, goal, o, view = self.params, self.goal, self.target_obj, self.view
+        if goal is None or goal.kind not in ("go_to", "look_for") or o is None or view is None:
             return None
         rel = self.relative(o, now)
         if rel is None:
@@ -591,7 +596,7 @@ class Mission:
         bearing, surface = rel
         where = f"the remembered {o.label} at ({o.x:.2f}, {o.y:.2f})"
         ap = self._approach_params(goal)
-        x = -bearing / (p.hfov_rad / 2.0)
+        x = -bearing / (view / 2.0)
         vx, wz, at_place = approach_command(x, surface, ap)
         key = (o.id, "look")
         if self._look_key == key:  # looking at it: has an answer about a frame taken since the stop seen it?
@@ -666,7 +671,8 @@ class Mission:
     def _search(self, now: float) -> tuple[float, float, bool, bool]:
         p = self.params
         lat = self.answer_latency
-        fast = lat is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * p.hfov_rad
+        view = self.view
+        fast = lat is not None and view is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * view
         stop_and_look = self.memory is not None and p.use_memory and not fast
         full_turn = self._turned >= 2 * math.pi - 1e-6
         if now - self._t_search > p.search_timeout_s and (not stop_and_look or full_turn):

@@ -8,16 +8,19 @@ Topics
                                      parameter is the query until one arrives.
               <image_topic>          sensor_msgs/Image (/camera/image_raw, sensor-data QoS)
               <camera_info_topic>    sensor_msgs/CameraInfo (/camera/camera_info, sensor-data QoS):
-                                     intrinsics for ranging; default_hfov_deg until one arrives
+                                     intrinsics for ranging and bearings; default_hfov_deg until one arrives
               /vlm/detections        vision_msgs/Detection2DArray (reliable), grounding=vlm only: the vlm
                                      node's answers (mode=detect), boxes in the image's pixels, stamped
-                                     with the frame they describe, label in results[0].hypothesis.class_id
+                                     with the frame they describe, label = each detection's best hypothesis
+                                     (msgs/vision_msgs.py best_hypothesis)
   publishes   /target/tracked        go2vlm_msgs/TrackedTarget (reliable, keep-last 10), one per camera
                                      frame: header = the frame's header; label = the query; state idle |
                                      searching | tracking | lost | ungroundable; bbox (pixels) only while
-                                     tracking; image size; confidence; distance_m (camera -> the object's
-                                     near surface, NaN unknown) and range_method; grounding_age_s (NaN
-                                     before any answer). Every behaviour reads this.
+                                     tracking; image size; confidence; bearing_rad (the box centre's, + left,
+                                     from the camera model; NaN unless tracking) and hfov_rad (that model's
+                                     field of view); distance_m (camera -> the object's near surface, NaN
+                                     unknown) and range_method; grounding_age_s (NaN before any answer).
+                                     Every behaviour reads this.
               /target_tracker/detections  vision_msgs/Detection2DArray (reliable), grounding=color only:
                                      the colour grounder's own answers, one per run (every frame while
                                      searching, every reground_period_s while tracking), stamped with
@@ -60,7 +63,7 @@ from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D, detection_array
+from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, bbox_2d, detection_array, detection_boxes
 from go2vlm.perception.ranging import check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
 from go2vlm.robot_profile import go2 as spec
@@ -125,30 +128,22 @@ class TargetTrackerConfig:
 
 
 def grounding_of(msg: Detection2DArray) -> Grounding:
-    """A Detection2DArray (centre + size) -> a Grounding (labelled x1, y1, x2, y2 boxes)."""
-    boxes = []
-    for d in msg.detections:
-        label = d.results[0].hypothesis.class_id if d.results else ""
-        b = d.bbox
-        cx, cy, sx, sy = b.center.position.x, b.center.position.y, b.size_x, b.size_y
-        boxes.append((label, (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)))
-    return Grounding(msg.header.stamp.to_sec(), tuple(boxes))
+    """A Detection2DArray -> a Grounding (labelled x1, y1, x2, y2 boxes)."""
+    return Grounding(msg.header.stamp.to_sec(), tuple((label, box) for label, box, _ in detection_boxes(msg)))
 
 
-def tracked_msg(obs: Observation, header: Header) -> TrackedTarget:
-    bbox = BoundingBox2D()
-    if obs.box is not None:
-        x1, y1, x2, y2 = obs.box
-        bbox = BoundingBox2D(center=Pose2D(position=Point2D(x=(x1 + x2) / 2, y=(y1 + y2) / 2)), size_x=x2 - x1,
-                             size_y=y2 - y1)  # fmt: skip
+def tracked_msg(obs: Observation, header: Header, camera: PinholeCamera) -> TrackedTarget:
+    """An Observation -> the TrackedTarget of its frame; `camera`: the frame's camera model."""
     return TrackedTarget(
         header=header,
         label=obs.label,
         state=STATE_CODES[obs.state],
-        bbox=bbox,
+        bbox=BoundingBox2D() if obs.box is None else bbox_2d(obs.box),
         image_width=obs.width,
         image_height=obs.height,
         confidence=float(obs.confidence),
+        bearing_rad=math.nan if obs.bearing is None else float(obs.bearing),
+        hfov_rad=float(camera.scaled_to(obs.width, obs.height).hfov),
         distance_m=math.nan if obs.distance is None else float(obs.distance),
         range_method=obs.range_method,
         grounding_age_s=math.nan if obs.grounding_age is None else float(obs.grounding_age),
@@ -231,7 +226,7 @@ class TargetTrackerNode(Node):
         obs = self.tracking.on_frame(header.stamp.to_sec(), bgr, cam)
         self.last = obs
         stamp = Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec)
-        self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id)))
+        self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id), cam))
         for _, box in self.tracking.color_answers:  # the colour grounder's answers (about this frame), as a VLM's
             h = Header(stamp=stamp, frame_id=header.frame_id)
             self.pub_answers.publish(detection_array(h, [] if box is None else [(obs.label, box, 1.0)]))
