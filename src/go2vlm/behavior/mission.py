@@ -1,6 +1,8 @@
 """The commander's logic without any I/O: a language goal, the target_tracker's sightings and the VLM's
 scene decisions in; a velocity intent, posture commands, the query for the tracker and a state with
-its reason out. Driven by explicit timestamps so it can be tested exhaustively.
+its reason out. Driven by explicit timestamps so it can be tested exhaustively. It orchestrates:
+the control laws it runs (approach, align, face, search) are behavior/control.py's, beside the
+follower's, and its local planner is behavior/planner.py.
 
     mission = Mission(MissionParams())
     mission.set_goal("go to the blue cylinder", now)
@@ -69,7 +71,13 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.behavior.approach import ApproachParams, approach_command
+from go2vlm.behavior.control import (
+    ApproachParams,
+    align_command,
+    approach_command,
+    face_command,
+    search_command,
+)
 from go2vlm.behavior.decisions import DecisionRejected, parse_decision
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner import PlannerParams, Steer, steer
@@ -81,8 +89,6 @@ __all__ = ["TERMINAL", "Intent", "Mission", "MissionParams", "Sighting"]
 
 TERMINAL = ("idle", "stopped", "rejected", "done", "reached", "found", "not_found", "sat")
 ZERO_BURST_S = 0.5  # zeros sent after a goal ends, then /behavior/cmd_vel goes quiet
-CENTRED_X = 0.1  # look for: |x| below this counts as found
-MIN_ALIGN_WZ = 0.15  # look for: at least this gentle a turn, so a slow search does not stall near the centre
 
 
 @dataclass(frozen=True)
@@ -464,11 +470,10 @@ class Mission:
             assert self.sighting is not None
             x = self.sighting.x
             if goal.kind == "look_for":
-                if abs(x) < CENTRED_X:
+                wz, centred = align_command(x, self._approach_params(goal))
+                if centred:
                     self._enter("found", f"the {self.label} is straight ahead{self._where()}", now)
                     return 0.0, 0.0, True, False
-                wz = max(-p.max_angular, min(p.max_angular, -p.kp_angular * x))
-                wz = math.copysign(min(p.max_angular, max(abs(wz), MIN_ALIGN_WZ)), wz)
                 self._set("aligning", "target in view: turning to face it", now)
                 return 0.0, wz, True, False
             follow = goal.kind == "follow"
@@ -622,7 +627,7 @@ class Mission:
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
             self._look_key = None
-            wz = math.copysign(max(MIN_ALIGN_WZ, min(p.max_angular, p.kp_angular * abs(bearing))), bearing)
+            wz = face_command(bearing, ap)
             self._set("aligning" if goal.kind == "look_for" else "approaching", f"turning to {where}", now)
             return 0.0, wz, True, False
         # Hold still facing it (not sure enough to walk, or at its place) and look.
@@ -678,11 +683,9 @@ class Mission:
         if now - self._t_search > p.search_timeout_s and (not stop_and_look or full_turn):
             self._enter("not_found", f"no {self.label} in view after {p.search_timeout_s:g} s", now)
             return 0.0, 0.0, True, False
-        direction = -1.0 if self._last_x > 0 else 1.0  # towards where it was last seen; left by default
-        rate = min(p.search_yaw_rate, p.max_angular)
         if not stop_and_look:
             self._set("searching", f"turning in place to find the {self.label}", now)
-            return 0.0, direction * rate, True, False
+            return 0.0, search_command(self._last_x, p.search_yaw_rate, p.max_angular), True, False
         if self._search_phase == "look":
             look = self._look(("search", self._turned), now)
             if look == "waiting":
@@ -690,7 +693,7 @@ class Mission:
                 self._set("searching", f"holding still, looking for the {self.label} ({how})", now)
                 return 0.0, 0.0, True, False
             self._search_phase, self._turn_t0, self._turn_yaw = "turn", now, None
-        rate = min(p.search_step_rate, p.max_angular)
+        wz = search_command(self._last_x, p.search_step_rate, p.max_angular)
         pose = self._fresh(self._pose, now, p.pose_timeout_s)
         if pose is not None:  # how far this step has turned, by odometry
             if self._turn_yaw is None:
@@ -698,7 +701,7 @@ class Mission:
             done = abs(math.atan2(math.sin(pose[2] - self._turn_yaw), math.cos(pose[2] - self._turn_yaw)))
         else:  # no odometry: by time
             self._turn_yaw = None
-            done = rate * (now - self._turn_t0)
+            done = abs(wz) * (now - self._turn_t0)
         if done >= math.radians(p.search_step_deg) - 0.02:
             self._turned += math.radians(p.search_step_deg)
             self._search_phase = "look"
@@ -706,4 +709,4 @@ class Mission:
             self._set("searching", f"holding still, looking for the {self.label}", now)
             return 0.0, 0.0, True, False
         self._set("searching", f"turning {p.search_step_deg:g} deg to look for the {self.label}", now)
-        return 0.0, direction * rate, True, False
+        return 0.0, wz, True, False
