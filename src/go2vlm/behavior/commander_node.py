@@ -217,7 +217,7 @@ class CommanderConfig:
 
 def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
-    hfov = float(msg.hfov_rad) if math.isfinite(msg.hfov_rad) and 0.0 < msg.hfov_rad < math.pi else math.nan
+    hfov = float(msg.hfov_rad)  # the Mission takes only a plausible one
     state = STATE_NAMES.get(int(msg.state))
     if state is None:
         return Sighting(t, msg.label, "lost", hfov=hfov), f"unknown state {msg.state}"
