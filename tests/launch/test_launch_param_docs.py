@@ -201,3 +201,34 @@ def test_bus_md_says_which_parameters_change_at_runtime() -> None:
                         wrong.append(f"{kind}: {name} is {'live' if live[name] else 'read-only'}")
     assert seen >= 20, "the table is no longer found: update this test"
     assert not wrong, "\n".join(wrong)
+
+
+def test_node_defaults_are_their_cores() -> None:
+    """A node parameter that its pure core also has defaults to the core's value (one source): same
+    names through bus.core_params, and the gate's, whose names differ, by this table."""
+    from go2vlm.behavior.mission import MissionParams
+    from go2vlm.perception.tracking import TrackingParams
+    from go2vlm.safety.guard import GuardConfig
+    from go2vlm.safety.health import HealthPolicy
+    from go2vlm.safety.limits import Limits
+
+    pairs = {"commander": MissionParams(), "target_tracker": TrackingParams()}
+    for kind, core in pairs.items():
+        _, config = _module_and_config(kind)
+        ours = _defaults(config)
+        shared = [f.name for f in dataclasses.fields(core) if f.name in ours]
+        assert len(shared) >= 8, kind
+        assert {n: ours[n] for n in shared} == {n: getattr(core, n) for n in shared}, kind
+    gate = _defaults(_module_and_config("safety")[1])
+    lim, guard, health = Limits(), GuardConfig(), HealthPolicy()
+    assert (gate["max_vx_forward"], gate["max_vx_backward"], gate["max_vy"], gate["max_vyaw"]) == (
+        lim.vx_forward, lim.vx_backward, lim.vy, lim.wz
+    )  # fmt: skip
+    assert (gate["accel_linear"], gate["accel_angular"]) == (lim.accel_linear, lim.accel_angular)
+    assert (gate["margin"], gate["blind_speed"], gate["scan_timeout_s"], gate["reaction_s"]) == (
+        guard.margin, guard.blind_speed, guard.scan_timeout_s, guard.reaction_s
+    )  # fmt: skip
+    assert (gate["health_stale_s"], gate["health_clear_s"], gate["health_cap_scale"]) == (
+        health.stale_s, health.clear_s, health.cap_scale
+    )  # fmt: skip
+    assert gate["health_require_state"] == health.require_state
