@@ -75,10 +75,17 @@ class World:
         return math.hypot(ox - self.x, oy - self.y) - r
 
 
+def mission(params: MissionParams | None = None) -> Mission:
+    """A Mission that has had the tracker's first report: the camera's view (it reports every frame)."""
+    m = Mission(params or MissionParams())
+    m.observe(Sighting(0.0, "", "idle", hfov=HFOV))
+    return m
+
+
 def run(world: World, goal: str, seconds: float, params: MissionParams | None = None) -> tuple[Mission, list[str], int]:
     """The core in the loop, with no tracker confirmation at all; returns it, its states and how many
     forward steps it took while nothing confirmed the target."""
-    m = Mission(params or MissionParams())
+    m = mission(params)
     dt, now = 0.05, 0.0
     m.set_goal(goal, now)
     states, unconfirmed = [], 0
@@ -86,7 +93,7 @@ def run(world: World, goal: str, seconds: float, params: MissionParams | None = 
         if k % 2 == 0:
             world.frame(now)
             m.observe_memory(remembered(world.memory), world.answered, now)
-            m.observe(Sighting(now, m.label, "searching"))
+            m.observe(Sighting(now, m.label, "searching", hfov=HFOV))
         m.observe_pose(world.x, world.y, world.yaw, now)
         out = m.step(now)
         if not states or states[-1] != out.state:
@@ -134,7 +141,7 @@ def test_a_goal_for_a_remembered_object_goes_straight_there() -> None:
     m, states, _ = run(world, "go to the green box", 60)
     assert states[-1] == "reached"
     world.x, world.y, world.yaw = 0.0, -1.5, -math.pi / 2  # back, facing away from everything
-    m2 = Mission(MissionParams())
+    m2 = mission()
     m2.observe_memory(remembered(world.memory), world.answered, 0.0)
     m2.observe_pose(world.x, world.y, world.yaw, 0.0)
     m2.set_goal("go to the green box", 0.0)
@@ -144,7 +151,7 @@ def test_a_goal_for_a_remembered_object_goes_straight_there() -> None:
 
 
 def test_slow_answers_stop_and_look_fast_ones_turn_on() -> None:
-    m = Mission(MissionParams())
+    m = mission()
     m.observe_memory([], None, 0.0)
     m.set_goal("look for the yellow ball", 0.0)
     m.observe_pose(0.0, 0.0, 0.0, 0.0)
@@ -164,7 +171,7 @@ def test_slow_answers_stop_and_look_fast_ones_turn_on() -> None:
         if out.wz == 0.0:
             break
     assert "holding still" in out.reason and 0.05 * k * 0.5 == pytest.approx(math.radians(50), abs=0.05)
-    fast = Mission(MissionParams())
+    fast = mission()
     fast.set_goal("look for the yellow ball", 0.0)
     for k in range(10):
         fast.observe_memory([], 0.1 * k, 0.1 * k + 0.1)
@@ -177,7 +184,7 @@ def test_the_stop_needs_an_answer_about_a_frame_taken_there() -> None:
     `reached`; after confirm_looks of them the object is given up and the search goes on."""
     obj = Remembered("blue_cylinder_1", "blue cylinder", 0.82 + 0.3, 0.0, 0.75, (0.6, 0.6, 1.5), 0.9, 0.5,
                      (0.01, 0.0, 0.01))  # fmt: skip
-    m = Mission(MissionParams())
+    m = mission()
     m.set_goal("go to the blue cylinder", 0.0)
     reasons = []
     for k in range(200):
@@ -197,7 +204,7 @@ def test_the_stop_needs_an_answer_about_a_frame_taken_there() -> None:
 @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data())
 def test_it_never_walks_towards_what_nothing_confirms(data: st.DataObject) -> None:
-    m = Mission(MissionParams(avoid_obstacles=False))
+    m = mission(MissionParams(avoid_obstacles=False))
     m.set_goal(data.draw(st.sampled_from(["go to the red ball", "look for the red ball"])), 0.0)
     t = 0.0
     for _ in range(data.draw(st.integers(1, 60))):
@@ -212,9 +219,10 @@ def test_it_never_walks_towards_what_nothing_confirms(data: st.DataObject) -> No
                     for k in range(data.draw(st.integers(0, 3)))]  # fmt: skip
             m.observe_memory(objs, t - data.draw(st.floats(0, 10)), t)
         elif what == "sighting":
-            m.observe(Sighting(t, "red ball", "tracking", data.draw(st.floats(-1, 1)), data.draw(st.floats(0.1, 5))))
+            x, d = data.draw(st.floats(-1, 1)), data.draw(st.floats(0.1, 5))
+            m.observe(Sighting(t, "red ball", "tracking", x, d, hfov=HFOV))
         elif what == "lost":
-            m.observe(Sighting(t, "red ball", "lost"))
+            m.observe(Sighting(t, "red ball", "lost", hfov=HFOV))
         out = m.step(t)
         if out.vx > 0:
             o = m.target_obj
@@ -226,7 +234,7 @@ def test_the_scan_measures_a_remembered_objects_surface() -> None:
     """A box remembered too big (seen corner-on: 1.4 m for 1 m) would stop the robot 0.2 m short; where
     the scan has returns on it, its nearest one is the surface."""
     box = Remembered("green_box_1", "green box", 3.0, 0.0, 0.5, (1.4, 1.4, 1.0), 0.9, 0.0, (0.01, 0.0, 0.01))
-    m = Mission(MissionParams())
+    m = mission()
     m.observe_pose(0.0, 0.0, 0.0, 0.0)
     assert m.relative(box, 0.0) == pytest.approx((0.0, 2.3))  # the memory's size alone
     face = np.array([[2.5, y] for y in np.linspace(-0.5, 0.5, 11)])
@@ -238,10 +246,10 @@ def test_the_scan_measures_a_remembered_objects_surface() -> None:
 
 
 def test_look_for_says_where_the_object_is() -> None:
-    m = Mission(MissionParams())
+    m = mission()
     m.set_goal("look for the green box", 0.0)
     m.observe_pose(1.0, 2.0, math.pi / 2, 0.0)
-    m.observe(Sighting(0.0, "green box", "tracking", 0.02, 1.5, "bottom", 0.0))
+    m.observe(Sighting(0.0, "green box", "tracking", 0.02, 1.5, "bottom", 0.0, HFOV))
     out = m.step(0.0)
     assert out.state == "found" and "(1.00, 3.83) in the odometry frame" in out.reason
 
@@ -258,7 +266,7 @@ def test_it_goes_round_what_is_in_the_way_to_a_remembered_object() -> None:
     cyl = Footprint("circle", -2.0, 0.0, r=0.3)
     obj = Remembered("blue_cylinder_1", "blue cylinder", -2.0, 0.0, 0.75, (0.6, 0.6, 1.5), 0.9, 0.0,
                      (0.01, 0.0, 0.01))  # fmt: skip
-    m = Mission(MissionParams())
+    m = mission()
     x, y, yaw, t, dt = 2.077, 2.207, -2.195, 0.0, 0.05
     m.set_goal("go to the blue cylinder", t)
     least, changes, state = math.inf, 0, ""

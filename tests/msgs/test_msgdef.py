@@ -93,6 +93,14 @@ def test_known_hash() -> None:
     )
 
 
+def test_tracked_target_hash() -> None:
+    # go2vlm_msgs/msg/TrackedTarget as shipped (with bearing_rad and hfov_rad): a ROS 2 peer built from an
+    # older TrackedTarget.msg reports another hash and does not match. Change it only with the .msg file.
+    assert rihs01(get_type("go2vlm_msgs/msg/TrackedTarget")) == (
+        "RIHS01_af382f7e47b48c575652af3ab476441790d38e4fce0145dd32c34a3e0010c9d3"
+    )
+
+
 def test_layout_of_dependencies() -> None:
     text = msgdef(get_type("geometry_msgs/msg/PointStamped"))
     head = "std_msgs/Header header\ngeometry_msgs/Point point\n"

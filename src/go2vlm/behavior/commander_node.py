@@ -8,7 +8,8 @@ images: the target_tracker grounds, tracks and ranges, the vlm node answers deci
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
-                                  frame; only `tracking` reports for the goal's object count
+                                  frame; only `tracking` reports for the goal's object count; their
+                                  bearing_rad and hfov_rad (from the real CameraInfo) place it
               /vlm/decision       std_msgs/String       raw VLM scene decisions (the vlm node in
                                   mode=decide), mapped onto the whitelist of behavior/decisions.py
               /scan               sensor_msgs/LaserScan  best-effort, keep-last 5 (`scan_topic`, frame
@@ -79,8 +80,7 @@ decision_hold_s, turns, the zero burst) is in the node's clock: sim time with us
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
 search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
-settings; goal (use /goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates
-are read-only.
+settings; goal (use /goal), follow_control, the topics, scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
@@ -92,12 +92,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
-from go2vlm.behavior.planner import PlannerParams
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
-from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
+from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.geometry.target import normalized_target
+from go2vlm.geometry.target import circle_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
@@ -115,45 +113,62 @@ _MP = MissionParams()
 
 @dataclass
 class CommanderConfig:
+    """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
+
     goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
     follow_control: str = param(
-        "follower", choices=("follower", "self"), help="follow: /detected_target for the follower, or own control"
-    )
+        _MP.follow_control, choices=("follower", "self"),
+        help="follow: /detected_target for the follower, or own control",
+    )  # fmt: skip
     stop_distance_m: float = param(
-        0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
+        _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
     )
-    follow_distance_m: float = param(1.2, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True)
+    follow_distance_m: float = param(
+        _MP.follow_distance_m, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True
+    )
     distance_tolerance_m: float = param(
-        0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
+        _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
     )
     max_linear: float = param(
-        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+        _MP.max_linear, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
     )
-    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
-    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
-    kp_angular: float = param(1.5, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True)
-    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True)
-    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0, live=True)
-    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost", live=True)
+    max_angular: float = param(_MP.max_angular, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    kp_linear: float = param(
+        _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
+    )
+    kp_angular: float = param(
+        _MP.kp_angular, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True
+    )
+    search_yaw_rate: float = param(
+        _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
+    )
+    search_timeout_s: float = param(
+        _MP.search_timeout_s, help="give up searching after this long", min=1.0, max=600.0, live=True
+    )
+    search_on_loss: bool = param(
+        _MP.search_on_loss, help="go to / look for: search again when the target is lost", live=True
+    )
     lost_timeout_s: float = param(
-        1.0, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
+        _MP.lost_timeout_s, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
     )
     camera_forward_m: float = param(
-        spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
+        _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
     )
-    camera_fovy_deg: float = param(
-        spec.HEAD_CAMERA_FOVY_DEG, help="the camera's vertical field of view: a box's bearing", min=1.0, max=170.0
+    avoid_obstacles: bool = param(
+        _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
     )
-    avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
     scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the local planner")
     odom_topic: str = param("/odom", help="nav_msgs/Odometry: the target's place while a detour hides it")
-    scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
+    scan_timeout_s: float = param(
+        _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
+    )
     planner_margin_m: float = param(
-        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
+        _MP.planner.margin, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
     )
     detour_memory_s: float = param(
-        8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
-    )
+        _MP.detour_memory_s, help="a detour out of view lasts this long after the last sighting (s)", min=0.0,
+        max=60.0, live=True,
+    )  # fmt: skip
     use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
     objects_topic: str = param("/objects", help="vision_msgs/Detection3DArray: the object memory")
     memory_min_confidence: float = param(
@@ -182,75 +197,50 @@ class CommanderConfig:
                                   min=0.5, max=120.0, live=True)  # fmt: skip
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
-    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
+    decision_hold_s: float = param(
+        _MP.decision_hold_s, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True
+    )
+    decision_turn_rate: float = param(
+        _MP.decision_turn_rate, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True
+    )
     max_turn_deg: float = param(
-        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
+        _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
     )
 
     def mission_params(self) -> MissionParams:
-        return MissionParams(
-            follow_control=self.follow_control,
-            stop_distance_m=self.stop_distance_m,
-            follow_distance_m=self.follow_distance_m,
-            distance_tolerance_m=self.distance_tolerance_m,
-            max_linear=self.max_linear,
-            max_angular=self.max_angular,
-            kp_linear=self.kp_linear,
-            kp_angular=self.kp_angular,
-            search_yaw_rate=self.search_yaw_rate,
-            search_timeout_s=self.search_timeout_s,
-            search_on_loss=self.search_on_loss,
-            lost_timeout_s=self.lost_timeout_s,
-            camera_forward_m=self.camera_forward_m,
-            decision_hold_s=self.decision_hold_s,
-            decision_turn_rate=self.decision_turn_rate,
-            max_turn_deg=self.max_turn_deg,
-            avoid_obstacles=self.avoid_obstacles,
-            scan_timeout_s=self.scan_timeout_s,
-            detour_memory_s=self.detour_memory_s,
-            planner=PlannerParams(margin=self.planner_margin_m, max_angular=self.max_angular),
-            use_memory=self.use_memory,
-            memory_min_confidence=self.memory_min_confidence,
-            memory_confirm_confidence=self.memory_confirm_confidence,
-            reach_slack_m=self.reach_slack_m,
-            confirm_looks=self.confirm_looks,
-            search_step_deg=self.search_step_deg,
-            search_view_per_answer=self.search_view_per_answer,
-            search_step_rate=self.search_step_rate,
-            look_settle_s=self.look_settle_s,
-            look_timeout_s=self.look_timeout_s,
-            hfov_rad=fovy_to_hfov(self.camera_fovy_deg, 640, 480),
+        return core_params(
+            MissionParams,
+            self,
+            planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
         )
 
 
-def sighting_of(
-    msg: TrackedTarget, t: float, fovy_deg: float = spec.HEAD_CAMERA_FOVY_DEG
-) -> tuple[Sighting, str | None]:
+def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
+    hfov = float(msg.hfov_rad)  # the Mission takes only a plausible one
     state = STATE_NAMES.get(int(msg.state))
     if state is None:
-        return Sighting(t, msg.label, "lost"), f"unknown state {msg.state}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"unknown state {msg.state}"
     if state != "tracking":
-        return Sighting(t, msg.label, state), None
+        return Sighting(t, msg.label, state, hfov=hfov), None
     b, w, h = msg.bbox, int(msg.image_width), int(msg.image_height)
     vals = (b.center.position.x, b.center.position.y, b.size_x, b.size_y)
     if not all(math.isfinite(v) for v in vals) or b.size_x <= 0 or b.size_y <= 0:
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad box {vals}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad box {vals}"
     if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad image size {w}x{h}"
-    x, _, _ = normalized_target(_xyxy(msg), w, h)
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad image size {w}x{h}"
+    x, _, _ = _target(msg)
     d = msg.distance_m
     distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
-    cam = PinholeCamera.from_fovy(w, h, fovy_deg)
-    bearing = -math.atan2(b.center.position.x - cam.cx, cam.fx)
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing), None
+    bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
+    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov), None
 
 
-def _xyxy(msg: TrackedTarget) -> tuple[float, float, float, float]:
+def _target(msg: TrackedTarget) -> tuple[float, float, float]:
+    """The tracked box in the /detected_target convention (geometry/target.py)."""
     b = msg.bbox
-    cx, cy = b.center.position.x, b.center.position.y
-    return cx - b.size_x / 2, cy - b.size_y / 2, cx + b.size_x / 2, cy + b.size_y / 2
+    r = max(b.size_x, b.size_y) / 2.0
+    return circle_target(b.center.position.x, b.center.position.y, r, int(msg.image_width), int(msg.image_height))
 
 
 class CommanderNode(Node):
@@ -305,7 +295,7 @@ class CommanderNode(Node):
         self.tick()
 
     def on_tracked(self, msg: TrackedTarget) -> None:
-        sighting, bad = sighting_of(msg, self.clock.monotonic(), self.config.camera_fovy_deg)
+        sighting, bad = sighting_of(msg, self.clock.monotonic())
         if bad is not None:
             n = self.count("bad_tracked")
             self.log.throttled("error", 5.0, f"ignoring a bad /target/tracked ({n} so far): {bad}", key="tracked")
@@ -382,7 +372,7 @@ class CommanderNode(Node):
             self.log.info(f"{self._last_key[0]} -> {intent.state}: {intent.reason}")
 
     def _relay(self, msg: TrackedTarget) -> None:
-        x, y, z = normalized_target(_xyxy(msg), int(msg.image_width), int(msg.image_height))
+        x, y, z = _target(msg)
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
         self.pub_target.publish(PointStamped(header=header, point=Point(x=x, y=y, z=z)))
 

@@ -1,6 +1,8 @@
 """The commander's logic without any I/O: a language goal, the target_tracker's sightings and the VLM's
 scene decisions in; a velocity intent, posture commands, the query for the tracker and a state with
-its reason out. Driven by explicit timestamps so it can be tested exhaustively.
+its reason out. Driven by explicit timestamps so it can be tested exhaustively. It orchestrates:
+the control laws it runs (approach, align, face, search) are behavior/control.py's, beside the
+follower's, and its local planner is behavior/planner.py.
 
     mission = Mission(MissionParams())
     mission.set_goal("go to the blue cylinder", now)
@@ -40,9 +42,10 @@ Rules
 - The world (`observe_memory`: the object memory's remembered objects from /objects, and the stamp
   of the newest answer it has taken in, on this clock): go to and look for use the most confident
   remembered object of the goal's label (at least `memory_min_confidence`) while the tracker does not
-  confirm the target. Go to turns to it, then approaches its remembered place with the local planner,
-  but only once the memory confirms it (at least `memory_confirm_confidence`: two answers that agree
-  on its place); less sure, it holds still facing it and looks. At its remembered place it stops and
+  confirm the target, once a tracker report has said how wide the camera's view is (`hfov`). Go to
+  turns to it, then approaches its remembered place with the local planner, but only once the memory
+  confirms it (at least `memory_confirm_confidence`: two answers that agree on its place); less
+  sure, it holds still facing it and looks. At its remembered place it stops and
   looks: `reached` only when an answer about a frame taken there (its stamp after the stop) placed the
   object within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`), or the tracker
   confirms it within reach. Look for turns to face it and ends `found` when an answer about a frame
@@ -50,7 +53,8 @@ Rules
   it is seen again) and the search goes on. A goal for an object already remembered goes straight there.
 - Search, with a memory whose answers are so slow that turning at `search_yaw_rate` would turn more
   than `search_view_per_answer` of the view between two answers (the latency is measured: the stamps
-  of the answers against when the memory had them): stop and look. Hold still until an answer about a
+  of the answers against when the memory had them; the view is the tracker reports' `hfov`, and
+  unknown counts as too slow): stop and look. Hold still until an answer about a
   frame taken at this heading has come back (a frame `look_settle_s` after the stop; at most 2.5 x the
   answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg` at
   `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
@@ -67,7 +71,13 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.behavior.approach import ApproachParams, approach_command
+from go2vlm.behavior.control import (
+    ApproachParams,
+    align_command,
+    approach_command,
+    face_command,
+    search_command,
+)
 from go2vlm.behavior.decisions import DecisionRejected, parse_decision
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner import PlannerParams, Steer, steer
@@ -79,8 +89,6 @@ __all__ = ["TERMINAL", "Intent", "Mission", "MissionParams", "Sighting"]
 
 TERMINAL = ("idle", "stopped", "rejected", "done", "reached", "found", "not_found", "sat")
 ZERO_BURST_S = 0.5  # zeros sent after a goal ends, then /behavior/cmd_vel goes quiet
-CENTRED_X = 0.1  # look for: |x| below this counts as found
-MIN_ALIGN_WZ = 0.15  # look for: at least this gentle a turn, so a slow search does not stall near the centre
 
 
 @dataclass(frozen=True)
@@ -116,7 +124,6 @@ class MissionParams:
     search_step_rate: float = 0.5  # stop and look: rad/s of the turn between two looks
     look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
     look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
-    hfov_rad: float = math.radians(spec.head_camera_hfov_deg(640, 480))  # the camera's horizontal view
 
     def __post_init__(self) -> None:
         if self.follow_control not in ("follower", "self"):
@@ -133,7 +140,6 @@ class MissionParams:
             kp_linear=self.kp_linear,
             kp_angular=self.kp_angular,
             max_linear=self.max_linear,
-            min_linear=min(0.08, self.max_linear),
             max_angular=self.max_angular,
         )
 
@@ -149,6 +155,7 @@ class Sighting:
     distance: float | None = None  # camera -> near surface (m)
     range_method: str = "none"
     bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
+    hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
 
     @property
     def tracked(self) -> bool:
@@ -209,6 +216,7 @@ class Mission:
         self._turned = 0.0  # rad turned (in steps) since the search began
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
         self.target_obj: Remembered | None = None
+        self.view: float | None = None  # the camera's horizontal field of view (rad), from the tracker's reports
 
     # -- inputs ------------------------------------------------------------------------------
     def set_goal(self, text: str, now: float) -> None:
@@ -248,7 +256,9 @@ class Mission:
                 self._enter("searching", f"looking for the {label}", now)
 
     def observe(self, s: Sighting) -> None:
-        """A target_tracker report; reports about another label are ignored."""
+        """A target_tracker report; reports about another label are ignored (but for the camera's view)."""
+        if math.isfinite(s.hfov) and 0.0 < s.hfov < math.pi:
+            self.view = s.hfov
         if not self.active or s.label != self.label:
             self.counters["sightings_ignored"] += 1
             return
@@ -394,8 +404,9 @@ class Mission:
         speed, _, _ = approach_command(0.0, dist, ap)
         side = self._side if now - self._side_t < 3.0 else 0.0
         st = steer(
-            vx, wz, speed, bearing, dist, scan[0], self.params.planner, reach_m=dist - ap.stop_distance, side=side
-        )
+            vx, wz, speed, bearing, dist, scan[0], self.params.planner, max_angular=ap.max_angular,
+            reach_m=dist - ap.stop_distance, side=side,
+        )  # fmt: skip
         if st.blocked:
             self._detour_t = now
             if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
@@ -459,11 +470,10 @@ class Mission:
             assert self.sighting is not None
             x = self.sighting.x
             if goal.kind == "look_for":
-                if abs(x) < CENTRED_X:
+                wz, centred = align_command(x, self._approach_params(goal))
+                if centred:
                     self._enter("found", f"the {self.label} is straight ahead{self._where()}", now)
                     return 0.0, 0.0, True, False
-                wz = max(-p.max_angular, min(p.max_angular, -p.kp_angular * x))
-                wz = math.copysign(min(p.max_angular, max(abs(wz), MIN_ALIGN_WZ)), wz)
                 self._set("aligning", "target in view: turning to face it", now)
                 return 0.0, wz, True, False
             follow = goal.kind == "follow"
@@ -582,8 +592,8 @@ class Mission:
     def _memory_control(self, now: float) -> tuple[float, float, bool, bool] | None:
         """Go to / look for on a remembered object while the tracker does not confirm it (the module
         docstring's rules); None: no remembered target (search)."""
-        p, goal, o = self.params, self.goal, self.target_obj
-        if goal is None or goal.kind not in ("go_to", "look_for") or o is None:
+        p, goal, o, view = self.params, self.goal, self.target_obj, self.view
+        if goal is None or goal.kind not in ("go_to", "look_for") or o is None or view is None:
             return None
         rel = self.relative(o, now)
         if rel is None:
@@ -591,7 +601,7 @@ class Mission:
         bearing, surface = rel
         where = f"the remembered {o.label} at ({o.x:.2f}, {o.y:.2f})"
         ap = self._approach_params(goal)
-        x = -bearing / (p.hfov_rad / 2.0)
+        x = -bearing / (view / 2.0)
         vx, wz, at_place = approach_command(x, surface, ap)
         key = (o.id, "look")
         if self._look_key == key:  # looking at it: has an answer about a frame taken since the stop seen it?
@@ -617,7 +627,7 @@ class Mission:
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
             self._look_key = None
-            wz = math.copysign(max(MIN_ALIGN_WZ, min(p.max_angular, p.kp_angular * abs(bearing))), bearing)
+            wz = face_command(bearing, ap)
             self._set("aligning" if goal.kind == "look_for" else "approaching", f"turning to {where}", now)
             return 0.0, wz, True, False
         # Hold still facing it (not sure enough to walk, or at its place) and look.
@@ -666,17 +676,16 @@ class Mission:
     def _search(self, now: float) -> tuple[float, float, bool, bool]:
         p = self.params
         lat = self.answer_latency
-        fast = lat is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * p.hfov_rad
+        view = self.view
+        fast = lat is not None and view is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * view
         stop_and_look = self.memory is not None and p.use_memory and not fast
         full_turn = self._turned >= 2 * math.pi - 1e-6
         if now - self._t_search > p.search_timeout_s and (not stop_and_look or full_turn):
             self._enter("not_found", f"no {self.label} in view after {p.search_timeout_s:g} s", now)
             return 0.0, 0.0, True, False
-        direction = -1.0 if self._last_x > 0 else 1.0  # towards where it was last seen; left by default
-        rate = min(p.search_yaw_rate, p.max_angular)
         if not stop_and_look:
             self._set("searching", f"turning in place to find the {self.label}", now)
-            return 0.0, direction * rate, True, False
+            return 0.0, search_command(self._last_x, p.search_yaw_rate, p.max_angular), True, False
         if self._search_phase == "look":
             look = self._look(("search", self._turned), now)
             if look == "waiting":
@@ -684,7 +693,7 @@ class Mission:
                 self._set("searching", f"holding still, looking for the {self.label} ({how})", now)
                 return 0.0, 0.0, True, False
             self._search_phase, self._turn_t0, self._turn_yaw = "turn", now, None
-        rate = min(p.search_step_rate, p.max_angular)
+        wz = search_command(self._last_x, p.search_step_rate, p.max_angular)
         pose = self._fresh(self._pose, now, p.pose_timeout_s)
         if pose is not None:  # how far this step has turned, by odometry
             if self._turn_yaw is None:
@@ -692,7 +701,7 @@ class Mission:
             done = abs(math.atan2(math.sin(pose[2] - self._turn_yaw), math.cos(pose[2] - self._turn_yaw)))
         else:  # no odometry: by time
             self._turn_yaw = None
-            done = rate * (now - self._turn_t0)
+            done = abs(wz) * (now - self._turn_t0)
         if done >= math.radians(p.search_step_deg) - 0.02:
             self._turned += math.radians(p.search_step_deg)
             self._search_phase = "look"
@@ -700,4 +709,4 @@ class Mission:
             self._set("searching", f"holding still, looking for the {self.label}", now)
             return 0.0, 0.0, True, False
         self._set("searching", f"turning {p.search_step_deg:g} deg to look for the {self.label}", now)
-        return 0.0, direction * rate, True, False
+        return 0.0, wz, True, False

@@ -31,7 +31,7 @@ from typing import Any
 
 from go2vlm.bus import QOS_DEFAULT, Node, param
 from go2vlm.msgs.std_msgs import String
-from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis
 from go2vlm.perception.answer_delay import AnswerDelay
 
 __all__ = ["AnswerDelayConfig", "AnswerDelayNode"]
@@ -66,11 +66,13 @@ class AnswerDelayNode(Node):
     def on_answer(self, msg: Detection2DArray) -> None:
         cfg: AnswerDelayConfig = self.config
         if cfg.target_body:
-            msg.detections = [
-                d for d in msg.detections if d.results and d.results[0].hypothesis.class_id == cfg.target_body
-            ]
+            kept = []
             for d in msg.detections:
-                d.results[0].hypothesis.class_id = cfg.target_label or cfg.target_body
+                h = best_hypothesis(d.results)
+                if h is not None and h.class_id == cfg.target_body:
+                    h.class_id = cfg.target_label or cfg.target_body
+                    kept.append(d)
+            msg.detections = kept
         for _, held in self.delay.offer(msg.header.stamp.to_sec(), msg):
             self.pub.publish(held)
 

@@ -17,7 +17,7 @@ Distance = camera -> the object's near surface:
    the width it is reported as at distance 0 ("fills the view") -- stopping early is the safe side.
 
 The target_tracker ranges every tracked box with one `RangeEstimator` per query; behaviours add the
-camera's offset from the robot's base (behavior/approach.py turns the distance into motion).
+camera's offset from the robot's base (behavior/control.py turns the distance into motion).
 """
 
 from __future__ import annotations

@@ -28,8 +28,9 @@ Rules
   or `max_unconfirmed_answers` VLM answers in a row did not confirm it, it is `lost`: no box, never
   the last box, until an answer grounds it again. Before the first confirmed box it is `searching`.
 - A new query drops everything of the old one (track, pending answer, range calibration).
-- Ranging (perception/ranging.py) measures each tracked box; `grounding_age` is the frame's stamp
-  minus the stamp of the frame the last accepted answer described.
+- Ranging (perception/ranging.py) measures each tracked box, and the camera model (the frame's
+  CameraInfo) gives its centre's bearing; `grounding_age` is the frame's stamp minus the stamp of the
+  frame the last accepted answer described.
 - The colour grounder's own answers (`grounding="color"`: each run, the frame's stamp and the box it
   found for the query, or None) are kept in `color_answers` until the caller takes them, so that they
   can be published like a VLM's (the object memory places them).
@@ -141,6 +142,7 @@ class Observation:
     distance: float | None = None  # camera -> near surface (m)
     range_method: str = "none"
     grounding_age: float | None = None  # s; None before any accepted answer for this query
+    bearing: float | None = None  # the box centre's bearing from the optical axis (rad, + left); None: no camera
 
 
 @dataclass(frozen=True)
@@ -403,11 +405,13 @@ class TargetTracking:
         box = self._box
         if box is None:
             return Observation(stamp, label, self.state, None, w, h, grounding_age=age)
-        distance, method = None, "none"
+        distance, method, bearing = None, "none", None
         if camera is not None:
-            reading = self._ranger.estimate(box, camera.scaled_to(w, h))
+            cam = camera.scaled_to(w, h)
+            reading = self._ranger.estimate(box, cam)
             distance, method = reading.distance, reading.method
-        return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age)
+            bearing = cam.bearing((box[0] + box[2]) / 2.0)
+        return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
 
 
 def box_fraction(mask: np.ndarray, box: Box) -> float:

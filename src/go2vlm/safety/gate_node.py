@@ -123,6 +123,11 @@ from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec,
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "gate_latch_path", "parse_inputs"]
 
 LOG_PERIOD_S = 1.0  # at most one state-change INFO line per second
+# The defaults of the parameters below are the pure cores' own (mux, limits, guard, health).
+_LIM = Limits()
+_GUARD = GuardConfig()
+_HEALTH = HealthPolicy()
+_INPUT_TIMEOUT_S = InputSpec.timeout_s
 
 
 def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
@@ -139,7 +144,7 @@ def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
         name = str(item.get("name") or topic.strip("/").split("/")[0])
         try:
             priority = int(item.get("priority", 0))
-            timeout = float(item.get("timeout_s", 0.5))
+            timeout = float(item.get("timeout_s", _INPUT_TIMEOUT_S))
         except (TypeError, ValueError):
             raise ValueError(f"inputs[{i}]: priority must be an int and timeout_s a number") from None
         if not (math.isfinite(timeout) and 0.0 < timeout <= 10.0):
@@ -168,17 +173,18 @@ class SafetyGateConfig:
     )
     rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
     max_vx_forward: float = param(
-        0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
+        _LIM.vx_forward, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
     )
     max_vx_backward: float = param(
-        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True
-    )
-    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
-    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
+        _LIM.vx_backward, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward,
+        live=True,
+    )  # fmt: skip
+    max_vy: float = param(_LIM.vy, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
+    max_vyaw: float = param(_LIM.wz, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
     accel_linear: float = param(
-        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
+        _LIM.accel_linear, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
     )
-    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
+    accel_angular: float = param(_LIM.accel_angular, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
     )
@@ -201,10 +207,14 @@ class SafetyGateConfig:
     health_topic: str = param(
         "", help="unitree_go/msg/LowState topic of the robot's state; '' = the robot profile's health topic"
     )
-    health_require_state: bool = param(False, help="stop until the first state sample (else armed by it)")
-    health_stale_s: float = param(0.5, help="state stream silent this long: stop", min=0.05, max=10.0)
-    health_clear_s: float = param(2.0, help="a lower health level is taken after it held this long", min=0.0)
-    health_cap_scale: float = param(0.5, help="speed limits factor at health level cap", min=0.0, max=1.0)
+    health_require_state: bool = param(
+        _HEALTH.require_state, help="stop until the first state sample (else armed by it)"
+    )
+    health_stale_s: float = param(_HEALTH.stale_s, help="state stream silent this long: stop", min=0.05, max=10.0)
+    health_clear_s: float = param(
+        _HEALTH.clear_s, help="a lower health level is taken after it held this long", min=0.0
+    )
+    health_cap_scale: float = param(_HEALTH.cap_scale, help="speed limits factor at health level cap", min=0.0, max=1.0)
     health_tilt_deg: list[float] = param(
         list(TILT_DEG.steps), help="max(|roll|, |pitch|) thresholds [warn, cap, stop, down], degrees"
     )
@@ -216,14 +226,17 @@ class SafetyGateConfig:
     )
     guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
     scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the collision guard")
-    margin: float = param(0.3, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
+    margin: float = param(_GUARD.margin, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
     blind_speed: float = param(
-        0.2, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
+        _GUARD.blind_speed, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
     )
-    scan_timeout_s: float = param(0.5, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0)
+    scan_timeout_s: float = param(
+        _GUARD.scan_timeout_s, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0
+    )
     reaction_s: float = param(
-        0.1, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)", min=0.0, max=2.0
-    )
+        _GUARD.reaction_s, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)",
+        min=0.0, max=2.0,
+    )  # fmt: skip
 
     def validate(self) -> None:
         dds_topic_name(self.scan_topic)

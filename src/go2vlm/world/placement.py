@@ -160,7 +160,7 @@ def place(
     p = params or PlacementParams()
     x1, y1, x2, y2 = check_box(box, cam, p.min_box_px)
     shape = ranger.shape
-    b_r, b_l = math.atan(-(x2 - cam.cx) / cam.fx), math.atan(-(x1 - cam.cx) / cam.fx)
+    b_r, b_l = cam.bearing(x2), cam.bearing(x1)
     b_c = (b_r + b_l) / 2.0  # the centre's bearing: between the edge rays (exact for a round object)
     lat_c = math.tan(b_c)  # + left
     reading = ranger.estimate((x1, y1, x2, y2), cam)

@@ -51,7 +51,7 @@ from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.msgdef import msgdef, ros_type
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image
 from go2vlm.msgs.std_msgs import Bool, String
-from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis, box_corners
 from go2vlm.robot_profile.go2 import SIM
 from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOPIC
 
@@ -281,16 +281,14 @@ class ViewNode(Node):
         green = Color(r=0.1, g=1.0, b=0.3, a=1.0)
         boxes, texts = [], []
         for det in msg.detections:
-            b = det.bbox
-            x0, y0 = b.center.position.x - b.size_x / 2, b.center.position.y - b.size_y / 2
-            x1, y1 = x0 + b.size_x, y0 + b.size_y
+            x0, y0, x1, y1 = box_corners(det.bbox)
             corners = [Point2(x=x0, y=y0), Point2(x=x1, y=y0), Point2(x=x1, y=y1), Point2(x=x0, y=y1)]
             boxes.append(
                 PointsAnnotation(
                     timestamp=ts, type=PointsAnnotationType.LineLoop, points=corners, outline_color=green, thickness=3
                 )
             )
-            hyp = det.results[0].hypothesis if det.results else None
+            hyp = best_hypothesis(det.results)
             label = f"{hyp.class_id} {hyp.score:.2f}" if hyp else (det.id or "object")
             texts.append(
                 TextAnnotation(
