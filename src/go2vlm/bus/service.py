@@ -85,9 +85,13 @@ REPLY_WAIT_S = 1.0
 class SrvType(Protocol):
     """A service type as msgs/ declares one: `NAME`, `Request`, `Response` (like rclpy's)."""
 
-    NAME: str
-    Request: type
-    Response: type
+    # Read-only, so that a class with these class attributes (msgs/) is one.
+    @property
+    def NAME(self) -> str: ...
+    @property
+    def Request(self) -> type: ...
+    @property
+    def Response(self) -> type: ...
 
 
 class ServiceHost(Protocol):
@@ -141,12 +145,12 @@ def wire_type(cls: type) -> type:
 def wrap(msg: Any, guid: int, seq: int) -> Any:
     """The wire sample for `msg` with the request header (`guid`, `seq`)."""
     values = {f.name: getattr(msg, f.name) for f in dataclasses.fields(msg)}
-    return wire_type(type(msg))(**{GUID_FIELD: guid, SEQ_FIELD: seq}, **values)
+    return wire_type(type(msg))(**{GUID_FIELD: guid, SEQ_FIELD: seq}, **values)  # type: ignore[arg-type]  # mypy: type[Any] is not Hashable
 
 
-def unwrap(sample: Any, cls: type[Req]) -> tuple[int, int, Req]:
+def unwrap(sample: Any, cls: type) -> tuple[int, int, Any]:
     """(guid, seq, message) from a wire sample."""
-    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}
     return getattr(sample, GUID_FIELD), getattr(sample, SEQ_FIELD), cls(**values)
 
 
@@ -207,10 +211,10 @@ class Service(Generic[Req, Resp]):
         self.id = endpoint_id(node.participant)
         user_data = f"serviceid={self.id};"
         self._pending: list[_Reply] = []
-        self.reply_pub = Publisher(
+        self.reply_pub: Publisher[Any] = Publisher(
             node.participant, wire_type(srv_type.Response), name, qos, dds_name=reply_topic(name), user_data=user_data
         )
-        self.request_sub = Subscription(
+        self.request_sub: Subscription[Any] = Subscription(
             node.participant,
             wire_type(srv_type.Request),
             name,

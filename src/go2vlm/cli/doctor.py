@@ -66,7 +66,7 @@ class Verdict:
         return f"[{self.level:>4}] {self.check}: {self.text}{fix}"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "doctor",
         help="check the known traps (network, DDS, buffers, rendering, GPU, /cmd_vel writers)",

@@ -29,7 +29,7 @@ from go2vlm.errors import ConfigError, UsageError
 TOPIC = "/objects"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
     p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
     what = p.add_mutually_exclusive_group()

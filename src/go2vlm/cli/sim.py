@@ -17,7 +17,7 @@ from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "sim",
         help="run the simulated Go2 (MuJoCo) on ROS 2 topics",
