@@ -207,7 +207,7 @@ class Node:
         sub.close()
 
     def create_service(
-        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
+        self, srv_type: SrvType[Any, Any], name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
     ) -> Service[Any, Any]:
         """Serve `name` (`~/x` is `/<node>/x`) over DDS as rmw_cyclonedds_cpp does (bus/service.py);
         `handler(request) -> response` runs on this node's executor thread."""

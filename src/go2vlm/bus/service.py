@@ -71,6 +71,8 @@ __all__ = [
 
 Req = TypeVar("Req")
 Resp = TypeVar("Resp")
+ReqT_co = TypeVar("ReqT_co", covariant=True)
+RespT_co = TypeVar("RespT_co", covariant=True)
 
 # The request header's fields in our flat declaration of the wrapper (names are ours; only the
 # layout is on the wire).
@@ -82,16 +84,16 @@ SEQ_FIELD = "cdds_request_seq"
 REPLY_WAIT_S = 1.0
 
 
-class SrvType(Protocol):
+class SrvType(Protocol[ReqT_co, RespT_co]):
     """A service type as msgs/ declares one: `NAME`, `Request`, `Response` (like rclpy's)."""
 
     # Read-only, so that a class with these class attributes (msgs/) is one.
     @property
     def NAME(self) -> str: ...
     @property
-    def Request(self) -> type: ...
+    def Request(self) -> type[ReqT_co]: ...
     @property
-    def Response(self) -> type: ...
+    def Response(self) -> type[RespT_co]: ...
 
 
 class ServiceHost(Protocol):
@@ -117,8 +119,13 @@ def reply_topic(service: str) -> str:
     return "rr" + domain.dds_topic_name(service)[2:] + "Reply"
 
 
-@cache
 def wire_type(cls: type) -> type:
+    """`cls` with rmw_cyclonedds' request header in front (see `_wire_type`)."""
+    return _wire_type(cls)  # uncached here: mypy reads a type[X] argument of a cached function as unhashable
+
+
+@cache
+def _wire_type(cls: type) -> type:
     """`cls` with rmw_cyclonedds' request header (uint64 guid, int64 seq) in front of its fields, under
     `cls`'s own DDS type name: what a service request or reply is on the wire. A flat struct rather
     than {header; body}: a nested struct of the same type name would look recursive to XTypes."""
@@ -145,12 +152,12 @@ def wire_type(cls: type) -> type:
 def wrap(msg: Any, guid: int, seq: int) -> Any:
     """The wire sample for `msg` with the request header (`guid`, `seq`)."""
     values = {f.name: getattr(msg, f.name) for f in dataclasses.fields(msg)}
-    return wire_type(type(msg))(**{GUID_FIELD: guid, SEQ_FIELD: seq}, **values)  # type: ignore[arg-type]  # mypy: type[Any] is not Hashable
+    return wire_type(type(msg))(**{GUID_FIELD: guid, SEQ_FIELD: seq}, **values)
 
 
-def unwrap(sample: Any, cls: type) -> tuple[int, int, Any]:
+def unwrap(sample: Any, cls: type[Req]) -> tuple[int, int, Req]:
     """(guid, seq, message) from a wire sample."""
-    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}
+    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     return getattr(sample, GUID_FIELD), getattr(sample, SEQ_FIELD), cls(**values)
 
 
@@ -199,9 +206,9 @@ class Service(Generic[Req, Resp]):
     def __init__(
         self,
         node: ServiceHost,
-        srv_type: SrvType,
+        srv_type: SrvType[Req, Resp],
         name: str,
-        handler: Callable[[Any], Any],
+        handler: Callable[[Req], Resp],
         qos: QosProfile = QOS_SERVICES,
     ) -> None:
         self.node = node
@@ -286,7 +293,7 @@ class ServiceClient(Generic[Req, Resp]):
 
     def __init__(
         self,
-        srv_type: SrvType,
+        srv_type: SrvType[Req, Resp],
         name: str,
         participant: DomainParticipant | None = None,
         qos: QosProfile = QOS_SERVICES,
