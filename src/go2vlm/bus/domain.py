@@ -29,9 +29,9 @@ import socket
 import tempfile
 import threading
 import time
-from typing import Any
 from collections.abc import Collection
 from pathlib import Path
+from typing import Any
 
 from cyclonedds.core import DDSException
 from cyclonedds.domain import Domain, DomainParticipant

@@ -117,7 +117,7 @@ class Subscription(Generic[M]):
         participant: DomainParticipant,
         msg_type: type[M],
         topic: str,
-        callback: Callable[..., None],
+        callback: Callable[..., object],  # what it returns is dropped
         qos: QosProfile,
         *,
         with_sender: bool = False,

@@ -173,7 +173,7 @@ class Node:
         self,
         msg_type: type[M],
         topic: str,
-        callback: Callable[..., None],
+        callback: Callable[..., object],
         qos: QosProfile = QOS_DEFAULT,
         *,
         with_sender: bool = False,
@@ -363,7 +363,7 @@ class Node:
         self._clock_started_seen = True
         self._jumps_seen = self.clock.jumps_back
 
-    def _call(self, fn: Callable[..., None], arg: Any, where: str, *more: Any) -> None:
+    def _call(self, fn: Callable[..., object], arg: Any, where: str, *more: Any) -> None:
         try:
             fn() if arg is None and where == "timer" else fn(arg, *more)
         except Exception as exc:

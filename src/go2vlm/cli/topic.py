@@ -65,7 +65,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pb.set_defaults(func=cmd_pub)
 
 
-def lookup_type(name: str) -> type:
+def lookup_type(name: str) -> type[Any]:
     """The message class named on the command line; an unknown name is a usage error (exit 2)."""
     try:
         return get_type(name)

@@ -147,7 +147,9 @@ class ObjectMemoryConfig:
     camera_left_m: float = param(_MOUNT.left_m, help="camera left of the base centre", min=-1.0, max=1.0)
     camera_height_m: float = param(_MOUNT.height_m, help="camera above the floor (ranging)", min=0.05, max=3.0)
     camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
-    object_sizes: dict = param(dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width")
+    object_sizes: dict[str, float] = param(
+        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width"
+    )
     min_label_color: float = param(
         TrackingParams.min_label_color, help="a box must hold this fraction of its label's colour", min=0.0, max=1.0
     )
