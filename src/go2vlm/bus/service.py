@@ -157,7 +157,7 @@ def wrap(msg: Any, guid: int, seq: int) -> Any:
 
 def unwrap(sample: Any, cls: type[Req]) -> tuple[int, int, Req]:
     """(guid, seq, message) from a wire sample."""
-    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]  # an IdlStruct is a dataclass
     return getattr(sample, GUID_FIELD), getattr(sample, SEQ_FIELD), cls(**values)
 
 
