@@ -370,7 +370,7 @@ class Mission:
         return s.distance + self.params.camera_forward_m
 
     @staticmethod
-    def _fresh(item: tuple | None, now: float, timeout: float) -> tuple | None:
+    def _fresh(item: tuple[Any, ...] | None, now: float, timeout: float) -> tuple[Any, ...] | None:
         return item if item is not None and 0.0 <= now - item[-1] <= timeout else None
 
     def _seen_in_base(self, s: Sighting) -> tuple[float, float] | None:

@@ -59,6 +59,7 @@ from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
 
 M = TypeVar("M")
+S = TypeVar("S", bound=Subscription[Any])
 
 # Sim times arrive in whole nanoseconds and due times are sums of float periods: a due time within
 # this much of the clock counts as reached, so that a 50 ms timer on a 10 ms /clock fires at 0.15 s,
@@ -172,7 +173,7 @@ class Node:
         self,
         msg_type: type[M],
         topic: str,
-        callback: Callable[..., None],
+        callback: Callable[..., object],
         qos: QosProfile = QOS_DEFAULT,
         *,
         with_sender: bool = False,
@@ -181,7 +182,7 @@ class Node:
         sub = Subscription(self.participant, msg_type, self.resolve(topic), callback, qos, with_sender=with_sender)
         return self._add_subscription(sub)
 
-    def _add_subscription(self, sub: Subscription[M]) -> Subscription[M]:
+    def _add_subscription(self, sub: S) -> S:
         with self._lock:
             self.subscriptions.append(sub)
             self._waitset.attach(sub.condition)
@@ -206,12 +207,12 @@ class Node:
         sub.close()
 
     def create_service(
-        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
+        self, srv_type: SrvType[Any, Any], name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
     ) -> Service[Any, Any]:
         """Serve `name` (`~/x` is `/<node>/x`) over DDS as rmw_cyclonedds_cpp does (bus/service.py);
         `handler(request) -> response` runs on this node's executor thread."""
         full = f"{self.fully_qualified_name}/{name[2:]}" if name.startswith("~/") else name
-        svc = Service(self, srv_type, full if full.startswith("/") else "/" + full, handler, qos)
+        svc: Service[Any, Any] = Service(self, srv_type, full if full.startswith("/") else "/" + full, handler, qos)
         # Writer first, then reader, as rmw_cyclonedds creates them.
         self._add_publisher(svc.reply_pub)
         self._add_subscription(svc.request_sub)
@@ -362,7 +363,7 @@ class Node:
         self._clock_started_seen = True
         self._jumps_seen = self.clock.jumps_back
 
-    def _call(self, fn: Callable[..., None], arg: Any, where: str, *more: Any) -> None:
+    def _call(self, fn: Callable[..., object], arg: Any, where: str, *more: Any) -> None:
         try:
             fn() if arg is None and where == "timer" else fn(arg, *more)
         except Exception as exc:

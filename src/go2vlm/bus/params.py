@@ -176,7 +176,7 @@ def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
 
 
-def _validate(field: dataclasses.Field, value: Any, where: str) -> None:
+def _validate(field: dataclasses.Field[Any], value: Any, where: str) -> None:
     meta = field.metadata
     choices, lo, hi = meta.get("choices"), meta.get("min"), meta.get("max")
     if choices is not None and value is not None and value not in choices:

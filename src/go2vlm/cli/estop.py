@@ -51,7 +51,7 @@ REPORTERS = {"/safety/status": "gate", "/go2/status": "robot (go2 driver)", "/si
 HOLDER_NODE = "go2vlm_estop"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "estop",
         help="hold the emergency stop (latched until `go2vlm estop --release`)",

@@ -30,7 +30,7 @@ CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
 MAX_MOVE_S = 10.0
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "go2",
         help="command a Go2 (or the sim) over Unitree's sport RPC",

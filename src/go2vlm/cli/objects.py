@@ -29,7 +29,7 @@ from go2vlm.errors import ConfigError, UsageError
 TOPIC = "/objects"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
     p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
     what = p.add_mutually_exclusive_group()
@@ -119,18 +119,18 @@ def cmd_objects(args: argparse.Namespace) -> int:
         print(rep.message)
         return 0
     if args.where is not None:
-        with ServiceClient(WhereIs, "/object_memory/where_is") as client:
+        with ServiceClient(WhereIs, "/object_memory/where_is") as where_client:
             try:
-                rep = client.call(WhereIs.Request(label=args.where), args.timeout)
+                answer = where_client.call(WhereIs.Request(label=args.where), args.timeout)
             except ServiceError as exc:
                 raise RuntimeError(f"no object memory answers: {exc}") from None
         if args.json:
-            rows = [r for r in map(remembered, rep.objects) if r is not None]
+            rows = [r for r in map(remembered, answer.objects) if r is not None]
             print(json.dumps([{"id": r.id, "label": r.label, "x": r.x, "y": r.y, "confidence": r.confidence}
                               for r in rows], ensure_ascii=False))  # fmt: skip
         else:
-            print(rep.message)
-        return 0 if rep.found else 1
+            print(answer.message)
+        return 0 if answer.found else 1
     got: list[Detection3DArray] = []
     event = threading.Event()
 

@@ -54,7 +54,7 @@ HELP = """go2vlm teleop: /teleop/cmd_vel through the safety gate
 q/z speeds +-10%  w/x linear  e/c angular  space/k stop (twice: e-stop)  ! e-stop  Ctrl-C quit"""
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "teleop",
         help="drive from the keyboard through the safety gate (like teleop_twist_keyboard)",

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass, field
+from typing import Any
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
@@ -36,7 +37,7 @@ __all__ = ["DEFAULT_SIZES", "RangeEstimator", "RangeReading", "check_object_size
 DEFAULT_SIZES = {"ball": 0.5, "box": 1.0, "cylinder": 0.3}
 
 
-def check_object_sizes(sizes: dict) -> None:
+def check_object_sizes(sizes: dict[str, Any]) -> None:
     """ValueError unless `sizes` maps known shapes to sizes in 0.01..20 m (an `object_sizes` parameter)."""
     for key, value in sizes.items():
         if key not in DEFAULT_SIZES:

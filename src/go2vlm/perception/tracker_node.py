@@ -112,7 +112,9 @@ class TargetTrackerConfig:
         min=10.0,
         max=170.0,
     )
-    object_sizes: dict = param(_TP.object_sizes, help="ranging before calibration: ball/cylinder radius, box width (m)")
+    object_sizes: dict[str, float] = param(
+        _TP.object_sizes, help="ranging before calibration: ball/cylinder radius, box width (m)"
+    )
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:

@@ -167,7 +167,7 @@ class SafetyGateConfig:
         help="the robot this gate commands (its profile: speed ceilings, footprint, health topic; its e-stop latch)",
         choices=tuple(PROFILES),
     )
-    inputs: list[dict] = param(
+    inputs: list[dict[str, Any]] = param(
         [{"name": s.name, "topic": s.topic, "priority": s.priority, "timeout_s": s.timeout_s} for s in DEFAULT_INPUTS],
         help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
     )
@@ -277,7 +277,8 @@ def health_policy(c: SafetyGateConfig) -> HealthPolicy:
         if len(steps) != 4:
             raise ValueError(f"health_{name}: expected [warn, cap, stop, down], got {steps}")
         try:
-            ladders[name] = Ladder(*map(float, steps), hysteresis=base.hysteresis, rising=base.rising)
+            warn, cap, stop, down = map(float, steps)
+            ladders[name] = Ladder(warn, cap, stop, down, hysteresis=base.hysteresis, rising=base.rising)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"health_{name}: {exc}") from None
     return HealthPolicy(

@@ -87,7 +87,14 @@ from go2vlm.errors import ConfigError
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.msgs.go2vlm_msgs import MemoryFile, WhereIs
+from go2vlm.msgs.go2vlm_msgs import (
+    MemoryFile,
+    MemoryFile_Request,
+    MemoryFile_Response,
+    WhereIs,
+    WhereIs_Request,
+    WhereIs_Response,
+)
 from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, LaserScan
@@ -140,7 +147,9 @@ class ObjectMemoryConfig:
     camera_left_m: float = param(_MOUNT.left_m, help="camera left of the base centre", min=-1.0, max=1.0)
     camera_height_m: float = param(_MOUNT.height_m, help="camera above the floor (ranging)", min=0.05, max=3.0)
     camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
-    object_sizes: dict = param(dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width")
+    object_sizes: dict[str, float] = param(
+        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width"
+    )
     min_label_color: float = param(
         TrackingParams.min_label_color, help="a box must hold this fraction of its label's colour", min=0.0, max=1.0
     )
@@ -406,7 +415,7 @@ class ObjectMemoryNode(Node):
             self._markers_dirty, self._last_markers = False, now
             self.pub_markers.publish(markers_of(self.memory.snapshot(), cfg.world_frame, self.answered_through))
 
-    def where_is(self, req: WhereIs.Request) -> WhereIs.Response:
+    def where_is(self, req: WhereIs_Request) -> WhereIs_Response:
         label = str(req.label)[:200]
         fits = self.memory.where_is(label)
         frame = self.config.world_frame
@@ -422,7 +431,7 @@ class ObjectMemoryNode(Node):
             msg += f"; {len(fits) - 1} more fit"
         return WhereIs.Response(True, msg, [detection_of(o, frame) for o in fits])
 
-    def memory_file(self, req: MemoryFile.Request) -> MemoryFile.Response:
+    def memory_file(self, req: MemoryFile_Request) -> MemoryFile_Response:
         path = Path(str(req.path)).expanduser()
         if req.command == "save":
             try:

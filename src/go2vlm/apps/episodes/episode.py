@@ -174,10 +174,10 @@ def target_body(goal: str | None, names: list[str], target: str | None = None) -
     names (red_sphere for "the red ball", ...); the first by name when several fit."""
     if target is not None:
         return target if target in names else None
-    target = goal_target(goal)
-    if target is None:
+    wanted = goal_target(goal)
+    if wanted is None:
         return None
-    fits = sorted(n for n in names if label_matches(target, n))
+    fits = sorted(n for n in names if label_matches(wanted, n))
     return fits[0] if fits else None
 
 

@@ -258,7 +258,9 @@ def _body_fits(label: str, body: str) -> bool:
 
 def memory_metrics(objects: list[Remembered], bodies: dict[str, tuple[float, float]]) -> dict[str, Any]:
     """The memory at the end against the ground truth (see the module docstring)."""
-    out, phantoms, errors = [], 0, []
+    out: list[dict[str, Any]] = []
+    phantoms = 0
+    errors: list[float] = []
     for o in objects:
         fits = [
             (math.hypot(o.x - x, o.y - y), name, x, y) for name, (x, y) in bodies.items() if _body_fits(o.label, name)
@@ -266,7 +268,7 @@ def memory_metrics(objects: list[Remembered], bodies: dict[str, tuple[float, flo
         err, name, tx, ty = min(fits) if fits else (None, None, None, None)
         phantom = err is None or err > PHANTOM_M
         phantoms += phantom
-        if not phantom:
+        if err is not None and not phantom:
             errors.append(err)
         out.append({
             "id": o.id, "label": o.label, "x": _r(o.x), "y": _r(o.y), "confidence": _r(o.confidence),

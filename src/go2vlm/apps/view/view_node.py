@@ -38,7 +38,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 
@@ -54,6 +54,9 @@ from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis, box_corners
 from go2vlm.robot_profile.go2 import SIM
 from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOPIC
+
+if TYPE_CHECKING:
+    from foxglove.websocket import ServerListener
 
 __all__ = ["CLIENT_TOPICS", "ViewConfig", "ViewNode"]
 
@@ -119,7 +122,7 @@ class ViewNode(Node):
         self._channels: dict[str, Any] = {}  # foxglove topic -> channel
         self._feeds: dict[str, str] = {}  # foxglove topic -> bus topic
         self._requests: queue.Queue[tuple[str, int]] = queue.Queue()
-        self._approved: dict[tuple[int, int], tuple[str, type, str]] = {}
+        self._approved: dict[tuple[int, int], tuple[str, type[Any], str]] = {}
         self._image_size = (640, 480)
         self._approved_lock = threading.Lock()
         self.client_pubs: dict[str, Publisher[Any]] = {}
@@ -140,7 +143,8 @@ class ViewNode(Node):
                 port=c.port,
                 capabilities=caps,
                 supported_encodings=["cdr", "json"],
-                server_listener=_Listener(self),
+                # The SDK's Protocol has default bodies, meant to be inherited; foxglove is imported lazily.
+                server_listener=cast("ServerListener", _Listener(self)),
                 context=self.ctx,
             )
         except Exception as exc:  # port taken, address not local: a setting to change, said in one line
@@ -176,6 +180,7 @@ class ViewNode(Node):
                 fwd.publishers[ep.key] = profile_of(ep.qos)
 
     def _advertise(self, fwd: _Forward) -> None:
+        cls: type[Any]
         if fwd.cls is Image:
             name, cls = fwd.topic + "/compressed", CompressedImage
         else:
