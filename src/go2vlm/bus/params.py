@@ -250,7 +250,8 @@ def core_params(core_cls: type[T], config: Any, **given: Any) -> T:
     """An instance of a pure core's params dataclass from a node's config: every field of the core that
     the config has under the same name, then `given` (what the node names or derives differently)."""
     own = {f.name for f in dataclasses.fields(config)}
-    values = {f.name: getattr(config, f.name) for f in dataclasses.fields(core_cls) if f.init and f.name in own}
+    core_fields = dataclasses.fields(core_cls)  # type: ignore[arg-type]  # T is a dataclass by contract
+    values = {f.name: getattr(config, f.name) for f in core_fields if f.init and f.name in own}
     values.update(given)
     return core_cls(**values)
 
