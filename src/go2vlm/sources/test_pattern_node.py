@@ -7,9 +7,10 @@ Topics
              /camera/camera_info  sensor_msgs/CameraInfo (latched), same stamp as each image
 
 Parameters at runtime: frame_id and hfov_rad (from the next frame); period_s is read-only.
-QoS: the table's (bus/topics.py: CAMERA_IMAGE reliable keep-last 2), so best-effort and reliable readers both match. The first
-frame goes out at start-up, and a fresh frame whenever a new reader matches, so a late joiner does
-not wait a whole period_s (5 s by default, as in the article).
+QoS: the topic table's (bus/topics.py: CAMERA_IMAGE, reliable keep-last 2), so best-effort and
+reliable readers both match. The first frame goes out at start-up, and a fresh frame whenever a
+new reader matches, so a late joiner does not wait a whole period_s (5 s by default, as in the
+article).
 Time: period_s, the new-reader check and the stamps are in the node's clock (sim time with
 use_sim_time: nothing but the first frame, stamped 0, goes out before /clock starts).
 """
