@@ -24,18 +24,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-from go2vlm.bus.qos import (
-    QOS_ANY,
-    QOS_CLOCK,
-    QOS_DEFAULT,
-    QOS_HEARTBEAT_READER,
-    QOS_IMAGE,
-    QOS_LATCHED,
-    QOS_SENSOR,
-    QOS_UNITREE_READER,
-    QOS_UNITREE_WRITER,
-    QosProfile,
-)
+from go2vlm.bus import qos
+from go2vlm.bus.qos import QosProfile
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
@@ -88,66 +78,66 @@ class Topic(Generic[M]):
 
 def _status(name: str) -> Topic[String]:
     """A node's status: latched JSON, so a late listener hears the last word at once."""
-    return Topic(name, String, QOS_LATCHED)
+    return Topic(name, String, qos.QOS_LATCHED)
 
 
 # Cameras. Writers are reliable with a short queue (QOS_IMAGE), readers best-effort (sensor data),
 # so a reader also hears a best-effort camera driver and a slow reader holds at most two frames.
-CAMERA_IMAGE = Topic("/camera/image_raw", Image, QOS_IMAGE, QOS_SENSOR)
-CAMERA_IMAGE_COMPRESSED = Topic("/camera/image_raw/compressed", CompressedImage, QOS_IMAGE, QOS_SENSOR)
+CAMERA_IMAGE = Topic("/camera/image_raw", Image, qos.QOS_IMAGE, qos.QOS_SENSOR)
+CAMERA_IMAGE_COMPRESSED = Topic("/camera/image_raw/compressed", CompressedImage, qos.QOS_IMAGE, qos.QOS_SENSOR)
 # Latched for tools; readers are volatile best-effort, because a camera sends one with every frame
 # and a ROS camera driver may publish it volatile.
-CAMERA_INFO = Topic("/camera/camera_info", CameraInfo, QOS_LATCHED, QOS_SENSOR)
-WORLD_CAMERA_IMAGE = Topic("/world_camera/image_raw", Image, QOS_IMAGE, QOS_SENSOR)
-WORLD_CAMERA_INFO = Topic("/world_camera/camera_info", CameraInfo, QOS_LATCHED, QOS_SENSOR)
-COLOR_DEBUG_IMAGE = Topic("/color_detector/debug_image", Image, QOS_SENSOR)
+CAMERA_INFO = Topic("/camera/camera_info", CameraInfo, qos.QOS_LATCHED, qos.QOS_SENSOR)
+WORLD_CAMERA_IMAGE = Topic("/world_camera/image_raw", Image, qos.QOS_IMAGE, qos.QOS_SENSOR)
+WORLD_CAMERA_INFO = Topic("/world_camera/camera_info", CameraInfo, qos.QOS_LATCHED, qos.QOS_SENSOR)
+COLOR_DEBUG_IMAGE = Topic("/color_detector/debug_image", Image, qos.QOS_SENSOR)
 
 # Perception and the world.
-TARGET_QUERY = Topic("/target/query", String, QOS_LATCHED)
-VLM_DETECTIONS = Topic("/vlm/detections", Detection2DArray, QOS_DEFAULT)
-VLM_TEXT = Topic("/vlm/detection", String, QOS_DEFAULT)
-VLM_DECISION = Topic("/vlm/decision", String, QOS_DEFAULT)
-TRACKER_DETECTIONS = Topic("/target_tracker/detections", Detection2DArray, QOS_DEFAULT)
-TARGET_TRACKED = Topic("/target/tracked", TrackedTarget, QOS_DEFAULT)
-DETECTED_TARGET = Topic("/detected_target", PointStamped, QOS_DEFAULT)
-SIM_DETECTIONS = Topic("/sim/detections", Detection2DArray, QOS_DEFAULT)
-OBJECTS = Topic("/objects", Detection3DArray, QOS_LATCHED)
-OBJECT_MARKERS = Topic("/objects/markers", MarkerArray, QOS_LATCHED)
+TARGET_QUERY = Topic("/target/query", String, qos.QOS_LATCHED)
+VLM_DETECTIONS = Topic("/vlm/detections", Detection2DArray, qos.QOS_DEFAULT)
+VLM_TEXT = Topic("/vlm/detection", String, qos.QOS_DEFAULT)
+VLM_DECISION = Topic("/vlm/decision", String, qos.QOS_DEFAULT)
+TRACKER_DETECTIONS = Topic("/target_tracker/detections", Detection2DArray, qos.QOS_DEFAULT)
+TARGET_TRACKED = Topic("/target/tracked", TrackedTarget, qos.QOS_DEFAULT)
+DETECTED_TARGET = Topic("/detected_target", PointStamped, qos.QOS_DEFAULT)
+SIM_DETECTIONS = Topic("/sim/detections", Detection2DArray, qos.QOS_DEFAULT)
+OBJECTS = Topic("/objects", Detection3DArray, qos.QOS_LATCHED)
+OBJECT_MARKERS = Topic("/objects/markers", MarkerArray, qos.QOS_LATCHED)
 
 # Behaviour.
-GOAL = Topic("/goal", String, QOS_DEFAULT)
-MCP_PENDING = Topic("/mcp/pending", String, QOS_LATCHED)
-MCP_CONFIRM = Topic("/mcp/confirm", String, QOS_DEFAULT)
+GOAL = Topic("/goal", String, qos.QOS_DEFAULT)
+MCP_PENDING = Topic("/mcp/pending", String, qos.QOS_LATCHED)
+MCP_CONFIRM = Topic("/mcp/confirm", String, qos.QOS_DEFAULT)
 
 # Velocity: the gate's inputs, and its one output.
-TELEOP_CMD_VEL = Topic("/teleop/cmd_vel", Twist, QOS_DEFAULT)
-FOLLOWER_CMD_VEL = Topic("/follower/cmd_vel", Twist, QOS_DEFAULT)
-BEHAVIOR_CMD_VEL = Topic("/behavior/cmd_vel", Twist, QOS_DEFAULT)
-CMD_VEL = Topic("/cmd_vel", Twist, QOS_DEFAULT)
+TELEOP_CMD_VEL = Topic("/teleop/cmd_vel", Twist, qos.QOS_DEFAULT)
+FOLLOWER_CMD_VEL = Topic("/follower/cmd_vel", Twist, qos.QOS_DEFAULT)
+BEHAVIOR_CMD_VEL = Topic("/behavior/cmd_vel", Twist, qos.QOS_DEFAULT)
+CMD_VEL = Topic("/cmd_vel", Twist, qos.QOS_DEFAULT)
 
 # Safety. Volatile by default: a latched true would outlive its release (`go2vlm estop` holds it
 # latched on purpose). Readers hear every sender.
-EMERGENCY_STOP = Topic("/emergency_stop", Bool, QOS_DEFAULT, QOS_ANY)
-ESTOP_RELEASE = Topic("/emergency_stop/release", String, QOS_DEFAULT, QOS_ANY)
-SAFETY_HEARTBEAT = Topic("/safety/heartbeat", String, QOS_LATCHED, QOS_HEARTBEAT_READER)
+EMERGENCY_STOP = Topic("/emergency_stop", Bool, qos.QOS_DEFAULT, qos.QOS_ANY)
+ESTOP_RELEASE = Topic("/emergency_stop/release", String, qos.QOS_DEFAULT, qos.QOS_ANY)
+SAFETY_HEARTBEAT = Topic("/safety/heartbeat", String, qos.QOS_LATCHED, qos.QOS_HEARTBEAT_READER)
 
 # The robot ends.
-GO2_COMMAND = Topic("/go2/command", String, QOS_DEFAULT)
+GO2_COMMAND = Topic("/go2/command", String, qos.QOS_DEFAULT)
 # The Go2's rt/lowstate in ROS form, as the robot and the sim publish it; the go2 driver relays it
 # as /go2/lowstate (each robot profile's `health_topic` names the one its gate reads).
-LOWSTATE = Topic("/lowstate", LowState, QOS_UNITREE_WRITER, QOS_UNITREE_READER)
-GO2_LOWSTATE = Topic("/go2/lowstate", LowState, QOS_UNITREE_WRITER, QOS_UNITREE_READER)
-LIDAR_CLOUD = Topic("/utlidar/cloud", PointCloud2, QOS_SENSOR)
-SCAN = Topic("/scan", LaserScan, QOS_SENSOR)
-ODOM = Topic("/odom", Odometry, QOS_DEFAULT)
-IMU = Topic("/imu", Imu, QOS_DEFAULT)
-TF = Topic("/tf", TFMessage, QOS_DEFAULT)
-TF_STATIC = Topic("/tf_static", TFMessage, QOS_LATCHED)
-JOINT_STATES = Topic("/joint_states", JointState, QOS_DEFAULT)
+LOWSTATE = Topic("/lowstate", LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
+GO2_LOWSTATE = Topic("/go2/lowstate", LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
+LIDAR_CLOUD = Topic("/utlidar/cloud", PointCloud2, qos.QOS_SENSOR)
+SCAN = Topic("/scan", LaserScan, qos.QOS_SENSOR)
+ODOM = Topic("/odom", Odometry, qos.QOS_DEFAULT)
+IMU = Topic("/imu", Imu, qos.QOS_DEFAULT)
+TF = Topic("/tf", TFMessage, qos.QOS_DEFAULT)
+TF_STATIC = Topic("/tf_static", TFMessage, qos.QOS_LATCHED)
+JOINT_STATES = Topic("/joint_states", JointState, qos.QOS_DEFAULT)
 # rclcpp's ClockQoS on the reading side: best-effort, only the newest time matters.
-CLOCK = Topic("/clock", Clock, QOS_DEFAULT, QOS_CLOCK)
-SIM_GROUND_TRUTH = Topic("/sim/ground_truth", TFMessage, QOS_DEFAULT)
-SIM_PUSH = Topic("/sim/push", Twist, QOS_DEFAULT)
+CLOCK = Topic("/clock", Clock, qos.QOS_DEFAULT, qos.QOS_CLOCK)
+SIM_GROUND_TRUTH = Topic("/sim/ground_truth", TFMessage, qos.QOS_DEFAULT)
+SIM_PUSH = Topic("/sim/push", Twist, qos.QOS_DEFAULT)
 
 # Statuses (std_msgs/String JSON).
 SAFETY_STATUS = _status("/safety/status")
