@@ -141,3 +141,23 @@ def test_the_table_is_sound() -> None:
         r = topic.reader_qos
         assert not (r.reliable and not topic.qos.reliable), name
         assert not (r.transient_local and not topic.qos.transient_local), name
+
+
+@pytest.mark.parametrize("name", available())
+def test_a_gate_reads_the_health_topic_of_the_robot_it_commands(name: str) -> None:
+    """With a go2 driver in the graph the gate's robot is the go2 (health on /go2/lowstate, the
+    driver's relay); without one, its robot's own health topic; both from the table."""
+    from go2vlm.bus.topics import GO2_LOWSTATE
+    from go2vlm.robot_profile import DEFAULT_ROBOT, profile
+
+    _, entries = load_launch(name)
+    driver = any(e.kind == "go2" for e in entries)
+    for e in entries:
+        if e.kind != "safety":
+            continue
+        health = e.params.get("health_topic") or profile(e.params.get("robot", DEFAULT_ROBOT)).health_topic
+        assert health in TOPICS, f"{name}: the gate reads health on {health}, not a table topic"
+        if driver:
+            assert health == GO2_LOWSTATE.name, (
+                f"{name}: the driver relays {GO2_LOWSTATE.name}, the gate reads {health}"
+            )
