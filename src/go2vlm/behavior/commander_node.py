@@ -92,7 +92,20 @@ from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
+from go2vlm.bus import Node, core_params, param
+from go2vlm.bus.topics import (
+    BEHAVIOR_CMD_VEL,
+    COMMANDER_STATUS,
+    DETECTED_TARGET,
+    GO2_COMMAND,
+    GOAL,
+    OBJECTS,
+    ODOM,
+    SCAN,
+    TARGET_QUERY,
+    TARGET_TRACKED,
+    VLM_DECISION,
+)
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.geometry.target import circle_target
@@ -157,8 +170,8 @@ class CommanderConfig:
     avoid_obstacles: bool = param(
         _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
     )
-    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the local planner")
-    odom_topic: str = param("/odom", help="nav_msgs/Odometry: the target's place while a detour hides it")
+    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the local planner")
+    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry: the target's place while a detour hides it")
     scan_timeout_s: float = param(
         _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
     )
@@ -170,7 +183,7 @@ class CommanderConfig:
         max=60.0, live=True,
     )  # fmt: skip
     use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
-    objects_topic: str = param("/objects", help="vision_msgs/Detection3DArray: the object memory")
+    objects_topic: str = param(OBJECTS.name, help="vision_msgs/Detection3DArray: the object memory")
     memory_min_confidence: float = param(
         _MP.memory_min_confidence, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
     )
@@ -253,17 +266,17 @@ class CommanderNode(Node):
         super().__init__(config, **kwargs)
         cfg: CommanderConfig = self.config
         self.mission = Mission(cfg.mission_params())
-        self.pub_query = self.create_publisher(String, "/target/query", QOS_LATCHED)
-        self.pub_target = self.create_publisher(PointStamped, "/detected_target", QOS_DEFAULT)
-        self.pub_cmd = self.create_publisher(Twist, "/behavior/cmd_vel", QOS_DEFAULT)
-        self.pub_go2 = self.create_publisher(String, "/go2/command", QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/commander/status", QOS_LATCHED)
-        self.create_subscription(String, "/goal", self.on_goal, QOS_DEFAULT)
-        self.create_subscription(TrackedTarget, "/target/tracked", self.on_tracked, QOS_DEFAULT)
-        self.create_subscription(String, "/vlm/decision", self.on_decision, QOS_DEFAULT)
-        self.create_subscription(LaserScan, cfg.scan_topic, self.on_scan, QOS_SENSOR)
-        self.create_subscription(Odometry, cfg.odom_topic, self.on_odom, QOS_DEFAULT)
-        self.create_subscription(Detection3DArray, cfg.objects_topic, self.on_objects, QOS_LATCHED)
+        self.pub_query = TARGET_QUERY.publisher(self)
+        self.pub_target = DETECTED_TARGET.publisher(self)
+        self.pub_cmd = BEHAVIOR_CMD_VEL.publisher(self)
+        self.pub_go2 = GO2_COMMAND.publisher(self)
+        self.pub_status = COMMANDER_STATUS.publisher(self)
+        GOAL.subscription(self, self.on_goal)
+        TARGET_TRACKED.subscription(self, self.on_tracked)
+        VLM_DECISION.subscription(self, self.on_decision)
+        SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
+        ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
+        OBJECTS.subscription(self, self.on_objects, name=cfg.objects_topic)
         self._odom_frame = ""
         self._query: str | None = None
         self._tracked: TrackedTarget | None = None  # the newest report for the goal's object, not yet relayed

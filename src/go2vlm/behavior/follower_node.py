@@ -32,7 +32,8 @@ import math
 from dataclasses import dataclass
 
 from go2vlm.behavior.control import follow_command
-from go2vlm.bus import QOS_DEFAULT, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import DETECTED_TARGET, FOLLOWER_CMD_VEL
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist, Vector3
 
 __all__ = ["FollowerConfig", "FollowerNode"]
@@ -68,8 +69,8 @@ class FollowerNode(Node):
 
     def __init__(self, config: FollowerConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
-        self.cmd_pub = self.create_publisher(Twist, "/follower/cmd_vel", QOS_DEFAULT)
-        self.create_subscription(PointStamped, "/detected_target", self.on_target, QOS_DEFAULT)
+        self.cmd_pub = FOLLOWER_CMD_VEL.publisher(self)
+        DETECTED_TARGET.subscription(self, self.on_target)
         self._last_target: float | None = None  # receive time (clock.monotonic())
         self._last_x: float | None = None
         self._goal = (0.0, 0.0)  # linear.x, angular.z from the latest target

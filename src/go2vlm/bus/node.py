@@ -52,8 +52,9 @@ from go2vlm.bus.clock import Clock
 from go2vlm.bus.endpoints import Publisher, RawSample, RawSubscription, Subscription
 from go2vlm.bus.log import Logger
 from go2vlm.bus.param_services import ParameterServer
-from go2vlm.bus.qos import QOS_CLOCK, QOS_DEFAULT, QOS_SERVICES, QosProfile
+from go2vlm.bus.qos import QOS_DEFAULT, QOS_SERVICES, QosProfile
 from go2vlm.bus.service import Service, SrvType
+from go2vlm.bus.topics import CLOCK
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
@@ -145,7 +146,7 @@ class Node:
         discovery_info.node_added(self)  # so `ros2 node list` sees us
         if use_sim_time and not self.provides_clock:
             # First subscription, so each executor pass takes /clock before anything else.
-            self.create_subscription(ClockMsg, "/clock", self._node_clock_msg, QOS_CLOCK)
+            CLOCK.subscription(self, self._node_clock_msg)
         # ROS 2's parameter services (~/list_parameters, ~/set_parameters, ...), as every rclcpp node
         # has them; tools (CLI helpers) turn them off as ros2cli does (start_parameter_services=False).
         self.parameter_server = ParameterServer(self) if parameter_services else None

@@ -170,7 +170,9 @@ def check_peers(wait_s: float) -> tuple[Verdict, Verdict]:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant, BuiltinTopicDcpsPublication
 
     from go2vlm.bus import discovery_info, domain
+    from go2vlm.bus.topics import CMD_VEL
 
+    cmd_vel = domain.dds_topic_name(CMD_VEL.name)
     dp = domain.participant()
     names = discovery_info.directory(dp)
     parts = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
@@ -183,7 +185,7 @@ def check_peers(wait_s: float) -> tuple[Verdict, Verdict]:
             if hasattr(s, "key") and s.key != dp.guid:
                 others.add(str(s.key))
         for ep in pubs.take(N=256):
-            if getattr(ep, "topic_name", None) == "rt/cmd_vel" and ep.participant_key != dp.guid:
+            if getattr(ep, "topic_name", None) == cmd_vel and ep.participant_key != dp.guid:
                 writers[str(ep.key)] = str(ep.participant_key)
         if time.monotonic() >= deadline:
             break

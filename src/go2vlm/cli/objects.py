@@ -26,8 +26,6 @@ from typing import Any
 from go2vlm.cli.args import positive
 from go2vlm.errors import ConfigError, UsageError
 
-TOPIC = "/objects"
-
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
@@ -97,8 +95,9 @@ def _from_file(args: argparse.Namespace) -> int:
 def cmd_objects(args: argparse.Namespace) -> int:
     if args.file is not None:
         return _from_file(args)
-    from go2vlm.bus import QOS_LATCHED, Node, interrupt_on_signals
+    from go2vlm.bus import Node, interrupt_on_signals
     from go2vlm.bus.service import ServiceClient, ServiceError
+    from go2vlm.bus.topics import MEMORY_FILE_SERVICE, OBJECTS, WHERE_IS_SERVICE
     from go2vlm.msgs.go2vlm_msgs import MemoryFile, WhereIs
     from go2vlm.msgs.vision_msgs import Detection3DArray
     from go2vlm.world.objects_msg import remembered
@@ -108,7 +107,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
         if args.load is not None:
             _check_local(args.load)
         command, path = ("save", args.save) if args.save is not None else ("load", args.load)
-        with ServiceClient(MemoryFile, "/object_memory/memory_file") as client:
+        with ServiceClient(MemoryFile, MEMORY_FILE_SERVICE) as client:
             try:
                 req = MemoryFile.Request(command=command, path=str(path.expanduser().resolve()))
                 rep = client.call(req, args.timeout)
@@ -119,7 +118,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
         print(rep.message)
         return 0
     if args.where is not None:
-        with ServiceClient(WhereIs, "/object_memory/where_is") as where_client:
+        with ServiceClient(WhereIs, WHERE_IS_SERVICE) as where_client:
             try:
                 answer = where_client.call(WhereIs.Request(label=args.where), args.timeout)
             except ServiceError as exc:
@@ -139,11 +138,12 @@ def cmd_objects(args: argparse.Namespace) -> int:
         event.set()
 
     node = Node(node_name="_go2vlm_objects", parameter_services=False)
-    node.create_subscription(Detection3DArray, TOPIC, on_objects, QOS_LATCHED)
+    OBJECTS.subscription(node, on_objects)
     node.start()
     try:
         if not event.wait(args.timeout):
-            raise RuntimeError(f"no object memory publishes {TOPIC} (waited {args.timeout:g} s): is one running?")
+            waited = f"waited {args.timeout:g} s"
+            raise RuntimeError(f"no object memory publishes {OBJECTS.name} ({waited}): is one running?")
     finally:
         node.shutdown()
     msg = got[-1]

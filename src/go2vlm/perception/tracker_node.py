@@ -56,7 +56,16 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, core_params, param
+from go2vlm.bus import Node, core_params, param
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    TARGET_QUERY,
+    TARGET_TRACKED,
+    TRACKER_DETECTIONS,
+    TRACKER_STATUS,
+    VLM_DETECTIONS,
+)
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
@@ -70,8 +79,6 @@ from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
 
-TOPIC_QUERY = "/target/query"
-TOPIC_TRACKED = "/target/tracked"
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
@@ -84,8 +91,8 @@ class TargetTrackerConfig:
 
     query: str = param("", help="label to track until /target/query says otherwise, e.g. 'red ball'")
     grounding: str = param(_TP.grounding, choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
-    image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
-    camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo input")
+    image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
+    camera_info_topic: str = param(CAMERA_INFO.name, help="sensor_msgs/CameraInfo input")
     reground_period_s: float = param(_TP.reground_period_s, help="color: re-ground this often while tracking", min=0.0)
     min_shape_score: float = param(_TP.min_shape_score, help="color: shape score the grounder needs", min=0.0, max=1.0)
     min_label_color: float = param(
@@ -167,15 +174,15 @@ class TargetTrackerNode(Node):
         self.frames = 0
         self.last: Observation | None = None
         self._last_status_key: tuple[str, str] | None = None
-        self.pub_tracked = self.create_publisher(TrackedTarget, TOPIC_TRACKED, QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/target_tracker/status", QOS_LATCHED)
-        self.create_subscription(String, TOPIC_QUERY, self.on_query, QOS_LATCHED)
-        self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
-        self.create_subscription(CameraInfo, cfg.camera_info_topic, self.on_camera_info, QOS_SENSOR)
+        self.pub_tracked = TARGET_TRACKED.publisher(self)
+        self.pub_status = TRACKER_STATUS.publisher(self)
+        TARGET_QUERY.subscription(self, self.on_query)
+        CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
+        CAMERA_INFO.subscription(self, self.on_camera_info, name=cfg.camera_info_topic)
         if cfg.grounding == "vlm":
-            self.create_subscription(Detection2DArray, "/vlm/detections", self.on_detections, QOS_DEFAULT)
+            VLM_DETECTIONS.subscription(self, self.on_detections)
         else:
-            self.pub_answers = self.create_publisher(Detection2DArray, "/target_tracker/detections", QOS_DEFAULT)
+            self.pub_answers = TRACKER_DETECTIONS.publisher(self)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.publish_status()
         self.log.info(f"grounding={cfg.grounding}, query={cfg.query!r}, listening on {self.resolve(cfg.image_topic)}")

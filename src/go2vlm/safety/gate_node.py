@@ -87,8 +87,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import QOS_ANY, Node, param
 from go2vlm.bus.domain import dds_topic_name
+from go2vlm.bus.topics import CMD_VEL, EMERGENCY_STOP, LOWSTATE, SAFETY_STATUS, SCAN
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
@@ -96,7 +97,6 @@ from go2vlm.msgs.unitree import LowState
 from go2vlm.robot_profile import CEILING_BOUND, DEFAULT_ROBOT, PROFILES, RobotProfile, profile
 from go2vlm.safety.commander import GateWatch
 from go2vlm.safety.estop import (
-    ESTOP_TOPIC,
     RELEASE_TOKEN,
     EstopInput,
     LatchFile,
@@ -155,8 +155,8 @@ def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
     names = [s.name for s in out]
     if len(set(names)) != len(names):
         raise ValueError(f"inputs: names must be unique, got {names}")
-    if "/cmd_vel" in {s.topic for s in out}:
-        raise ValueError("inputs: /cmd_vel is the gate's output and cannot be an input")
+    if CMD_VEL.name in {s.topic for s in out}:
+        raise ValueError(f"inputs: {CMD_VEL.name} is the gate's output and cannot be an input")
     return out
 
 
@@ -225,7 +225,7 @@ class SafetyGateConfig:
         list(BATTERY_PCT.steps), help="battery state-of-charge thresholds [warn, cap, stop, down], percent"
     )
     guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
-    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the collision guard")
+    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the collision guard")
     margin: float = param(_GUARD.margin, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
     blind_speed: float = param(
         _GUARD.blind_speed, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
@@ -242,7 +242,7 @@ class SafetyGateConfig:
         dds_topic_name(self.scan_topic)
         parse_inputs(self.inputs)
         check_token(self.release_token)
-        dds_topic_name(self.health_topic or "/lowstate")
+        dds_topic_name(self.health_topic or LOWSTATE.name)
         health_policy(self)
         c = profile(self.robot).ceilings
         for name, ceiling in (
@@ -337,8 +337,8 @@ class SafetyGateNode(Node):
             self.core.latch.why = f"{stored.why or note} (restored from {self.store.path})"
         elif c.start_engaged:
             self.core.latch.why = "start_engaged"
-        self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
-        self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
+        self.cmd_pub = CMD_VEL.publisher(self)
+        self.status_pub = SAFETY_STATUS.publisher(self)
         self._last_state: tuple[Any, ...] | None = None
         self._last_status = 0.0
         self._state_changes = 0  # logged at most once per LOG_PERIOD_S (alternating bad input flips state)
@@ -353,16 +353,17 @@ class SafetyGateNode(Node):
             store=self.store,
         )
         for spec in self.core.specs:
-            self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
+            # Best-effort: an input is heard whatever QoS its sender picked.
+            CMD_VEL.subscription(self, lambda m, n=spec.name: self.on_cmd(n, m), name=spec.topic, qos=QOS_ANY)
         if c.guard:
-            self.create_subscription(LaserScan, c.scan_topic, self.on_scan, QOS_SENSOR)
+            SCAN.subscription(self, self.on_scan, name=c.scan_topic)
         self.commander = GateWatch(self, str(self.cmd_pub.guid), self.cmd_pub.topic, self._commander_changed)
         self.health = HealthMonitor(health_policy(c)) if c.health else None
         self.verdict = HealthVerdict(Level.OK, 1.0, ())
         self._down_sent = -math.inf
         if self.health is not None:
-            self.estop_pub = self.create_publisher(Bool, ESTOP_TOPIC, QOS_DEFAULT)
-            self.create_subscription(LowState, c.health_input, self.on_lowstate, QOS_SENSOR)
+            self.estop_pub = EMERGENCY_STOP.publisher(self)
+            LOWSTATE.subscription(self, self.on_lowstate, name=c.health_input)
         if was_engaged:
             self.log.warning(f"the e-stop was latched when this gate went down: {note}")
         if self.core.estopped:

@@ -82,7 +82,20 @@ from typing import Any
 import cv2
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    MEMORY_FILE_SERVICE,
+    OBJECT_MARKERS,
+    OBJECT_MEMORY_STATUS,
+    OBJECTS,
+    ODOM,
+    SCAN,
+    TARGET_QUERY,
+    VLM_DETECTIONS,
+    WHERE_IS_SERVICE,
+)
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_yaw
@@ -99,8 +112,7 @@ from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, LaserScan
 from go2vlm.msgs.std_msgs import String
-from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray, detection_boxes
-from go2vlm.msgs.visualization_msgs import MarkerArray
+from go2vlm.msgs.vision_msgs import Detection2DArray, detection_boxes
 from go2vlm.perception.color import PRESETS, color_mask
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
@@ -126,15 +138,15 @@ _MEM, _MOUNT = MemoryParams(), CameraMount()
 
 @dataclass
 class ObjectMemoryConfig:
-    answers_topic: str = param("/vlm/detections", help="grounding answers (vision_msgs/Detection2DArray)")
+    answers_topic: str = param(VLM_DETECTIONS.name, help="grounding answers (vision_msgs/Detection2DArray)")
     answers_cover: str = param(
         "query", choices=("query", "all"), help="an answer is about /target/query (query) or lists everything (all)"
     )
-    query_topic: str = param("/target/query", help="what the answers are asked about (answers_cover=query)")
-    camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo: the camera model")
-    image_topic: str = param("/camera/image_raw", help="frames for the colour check ('' = no check)")
-    odom_topic: str = param("/odom", help="nav_msgs/Odometry in world_frame: the pose history")
-    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link: lidar ranges ('' = none)")
+    query_topic: str = param(TARGET_QUERY.name, help="what the answers are asked about (answers_cover=query)")
+    camera_info_topic: str = param(CAMERA_INFO.name, help="sensor_msgs/CameraInfo: the camera model")
+    image_topic: str = param(CAMERA_IMAGE.name, help="frames for the colour check ('' = no check)")
+    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry in world_frame: the pose history")
+    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link: lidar ranges ('' = none)")
     world: str = param("", help="the place this memory is of; a memory file of another world is refused")
     world_frame: str = param(spec.GO2.frames.odom, help="the frame objects are remembered in (/odom's)")
     memory_file: str = param("", help="a memory file to load at start ('' = start empty)")
@@ -211,20 +223,20 @@ class ObjectMemoryNode(Node):
         self._last_pub = self._last_markers = -math.inf
         if cfg.memory_file:
             self._load_at_start(Path(cfg.memory_file))
-        self.pub_objects = self.create_publisher(Detection3DArray, "/objects", QOS_LATCHED)
-        self.pub_markers = self.create_publisher(MarkerArray, "/objects/markers", QOS_LATCHED)
-        self.pub_status = self.create_publisher(String, "/object_memory/status", QOS_LATCHED)
-        self.create_subscription(Odometry, cfg.odom_topic, self.on_odom, QOS_DEFAULT)
-        self.create_subscription(CameraInfo, cfg.camera_info_topic, self.on_camera_info, QOS_SENSOR)
+        self.pub_objects = OBJECTS.publisher(self)
+        self.pub_markers = OBJECT_MARKERS.publisher(self)
+        self.pub_status = OBJECT_MEMORY_STATUS.publisher(self)
+        ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
+        CAMERA_INFO.subscription(self, self.on_camera_info, name=cfg.camera_info_topic)
         if cfg.scan_topic:
-            self.create_subscription(LaserScan, cfg.scan_topic, self.on_scan, QOS_SENSOR)
+            SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
         if cfg.image_topic:
-            self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
+            CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
         if cfg.answers_cover == "query":
-            self.create_subscription(String, cfg.query_topic, self.on_query, QOS_LATCHED)
-        self.create_subscription(Detection2DArray, cfg.answers_topic, self.on_answers, QOS_DEFAULT)
-        self.create_service(WhereIs, "/object_memory/where_is", self.where_is)
-        self.create_service(MemoryFile, "/object_memory/memory_file", self.memory_file)
+            TARGET_QUERY.subscription(self, self.on_query, name=cfg.query_topic)
+        VLM_DETECTIONS.subscription(self, self.on_answers, name=cfg.answers_topic)
+        self.create_service(WhereIs, WHERE_IS_SERVICE, self.where_is)
+        self.create_service(MemoryFile, MEMORY_FILE_SERVICE, self.memory_file)
         self.create_timer(max(0.02, cfg.publish_period_s), self._flush)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self._flush(force=True)

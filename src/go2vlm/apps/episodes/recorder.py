@@ -17,7 +17,25 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node
+from go2vlm.bus import Node
+from go2vlm.bus.topics import (
+    BEHAVIOR_CMD_VEL,
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    CLOCK,
+    CMD_VEL,
+    COMMANDER_STATUS,
+    DETECTED_TARGET,
+    JOINT_STATES,
+    OBJECTS,
+    SAFETY_STATUS,
+    SIM_DETECTIONS,
+    SIM_GROUND_TRUTH,
+    SIM_STATUS,
+    TARGET_TRACKED,
+    VLM_DETECTIONS,
+    VLM_STATUS,
+)
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import image_to_numpy
@@ -72,23 +90,23 @@ class EpisodeRecorder(Node):
         self.wall_start = time.time()  # wall time: /sim/status carries the wall time it was sent at
         self.lock = threading.Lock()
         self.rec = Recording()
-        self.create_subscription(Clock, "/clock", self._on_clock, QOS_DEFAULT)
-        self.create_subscription(String, "/sim/status", self._on_sim_status, QOS_LATCHED)
-        self.create_subscription(TFMessage, "/sim/ground_truth", self._on_gt, QOS_DEFAULT)
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd, QOS_DEFAULT)
-        self.create_subscription(Twist, "/behavior/cmd_vel", self._on_behavior, QOS_DEFAULT)
-        self.create_subscription(PointStamped, "/detected_target", self._on_target, QOS_DEFAULT)
-        self.create_subscription(String, "/commander/status", self._on_commander, QOS_LATCHED)
-        self.create_subscription(String, "/safety/status", self._on_safety, QOS_LATCHED)
-        self.create_subscription(CameraInfo, "/camera/camera_info", self._on_info, QOS_DEFAULT)
-        self.create_subscription(Detection2DArray, "/sim/detections", self._on_truth, QOS_DEFAULT)
-        self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
-        self.create_subscription(String, "/vlm/status", self._on_vlm_status, QOS_DEFAULT)
-        self.create_subscription(TrackedTarget, "/target/tracked", self._on_tracked, QOS_DEFAULT)
-        self.create_subscription(Detection3DArray, "/objects", self._on_objects, QOS_LATCHED)
+        CLOCK.subscription(self, self._on_clock)
+        SIM_STATUS.subscription(self, self._on_sim_status)
+        SIM_GROUND_TRUTH.subscription(self, self._on_gt)
+        CMD_VEL.subscription(self, self._on_cmd)
+        BEHAVIOR_CMD_VEL.subscription(self, self._on_behavior)
+        DETECTED_TARGET.subscription(self, self._on_target)
+        COMMANDER_STATUS.subscription(self, self._on_commander)
+        SAFETY_STATUS.subscription(self, self._on_safety)
+        CAMERA_INFO.subscription(self, self._on_info)
+        SIM_DETECTIONS.subscription(self, self._on_truth)
+        VLM_DETECTIONS.subscription(self, self._on_answer)
+        VLM_STATUS.subscription(self, self._on_vlm_status)
+        TARGET_TRACKED.subscription(self, self._on_tracked)
+        OBJECTS.subscription(self, self._on_objects)
         if video:
-            self.create_subscription(JointState, "/joint_states", self._on_joints, QOS_DEFAULT)
-            self.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_SENSOR)
+            JOINT_STATES.subscription(self, self._on_joints)
+            CAMERA_IMAGE.subscription(self, self._on_image)
 
     @property
     def sim_time(self) -> float:

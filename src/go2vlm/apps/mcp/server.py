@@ -27,6 +27,7 @@ from pydantic import Field
 
 from go2vlm.apps.mcp.bridge_node import McpBridgeNode
 from go2vlm.apps.mcp.rules import Refused, object_label
+from go2vlm.bus.topics import COMMANDER_STATUS, SAFETY_STATUS
 
 __all__ = ["INSTRUCTIONS", "Session", "build_server", "is_loopback", "serve_http", "serve_stdio"]
 
@@ -217,8 +218,8 @@ def build_server(
         b.poll()
         left = b.deadman_left()
         return {
-            "commander": _commander_view(b.status_of("/commander/status")),
-            "safety": _safety_view(b.status_of("/safety/status")),
+            "commander": _commander_view(b.status_of(COMMANDER_STATUS.name)),
+            "safety": _safety_view(b.status_of(SAFETY_STATUS.name)),
             "mcp": {
                 "goal": b.our_goal(),
                 "deadman_left_s": None if left is None else round(left, 1),
