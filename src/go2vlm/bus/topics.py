@@ -64,7 +64,7 @@ class Topic(Generic[M]):
     def subscription(
         self,
         node: Node,
-        callback: Callable[..., None],
+        callback: Callable[..., object],
         *,
         name: str = "",
         qos: QosProfile | None = None,
