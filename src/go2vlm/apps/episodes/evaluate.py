@@ -154,6 +154,7 @@ def _machine() -> dict[str, Any]:
         "cores": os.cpu_count(),
         "memory_gb": mem_gb,
         "mujoco_gl": os.environ.get("MUJOCO_GL"),
+        "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),  # None: each worker its share of the cores
     }
 
 
@@ -190,11 +191,23 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str) -> None:
+def worker_threads(workers: int) -> int:
+    """OpenMP threads per worker process: its share of the cores. A local model's torch (imported by the
+    vlm node, after this) would otherwise start one thread per core in every worker, and threads that
+    outnumber the cores spin at OpenMP's barriers waiting for each other (training the tiny grounder took
+    20x longer per step with 2 threads than with 1 on the loaded 2-core machine). Ray gives a one-CPU
+    task one thread for the same reason."""
+    return max(1, (os.cpu_count() or 1) // max(1, workers))
+
+
+def _worker_init(
+    stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str, threads: int
+) -> None:
     # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
     # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    os.environ.setdefault("OMP_NUM_THREADS", str(threads))  # the user's own setting wins
     os.environ["GO2VLM_IFACE"] = interface
     from go2vlm.bus import Logger
     from go2vlm.bus.domain import claim_free_domain
@@ -313,8 +326,13 @@ def prepare(opts: EvalOptions) -> _Prepared:
     return _Prepared(suite, seed, params, episodes, run_config(suite, opts, seed, params))
 
 
-def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | None = None) -> EvalOutcome:
-    """Run the suite's episodes that the folder does not hold yet; rewrite the report."""
+def run_eval(
+    opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | None = None, ray_session: Any = None
+) -> EvalOutcome:
+    """Run the suite's episodes that the folder does not hold yet; rewrite the report.
+
+    `ray_session` (cluster.RaySession): a Ray shared by the command's runs, left running; without it a
+    run with `opts.ray` connects (or starts) its own and closes it at the end."""
     from go2vlm.apps.episodes.report import write_report
 
     prep = prepared or prepare(opts)
@@ -356,10 +374,13 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | N
         "episodes_dir": str(out / "episodes"),
     }
     cluster = None
+    own_session = None
     if opts.ray is not None and todo and not stop.event.is_set():
-        from go2vlm.apps.episodes.cluster import RayEpisodes
+        if ray_session is None:
+            from go2vlm.apps.episodes.cluster import RaySession
 
-        cluster = RayEpisodes.connect(opts.ray, opts.workers, opts.interface, opts.log_level)  # EvalError if not
+            ray_session = own_session = RaySession(opts.ray, opts.workers, opts.interface, opts.log_level)
+        cluster = ray_session.episodes()  # a UsageError if it cannot
     write_json(out / "runs" / f"{run_id}.json", config)
     errors: list[str] = []
     done = 0
@@ -398,7 +419,8 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | N
                 try:
                     interrupted = cluster.run(todo, run, stop, finished, failed)
                 finally:
-                    cluster.close()
+                    if own_session is not None:
+                        own_session.close()
             else:
                 interrupted = _run_pool(todo, run, opts, stop, finished, failed)
         interrupted = interrupted or stop.event.is_set()
@@ -427,7 +449,7 @@ def _run_pool(
         max_workers=min(opts.workers, len(todo)),
         mp_context=ctx,
         initializer=_worker_init,
-        initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level),
+        initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level, worker_threads(opts.workers)),
     ) as pool:
         futs: dict[Future[dict[str, Any]], tuple[int, Episode]] = {
             pool.submit(_worker_run, k, ep.to_dict(), run): (k, ep) for k, ep in todo
