@@ -23,7 +23,7 @@ from go2vlm.behavior.goals import parse_target  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
 from go2vlm.geometry.footprint import Footprint, clearance  # noqa: E402
 from go2vlm.launch.launcher import LaunchError, load_launch, with_overrides  # noqa: E402
-from go2vlm.robots.go2 import spec  # noqa: E402
+from go2vlm.robot_profile import go2 as spec  # noqa: E402
 from go2vlm.sim.render import segmentation_boxes  # noqa: E402
 from go2vlm.sim.worlds import world_footprints, world_model  # noqa: E402
 

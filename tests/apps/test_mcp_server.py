@@ -21,7 +21,7 @@ from busutil import GO2VLM, Output, Procs, env, wait_for
 from mcputil import TOOLS, Probe, data, error, http_client, speed, stdio_client
 
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
-from go2vlm.robots.go2.spec import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 pytest.importorskip("mcp")
 

@@ -15,12 +15,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import pytest
 from busutil import Procs, Recorder, wait_for
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 from go2vlm.bus import QOS_DEFAULT, Node, running
 from go2vlm.msgs.geometry_msgs import PointStamped
+
+# Slow: the sim and the colour detector as processes into a bag, then a replay through fresh nodes.
+pytestmark = pytest.mark.slow
 
 
 @dataclass

@@ -22,7 +22,11 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
+import pytest
 from busutil import GO2VLM, env
+
+# Slow: two whole demos each, one at real time.
+pytestmark = pytest.mark.slow
 
 SEED = ["--param", "sim.seed=7"]
 

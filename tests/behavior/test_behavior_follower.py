@@ -42,20 +42,19 @@ def test_follower_stops_then_yields_the_mux_after_losing_the_target() -> None:
     io.create_subscription(Twist, "/follower/cmd_vel", cmds, QOS_DEFAULT)
     target = io.create_publisher(PointStamped, "/detected_target", QOS_DEFAULT)
     with running(follower, io):
-        time.sleep(0.5)
-        assert len(cmds) == 0, "a follower that never saw a target must not hold the mux"
         assert wait_for(lambda: target.matched > 0, 5.0)
-        t_end = time.monotonic() + 1.0
-        while time.monotonic() < t_end:
+        time.sleep(0.5)  # a window to see nothing in: its watchdog ticks every 10 ms
+        assert len(cmds) == 0, "a follower that never saw a target must not hold the mux"
+
+        def walking() -> bool:
             target.publish(PointStamped(point=Point(x=0.0, z=0.2)))
-            time.sleep(0.05)
-        t_lost = time.monotonic()
-        time.sleep(1.5)
-    items = list(cmds.items)
-    moving = [t for t, m in items if not is_zero(m)]
-    assert moving, "the follower never walked towards the target"
-    after = [(t - t_lost, m) for t, m in items if t > t_lost]
-    zeros = [dt for dt, m in after if is_zero(m)]
-    assert zeros and zeros[0] < 0.45, "the loss must be followed by a zero command"
-    assert all(is_zero(m) for dt, m in after if dt > 0.35)
-    assert not [dt for dt, _ in after if dt > 0.3 + 0.4 + 0.3], "still publishing long after the target was lost"
+            return any(not is_zero(m) for m in cmds.msgs())
+
+        assert wait_for(walking, 10.0), "the follower never walked towards the target"
+        n_seen = len(cmds)
+        # The target is gone: zeros (lost_timeout_s), then silence (idle_after_lost_s) for the mux.
+        assert wait_for(lambda: any(is_zero(m) for m in cmds.msgs()[n_seen:]), 10.0), "no zero after the loss"
+        assert wait_for(lambda: cmds.items and time.monotonic() - cmds.items[-1][0] > 1.0, 10.0), "never silent"
+    after = cmds.msgs()[n_seen:]
+    first_zero = next(i for i, m in enumerate(after) if is_zero(m))
+    assert all(is_zero(m) for m in after[first_zero:]), "after the first zero, only zeros until silence"

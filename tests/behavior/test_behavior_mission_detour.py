@@ -16,7 +16,7 @@ from go2vlm.behavior.mission import Mission, MissionParams, Sighting
 from go2vlm.geometry.camera import fovy_to_hfov
 from go2vlm.geometry.footprint import Footprint, clearance
 from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, scan_points
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 
 HFOV = fovy_to_hfov(spec.HEAD_CAMERA_FOVY_DEG, 640, 480)
 CAM = spec.HEAD_CAMERA_POS[0]

@@ -228,6 +228,30 @@ def test_clean_shutdown(procs: Procs, node: Listener, sig: int) -> None:
     assert len(ticks) == n  # it really stopped publishing
 
 
+# The main thread inside `stop.event.wait()` holds the Event's own lock between two bytecodes, and
+# Python runs a signal handler right there. A handler that called Event.set() waited for that lock
+# forever: the node never shut down and its watchdog never started (test_clean_shutdown[2], once,
+# on a loaded host). Here the signal lands in that window on purpose.
+_SIGNAL_IN_EVENT_WAIT = """
+import os, signal
+from go2vlm.bus import ShutdownRequested
+stop = ShutdownRequested()
+stop.install()
+with stop.event._cond:
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(1000):
+        pass
+print("handled", stop.event.wait(10), stop.signal, flush=True)
+"""
+
+
+def test_a_signal_inside_event_wait_is_handled() -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", _SIGNAL_IN_EVENT_WAIT], capture_output=True, text=True, timeout=30, env=env()
+    )
+    assert out.returncode == 0 and f"handled True {int(signal.SIGINT)}" in out.stdout, out.stderr
+
+
 def _stuck_probe(procs: Procs, node: Listener, topic: str) -> tuple[subprocess.Popen[str], Output]:
     """A probe whose close() never returns, spinning (its timer ticks: the signal handler is in)."""
     ticks = Recorder()

@@ -13,7 +13,7 @@ from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, mount_transform, sca
 from go2vlm.msgs.pointcloud import cloud_xyz, scan_from_cloud, xyz_cloud
 from go2vlm.msgs.sensor_msgs import FLOAT64, PointCloud2, PointField
 from go2vlm.msgs.std_msgs import Header
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile.go2 import GO2
 
 SPEC = ScanSpec()
 
@@ -90,14 +90,14 @@ def test_pointcloud_round_trip_and_layouts() -> None:
 
 
 def test_scan_from_cloud_frames() -> None:
-    tfs = spec.lidar_transforms()
-    r, t = mount_transform(spec.LIDAR_MOUNT_POS, spec.LIDAR_MOUNT_PITCH)
+    tfs = GO2.lidar_transforms()
+    r, t = mount_transform(GO2.lidar.pos, GO2.lidar.pitch)
     wall_base = np.array([[2.0, y, 0.0] for y in np.linspace(-0.5, 0.5, 11)])
     in_lidar = (wall_base - t) @ r  # base -> lidar frame
     assert np.allclose(to_base(in_lidar, (r, t)), wall_base)
-    scan = scan_from_cloud(xyz_cloud(Header(frame_id=spec.LIDAR_FRAME), in_lidar), SPEC, tfs, spec.BASE_FRAME)
-    assert scan is not None and scan.header.frame_id == spec.BASE_FRAME
+    scan = scan_from_cloud(xyz_cloud(Header(frame_id=GO2.lidar.frame), in_lidar), SPEC, tfs, GO2.frames.base)
+    assert scan is not None and scan.header.frame_id == GO2.frames.base
     assert min(scan.ranges) == pytest.approx(2.0, abs=1e-4)
-    assert scan_from_cloud(xyz_cloud(Header(frame_id=spec.LIDAR_FRAME), np.zeros((0, 3))), SPEC, tfs, "b") is None
+    assert scan_from_cloud(xyz_cloud(Header(frame_id=GO2.lidar.frame), np.zeros((0, 3))), SPEC, tfs, "b") is None
     with pytest.raises(ValueError, match="frame"):
-        scan_from_cloud(xyz_cloud(Header(frame_id="odom"), in_lidar), SPEC, tfs, spec.BASE_FRAME)
+        scan_from_cloud(xyz_cloud(Header(frame_id="odom"), in_lidar), SPEC, tfs, GO2.frames.base)

@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import pytest
 
+from go2vlm.bus import build_config
 from go2vlm.cli.args import node_params
 from go2vlm.launch.launcher import LaunchError, available, check_entries, load_launch, resolve, with_overrides
+from go2vlm.robot_profile import DEFAULT_ROBOT, profile
+from go2vlm.safety.gate_node import SafetyGateConfig, limits_of
 
 ROBOTS = ("sim", "go2")
 BEHAVIOURS = ("follower", "commander")
@@ -33,6 +36,22 @@ def test_every_packaged_launch_file_loads_and_checks(name: str) -> None:
     assert all(kinds.count(k) <= 1 for k in ROBOTS), name  # one robot of each kind (follow_go2_sim: both)
     if "sim" in kinds and "safety" in kinds:  # a closed loop in the sim runs on the sim's clock
         assert all(e.params.get("use_sim_time") is True for e in entries), name
+    if "safety" in kinds:  # the gate names the robot it commands: the go2 driver's where there is one
+        gate = next(e.params for e in entries if e.kind == "safety")
+        robot = "go2" if "go2" in kinds else "sim"
+        assert gate.get("robot", DEFAULT_ROBOT) == robot, f"{name}: the gate commands {robot}"
+        assert "health_topic" not in gate, f"{name}: the health topic is the robot profile's ({robot})"
+
+
+def test_the_gate_reads_the_robot_profile() -> None:
+    """The robot's facts reach the gate through its profile: ceilings, health topic, footprint."""
+    for robot, health in (("sim", "/lowstate"), ("go2", "/go2/lowstate")):
+        cfg = build_config(SafetyGateConfig, {"robot": robot})
+        assert cfg.health_input == health == profile(robot).health_topic
+        assert limits_of(cfg).ceiling == profile(robot).ceilings
+    go2 = {e.kind: e for e in with_overrides(load_launch("goal_go2")[1], {})}
+    cfg = build_config(SafetyGateConfig, go2["safety"].params)
+    assert cfg.health_input == "/go2/lowstate"  # the drift this test is here for: goal_go2 without it
 
 
 def test_vlm_sim_is_the_vlm_articles_system() -> None:

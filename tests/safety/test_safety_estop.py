@@ -1,5 +1,6 @@
 """The e-stop holds: the exact release token, the latch on disk, a gate killed with kill -9 while
-latched comes back latched, `go2vlm estop` holds the latch for nodes that start later until
+latched comes back latched, and so does a replacement under another name (the latch belongs to
+the robot), `go2vlm estop` holds the latch for nodes that start later until
 `go2vlm estop --release`, the gate's state-change log is rate-limited, and SIGTERM exits 143.
 Nodes run as real processes over real DDS."""
 
@@ -23,7 +24,7 @@ from pipeutil import is_zero
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, ParamError, build_config, running
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import Bool, String
-from go2vlm.safety.estop import EstopLatch, LatchFile, check_token, default_state_file
+from go2vlm.safety.estop import EstopLatch, LatchFile, check_token, latch_path
 from go2vlm.safety.gate_node import SafetyGateConfig
 
 # -- the pure rule ---------------------------------------------------------------------------------
@@ -50,14 +51,19 @@ def test_padded_or_empty_tokens() -> None:
 
 def test_latch_file_round_trip_and_the_safe_default(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg"))
-    path = default_state_file("safety", 7)
-    assert path == tmp_path / "xdg" / "go2vlm" / "estop" / "safety-domain7.json"
+    path = latch_path("sim", 7)  # one per robot and domain, whatever the gate's name
+    assert path == tmp_path / "xdg" / "go2vlm" / "estop" / "sim-domain7.json"
     store = LatchFile(path)
-    assert store.load()[0] is None  # no file: the gate's own start_engaged decides
-    store.save(True, "safety")
+    assert store.load()[0] is None and store.read() is None  # no file: the gate's own start_engaged decides
+    store.save(True, "safety", since=0.0, why="/emergency_stop from /go2vlm_estop")
     assert store.load()[0] is True
+    state = store.read()
+    assert state is not None and state.engaged and state.by == "safety" and state.why.startswith("/emergency_stop")
+    assert state.since.startswith(("1970-01-01", "1969-12-31"))  # the epoch, in local time
+    line = state.line("sim", 7)
+    assert "latched for robot 'sim' on DDS domain 7 since 19" in line and "`go2vlm estop --release`" in line
     store.save(False, "safety")
-    assert store.load()[0] is False
+    assert store.load()[0] is False and not store.read().engaged
     assert [p.name for p in path.parent.iterdir()] == [path.name], "no temporary files left behind"
     for broken in ("", "{", '{"engaged": "no"}', "[]"):
         path.write_text(broken)
@@ -164,6 +170,38 @@ def test_a_gate_killed_while_latched_comes_back_latched(procs: Procs, tmp_path: 
         assert probe.estop() is False
 
 
+def test_a_replacement_gate_under_another_name_starts_latched(procs: Procs) -> None:
+    """The latch belongs to the robot: latch, kill -9 the gate, start a replacement under another
+    --name (both on their default latch file): it starts latched and sends only zeros."""
+    probe = Probe()
+    with running(probe), Teleop(probe):
+        g = procs.start("run", "safety")
+        assert wait_for(lambda: probe.estop() is False and probe.last_status().get("active") == "teleop", 20)
+        sender = Node(node_name="estop_once")  # one-shot: no latched sample stays on the bus after it
+        pub = sender.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
+        assert wait_for(lambda: pub.matched > 0, 10)
+        pub.publish(Bool(data=True))
+        assert wait_for(lambda: probe.estop() is True, 10)
+        why = probe.last_status()["estop_why"]
+        assert "estop_once" in why and probe.last_status()["estop_since"], probe.last_status()
+        sender.shutdown()
+        os.kill(g.pid, signal.SIGKILL)  # a process this test started
+        g.wait(10)
+
+        n = len(probe.status)
+        g2 = procs.start("run", "safety", "--name", "gate_b")
+        assert wait_for(lambda: len(probe.status) > n and probe.estop() is not None, 20)
+        first = probe.status.msgs()[n][1]
+        assert first["estop"] is True, "a replacement gate under another name must start latched"
+        assert "estop_once" in first["estop_why"] and "restored" in first["estop_why"], first
+        t = time.monotonic()
+        assert wait_for(lambda: len(probe.cmds_after(t)) >= 20, 10)
+        assert all(is_zero(m) for m in probe.cmds_after(t)), "latched: not one non-zero /cmd_vel"
+        probe.release.publish(String(data="RELEASE"))
+        assert wait_for(lambda: probe.estop() is False, 10)
+        assert procs.stop(g2) == 128 + signal.SIGINT
+
+
 def test_estop_holder_latches_late_nodes_until_the_release(procs: Procs, tmp_path: Path) -> None:
     probe = Probe()
     with running(probe), Teleop(probe):
@@ -208,6 +246,7 @@ def test_release_without_anyone_to_confirm_fails() -> None:
     assert bad.returncode == 2 and "whitespace" in bad.stderr and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow  # flips the gate's state for 4 s of wall time
 def test_state_change_log_is_rate_limited(procs: Procs, tmp_path: Path) -> None:
     """Alternating NaN and valid commands flip the gate's state at the input rate; its INFO lines
     about state changes stay at about one per second."""

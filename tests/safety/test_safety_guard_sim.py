@@ -20,7 +20,7 @@ from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.robots.go2.spec import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 pytestmark = pytest.mark.slow
 

@@ -9,6 +9,7 @@ import math
 import subprocess
 import threading
 
+import pytest
 from busutil import GO2VLM, Recorder, env, wait_for
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
@@ -16,6 +17,9 @@ from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.unitree import LowState
+
+# Slow: a /lowstate stream through every health level in turn, over the hysteresis times.
+pytestmark = pytest.mark.slow
 
 
 class _Io(Node):

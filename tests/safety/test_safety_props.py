@@ -10,8 +10,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from go2vlm.robot_profile.go2 import SIM
 from go2vlm.safety.estop import EstopLatch
-from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, ZERO, Limits, Velocity, ramp
+from go2vlm.safety.limits import ZERO, Limits, Velocity, ramp
 from go2vlm.safety.mux import MAX_DT, InputSpec, SafetyCore
 
 TOKEN = "RELEASE"
@@ -66,9 +67,11 @@ def _accel_ok(prev: float, out: float, max_delta: float) -> bool:
 def test_no_sequence_breaks_the_gate(lim, timeouts, engaged, events) -> None:
     core = _core(lim, timeouts, engaged)
     limits = core.limits
-    # Configured limits never exceed the Go2 ceilings, whatever they were given.
-    assert 0 <= limits.vx_forward <= HARD_VX_FORWARD and 0 <= limits.vx_backward <= HARD_VX_BACKWARD
-    assert 0 <= limits.vy <= HARD_VY and 0 <= limits.wz <= HARD_WZ
+    # Configured limits never exceed the robot's ceilings (the Go2's), whatever they were given.
+    c = SIM.ceilings
+    assert limits.ceiling == c
+    assert 0 <= limits.vx_forward <= c.vx_forward and 0 <= limits.vx_backward <= c.vx_backward
+    assert 0 <= limits.vy <= c.vy and 0 <= limits.wz <= c.vyaw
     model_engaged = engaged
     blocked = None
     last_valid: dict[str, float] = {}

@@ -26,15 +26,21 @@ def _walk(cmd: tuple[float, float, float]) -> tuple[np.ndarray, Go2Sim]:
     "cmd",
     [
         (1.0, 0.0, 0.0),
-        (-0.5, 0.0, 0.0),
-        (0.0, 0.4, 0.0),
-        (0.0, -0.4, 0.0),
         (0.0, 0.0, 1.5),
-        (0.0, 0.0, -1.5),
         (0.6, 0.0, 0.8),
-        (0.5, 0.3, 0.0),
-        (0.3, -0.2, -0.5),
-        (2.0, 0.0, 0.0),
+        # The rest of the sweep in the full suite only: each is 5 s of dynamic physics.
+        *(
+            pytest.param(c, marks=pytest.mark.slow)
+            for c in (
+                (-0.5, 0.0, 0.0),
+                (0.0, 0.4, 0.0),
+                (0.0, -0.4, 0.0),
+                (0.0, 0.0, -1.5),
+                (0.5, 0.3, 0.0),
+                (0.3, -0.2, -0.5),
+                (2.0, 0.0, 0.0),
+            )
+        ),
     ],
 )
 def test_velocity_tracking(cmd: tuple[float, float, float]) -> None:
@@ -141,6 +147,7 @@ def test_damp_and_recovery_stand() -> None:
     assert sim.mode == "standing" and not sim.fell
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cmd", [(1.0, 0.0, 0.0), (0.0, 0.0, 1.5)])
 def test_velocity_tracking_500hz_controller(cmd: tuple[float, float, float]) -> None:
     sim = Go2Sim(SimConfig(world="empty", control_decimation=1))

@@ -21,6 +21,7 @@ print("ok")
 """
 
 
+@pytest.mark.slow  # a fresh interpreter that renders, then imports torch and torchvision
 @pytest.mark.skipif(importlib.util.find_spec("torchvision") is None, reason="needs the vlm extra")
 def test_rendering_then_importing_torchvision_does_not_crash() -> None:
     out = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=300)

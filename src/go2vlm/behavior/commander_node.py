@@ -84,7 +84,7 @@ from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 

@@ -53,7 +53,7 @@ from go2vlm.behavior.approach import ApproachParams, approach_command
 from go2vlm.behavior.decisions import DecisionRejected, parse_decision
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner import PlannerParams, Steer, steer
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TERMINAL", "Intent", "Mission", "MissionParams", "Sighting"]
 

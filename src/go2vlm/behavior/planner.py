@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from go2vlm.robots.go2.spec import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 __all__ = ["PlannerParams", "Steer", "corridor_free", "steer"]
 

@@ -29,6 +29,7 @@ import socket
 import tempfile
 import threading
 import time
+from collections.abc import Collection
 from pathlib import Path
 
 from cyclonedds.core import DDSException
@@ -217,16 +218,19 @@ def domain_lock_dir() -> Path:
     return Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "go2vlm-domains"
 
 
-def claim_free_domain(lo: int, hi: int, interface: str = "lo", seed: int | None = None) -> int:
-    """A DDS domain in lo..hi that no other process holds (an flock on a file per domain) and no
-    participant on this host uses; the claim lasts as long as this process. ParamError if none is free."""
+def claim_free_domain(
+    lo: int, hi: int, interface: str = "lo", seed: int | None = None, exclude: Collection[int] = ()
+) -> int:
+    """A DDS domain in lo..hi, not in `exclude`, that no other process holds (an flock on a file per
+    domain) and no participant on this host uses; the claim lasts as long as this process. ParamError
+    if none is free."""
     import fcntl
 
     if not 0 <= lo <= hi <= 232:
         raise ParamError(f"domain range {lo}..{hi} is outside 0..232")
     lock_dir = domain_lock_dir()
     lock_dir.mkdir(parents=True, exist_ok=True)
-    candidates = list(range(lo, hi + 1))
+    candidates = [d for d in range(lo, hi + 1) if d not in exclude]
     random.Random(os.getpid() if seed is None else seed).shuffle(candidates)
     for domain_id in candidates:
         fd = os.open(lock_dir / f"{domain_id}.lock", os.O_CREAT | os.O_RDWR, 0o666)

@@ -57,12 +57,47 @@ def interrupt_on_signals() -> None:
         signal.signal(signal.SIGTERM, handler)
 
 
+class _SignalRelay:
+    """Hands SIGINT/SIGTERM from the signal handler to a thread of its own, through a pipe.
+
+    Python runs a signal handler in the main thread between two bytecodes, wherever that thread
+    is: also inside `Event.wait()` while it holds the Event's own lock (a plain, non-reentrant
+    Lock). A handler that then calls `Event.set()` waits for that lock forever: the main thread
+    never leaves its loop, so neither the shutdown nor its watchdog ever runs (seen as a node that
+    ignores Ctrl-C on a loaded host; CPython documents the hazard: synchronization primitives do
+    not mix with signal handlers). So the handler only writes the signal's number to a pipe, which
+    takes no lock, and this thread does the rest, where taking a lock is safe.
+    """
+
+    def __init__(self) -> None:
+        self._r, self._w = os.pipe()
+        os.set_blocking(self._w, False)  # a flood of signals never blocks the handler
+        self.target: ShutdownRequested | None = None
+        threading.Thread(target=self._run, name="go2vlm:signals", daemon=True).start()
+
+    def handler(self, signum: int, _frame: FrameType | None) -> None:
+        try:
+            os.write(self._w, bytes([signum]))
+        except BlockingIOError:
+            pass  # hundreds of signals not yet handed on: this one adds nothing
+
+    def _run(self) -> None:
+        while True:
+            for signum in os.read(self._r, 64):
+                if self.target is not None:
+                    self.target._on_signal(signum)
+
+
+_relay: _SignalRelay | None = None
+
+
 class ShutdownRequested:
     """Set by SIGINT/SIGTERM; wait on it instead of sleeping. A second signal exits at once, except
     for a program that writes results: inside `hold()` further signals wait for the block (they are
     noted and ignored until it ends), and after a `hold()` a second signal sets `abort` (skip what is
     left, e.g. a video) while a third exits at once. `event` may be any Event-like object (a
-    multiprocessing Event shared with worker processes)."""
+    multiprocessing Event shared with worker processes). The signals are handled on a thread of
+    their own (`_SignalRelay`), never inside the signal handler."""
 
     def __init__(self, event: Any = None) -> None:
         self.event = event if event is not None else threading.Event()
@@ -106,12 +141,14 @@ class ShutdownRequested:
             os._exit(128 + signum)
 
     def install(self) -> None:
-        def handler(signum: int, _frame: FrameType | None) -> None:
-            self._on_signal(signum)
-
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGINT, handler)
-            signal.signal(signal.SIGTERM, handler)
+        global _relay
+        if threading.current_thread() is not threading.main_thread():
+            return
+        if _relay is None:
+            _relay = _SignalRelay()
+        _relay.target = self
+        signal.signal(signal.SIGINT, _relay.handler)
+        signal.signal(signal.SIGTERM, _relay.handler)
 
 
 def spin(

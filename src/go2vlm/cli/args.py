@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["add_node_params", "non_negative", "node_params", "positive"]
+__all__ = ["add_dds_args", "add_node_params", "non_negative", "node_params", "positive"]
 
 
 def _number(text: str) -> float:
@@ -32,6 +32,18 @@ def non_negative(text: str) -> float:
     if value < 0:
         raise argparse.ArgumentTypeError(f"{text} must not be negative")
     return value
+
+
+def add_dds_args(
+    p: argparse.ArgumentParser,
+    *,
+    interface: str | None = None,
+    interface_help: str = "network interface, e.g. lo or enp3s0 (env GO2VLM_IFACE)",
+    domain_help: str = "DDS domain (default: ROS_DOMAIN_ID or 0)",
+) -> None:
+    """`--interface` and `--domain`, the DDS options every verb that joins the bus has (bus/domain.py)."""
+    p.add_argument("--interface", default=interface, help=interface_help)
+    p.add_argument("--domain", type=int, default=None, help=domain_help)
 
 
 def add_node_params(p: argparse.ArgumentParser, help: str) -> None:

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from go2vlm.cli.args import add_node_params, node_params
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -19,7 +19,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "Bring up the simulated Go2 in the follow_ball world (a red ball at 0.3 m/s on a closed path), the "
             "colour detector, the follower and the safety gate in one process; the Go2 follows the ball. At the "
             "end it prints a summary and writes metrics.json, plot.png and video.mp4 to --out. Exit code 1 if "
-            "the robot fell."
+            "the robot fell or the e-stop stopped it; exit code 2, before anything starts, if the robot is latched."
         ),
     )
     p.add_argument(
@@ -74,8 +74,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ball-speed", type=float, default=0.3, help="ball speed, m/s (default 0.3)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     add_node_params(p, "a node parameter, e.g. follower.kp_angular=1.0 or sim.camera_rate_hz=15")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 
@@ -83,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes import Episode, RunOptions
     from go2vlm.apps.episodes.demo import default_out_dir, demo_world, goal_summary, run_with_progress, summary
     from go2vlm.apps.episodes.episode import FOLLOW_BALL_GOAL, vlm_node_params
+    from go2vlm.apps.episodes.latch import stopped_line
     from go2vlm.behavior.goals import GoalParseError, parse_goal
     from go2vlm.bus import ShutdownRequested
     from go2vlm.launch.launcher import LaunchError
@@ -127,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         cpu=goal is None,
         bag=args.bag,
         foxglove=foxglove_params(args),
+        refuse_latched=True,  # a latched robot: one line and exit 2, before anything starts
     )
     stop = ShutdownRequested()
     stop.install()
@@ -147,4 +148,8 @@ def run(args: argparse.Namespace) -> int:
         print(goal_summary(result), flush=True)
     if result.interrupted:
         return stop.exit_code or 130
+    stopped = stopped_line(result.metrics.get("estop"))
+    if stopped is not None:
+        print(f"go2vlm demo: {stopped}", file=sys.stderr)
+        return 1
     return 0 if goal is None or result.metrics["goal_reached"] else 1

@@ -28,6 +28,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from go2vlm.cli.args import add_dds_args
+
 OK, WARN, FAIL = "ok", "warn", "FAIL"
 
 # Socket receive buffers (net.core.rmem_max), measured in docs/benchmarks.md ("Large images", rgb8
@@ -71,8 +73,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--interface", default=None, help="the interface to check (default: GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p, interface_help="the interface to check (default: GO2VLM_IFACE)")
     p.add_argument("--wait", type=float, default=2.0, help="seconds of DDS discovery")
     p.add_argument("--model", choices=("3b", "7b"), default="3b", help="the Qwen2.5-VL size to check GPU memory for")
     p.add_argument("--quantization", choices=("none", "nf4", "int8"), default="none", help="as the vlm node's")

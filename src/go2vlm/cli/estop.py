@@ -12,7 +12,10 @@ says that the latch stays engaged where it is engaged, and exits 128 + N.
 
 `--release` publishes the token on /emergency_stop/release, then waits until every gate and robot
 end that reported latched reports released (0), or says which still do not, for example because
-their `release_token` differs (1). Nothing reporting at all is a failure too (1): nobody confirmed it.
+their `release_token` differs (1). A latch that a gate left on disk for a robot (safety/estop.py
+`latch_path`: one per robot and domain) while no gate of that robot runs is released there too, so
+that `go2vlm demo` and `go2vlm eval` start again. Nothing reporting and nothing stored is a failure
+(1): nobody confirmed it.
 
 Time here is wall time (time.monotonic): a tool's deadlines and waits are for the person at the
 terminal and for DDS discovery, not a node's clock.
@@ -39,6 +42,7 @@ from go2vlm.bus import (
     interrupt_on_signals,
     signal_of,
 )
+from go2vlm.cli.args import add_dds_args
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check_token
 
@@ -58,8 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--token", default=RELEASE_TOKEN, help=f"the release token (default {RELEASE_TOKEN})")
     p.add_argument("--timeout", type=float, default=10.0, help="--release: seconds to wait for the reports")
     p.add_argument("--wait", type=float, default=1.5, help="seconds of discovery before the first report")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo or enp3s0 (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 
@@ -70,6 +73,7 @@ class Report:
     estop: bool
     at: float  # wall time it arrived
     health: str = ""  # a gate's health verdict at level down: why it latches again after a release
+    robot: str = ""  # a gate's robot (its latch is that robot's)
 
 
 class Reports:
@@ -95,8 +99,9 @@ class Reports:
         if not isinstance(estop, bool) or sender is None:
             return
         name = self._names.node_of(sender.guid) or sender.participant
+        robot = str(status.get("robot") or "")
         with self._lock:
-            self.by_writer[sender.guid] = Report(topic, name, estop, time.monotonic(), down)
+            self.by_writer[sender.guid] = Report(topic, name, estop, time.monotonic(), down, robot)
 
     def snapshot(self) -> dict[str, Report]:
         with self._lock:
@@ -203,10 +208,16 @@ def release(node: Node, token: str, args: argparse.Namespace) -> int:
     after = reports.snapshot()
     still = sorted(label(after[g]) for g in latched if g in after and after[g].estop)
     gone = sorted(label(before[g]) for g in latched if g not in after)
+    stored = release_stored(args.domain, {r.robot for r in after.values() if r.topic == "/safety/status"})
+    for line in stored:
+        print(f"go2vlm estop: released the stored latch of {line} (no gate of it is running)", flush=True)
+    if not before and stored:
+        return 0
     if not before:
         print(
-            "go2vlm estop: no gate or robot end reported (/safety/status, /go2/status, /sim/status): the release "
-            "was sent, but nobody confirmed it. Check --interface and the domain.",
+            "go2vlm estop: no gate or robot end reported (/safety/status, /go2/status, /sim/status) and no latch "
+            "is stored for this domain: the release was sent, but nobody confirmed it. Check --interface and the "
+            "domain.",
             file=sys.stderr,
         )
         return 1
@@ -229,6 +240,25 @@ def release(node: Node, token: str, args: argparse.Namespace) -> int:
     print(f"go2vlm estop: released: {', '.join(released)}", flush=True)
     _report_holders(holders)
     return 0
+
+
+def release_stored(domain_id: int | None, running: set[str]) -> list[str]:
+    """Release the latch files of this domain's robots that no running gate keeps (a running gate
+    writes its own); '<robot> on domain N (path)' for each one released."""
+    from go2vlm.bus.domain import domain_id_from_env
+    from go2vlm.robot_profile import PROFILES
+    from go2vlm.safety.estop import LatchFile, latch_path
+
+    did = domain_id if domain_id is not None else domain_id_from_env()
+    out = []
+    for robot in PROFILES:
+        store = LatchFile(latch_path(robot, did))
+        state = store.read()
+        if state is None or not state.engaged or robot in running:
+            continue
+        store.save(False, HOLDER_NODE)
+        out.append(f"robot {robot!r} on domain {did} ({store.path}; latched since {state.since or '?'}: {state.why})")
+    return out
 
 
 def _report_holders(holders: Any) -> None:

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from go2vlm.cli.args import add_node_params, node_params
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -56,8 +56,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--video", action="store_true", help="also write each episode's run folder with video.mp4")
     p.add_argument("--bag", action="store_true", help="also record each episode's topics into its run folder's bag/")
     add_node_params(p, "a node parameter for every episode")
-    p.add_argument("--interface", default="lo", help="network interface of the workers' DDS (default lo)")
-    p.add_argument("--domain", type=int, default=None, help="a fixed DDS domain (--workers 1); default: a free one")
+    add_dds_args(
+        p,
+        interface="lo",
+        interface_help="network interface of the workers' DDS (default lo)",
+        domain_help="a fixed DDS domain (--workers 1); default: a free one",
+    )
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     p.add_argument("--list", action="store_true", help="list the packaged suites and exit")
     p.add_argument("--report", action="store_true", help="only rewrite summary.json and report.md of --out")
@@ -176,7 +180,7 @@ def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval
 
     try:
         outcome = run_eval(opts, stop, prep, session)
-    except UsageError as exc:
+    except UsageError as exc:  # RobotLatched too
         print(f"go2vlm eval: {exc}", file=sys.stderr)
         return 2
     except RuntimeError as exc:

@@ -22,9 +22,10 @@ import time
 from typing import Any
 
 from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
-from go2vlm.cli.args import positive
+from go2vlm.cli.args import add_dds_args, positive
+from go2vlm.robots.go2.protocol import POSTURE_TOPIC, POSTURES
+from go2vlm.safety.estop import ESTOP_TOPIC
 
-POSTURES = ("stand", "balance", "sit", "rise", "standdown", "damp", "recover", "hello", "stop")
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
 MAX_MOVE_S = 10.0
 
@@ -36,8 +37,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--interface", default=None, help="network interface to the robot, e.g. enp3s0 (lo for a sim)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (the Go2 uses 0; default ROS_DOMAIN_ID or 0)")
+    add_dds_args(
+        p,
+        interface_help="network interface to the robot, e.g. enp3s0 (lo for a sim)",
+        domain_help="DDS domain (the Go2 uses 0; default ROS_DOMAIN_ID or 0)",
+    )
     p.add_argument("--timeout", type=positive, default=3.0, help="seconds to find the robot and for each answer")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     for name in POSTURES:
@@ -76,13 +80,13 @@ class _Session:
         for topic in ("/safety/status", "/go2/status"):
             self.node.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
         self.sport = RpcClient(self.node, p.SPORT_SERVICE, timeout_s=args.timeout)
-        self.command = self.node.create_publisher(String, "/go2/command")
+        self.command = self.node.create_publisher(String, POSTURE_TOPIC)
         self.node.start()
         self.timeout = args.timeout
 
     def _on_estop(self, msg: Any) -> None:
         if msg.data:
-            self._estop["/emergency_stop"] = True
+            self._estop[ESTOP_TOPIC] = True
 
     def _on_status(self, topic: str, msg: Any) -> None:
         try:
@@ -95,10 +99,10 @@ class _Session:
 
     @property
     def estop(self) -> bool:
-        statuses = [v for k, v in self._estop.items() if k != "/emergency_stop"]
+        statuses = [v for k, v in self._estop.items() if k != ESTOP_TOPIC]
         if statuses:  # the gate/driver know about releases; the raw topic keeps a stale `true`
             return any(statuses)
-        return self._estop.get("/emergency_stop", False)
+        return self._estop.get(ESTOP_TOPIC, False)
 
     def connect(self) -> bool:
         if self.sport.wait_for_server(self.timeout):
@@ -163,7 +167,7 @@ def cmd_posture(args: argparse.Namespace) -> int:
         if not s.connect():
             return 1
         if s.estop and args.posture not in s.p.ESTOP_ALLOWED:
-            msg = f"go2vlm go2: refused {args.posture!r}: /emergency_stop is latched; release it first"
+            msg = f"go2vlm go2: refused {args.posture!r}: {ESTOP_TOPIC} is latched; release it first"
             print(msg, file=sys.stderr)
             return 1
         if s.driver is not None:

@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from go2vlm.cli.args import add_node_params, node_params, positive
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params, positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -25,8 +25,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
     p.add_argument("--list", action="store_true", help="list the packaged launch files and exit")
     add_node_params(p, "override a node's parameter, e.g. -p vlm.base_url=http://gpu-box:8000/v1 (repeatable)")
-    p.add_argument("--interface", default=None, help="network interface for every node, e.g. lo or enp3s0")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain for every node (default: ROS_DOMAIN_ID)")
+    add_dds_args(
+        p,
+        interface_help="network interface for every node, e.g. lo or enp3s0",
+        domain_help="DDS domain for every node (default: ROS_DOMAIN_ID)",
+    )
     add_foxglove_args(p)
     p.set_defaults(func=run)
 

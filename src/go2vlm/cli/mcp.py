@@ -17,7 +17,7 @@ import sys
 import threading
 from typing import Any
 
-from go2vlm.cli.args import add_node_params, node_params, positive
+from go2vlm.cli.args import add_dds_args, add_node_params, node_params, positive
 from go2vlm.errors import ConfigError, UsageError
 
 TOKEN_ENV = "GO2VLM_MCP_TOKEN"
@@ -50,8 +50,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--confirm", action="store_true", help="each motion goal waits for a person's yes")
     p.add_argument("--deadman", type=positive, default=10.0, help="stop a goal after S s without status() (10)")
     add_node_params(p, "--sim: a node's parameter, e.g. -p sim.rtf=2 or -p commander.max_linear=0.3 (repeatable)")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo or enp3s0 (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from go2vlm.cli.args import positive
+from go2vlm.cli.args import add_dds_args, positive
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -33,8 +33,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         v = verbs.add_parser(name, help=help_text)
         v.add_argument("node", help="node name, e.g. follower or /follower")
         v.add_argument("--timeout", type=positive, default=5.0, help="seconds to wait for the node (default 5)")
-        v.add_argument("--interface", default=None, help="network interface, e.g. lo or eth0 (env GO2VLM_IFACE)")
-        v.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+        add_dds_args(v)
         return v
 
     ls = verb("list", "the node's parameter names")

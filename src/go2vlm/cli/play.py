@@ -7,7 +7,7 @@ import sys
 import time
 
 from go2vlm.bus import ParamError, ShutdownRequested
-from go2vlm.cli.args import non_negative, positive
+from go2vlm.cli.args import add_dds_args, non_negative, positive
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -35,8 +35,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--wait-timeout", type=positive, default=10.0, help="seconds (default 10)")
     p.add_argument("--delay", type=non_negative, default=0.0, help="sleep S seconds before playing")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

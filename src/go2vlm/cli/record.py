@@ -7,6 +7,7 @@ import sys
 import time
 
 from go2vlm.bus import ParamError, ShutdownRequested
+from go2vlm.cli.args import add_dds_args
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -27,8 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--compression", choices=("none", "zstd", "lz4"), default="none", help="MCAP chunk compression")
     p.add_argument("--queue-depth", type=int, default=500, help="reader queue per topic (default 500)")
     p.add_argument("--no-progress", dest="progress", action="store_false", help="no live per-topic table")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

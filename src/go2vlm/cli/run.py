@@ -7,7 +7,7 @@ import sys
 import textwrap
 
 from go2vlm.bus import describe_params, exit_code, parse_overrides, spin
-from go2vlm.cli.args import positive
+from go2vlm.cli.args import add_dds_args, positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import ConfigError, UsageError
 from go2vlm.launch.registry import NODES, make_node, node_class
@@ -67,8 +67,7 @@ def add_node_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--params-file", default=None, help="ROS 2 params YAML file")
     p.add_argument("--remap", "-r", action="append", default=[], metavar="FROM:=TO", help="remap a topic")
     p.add_argument("--name", default=None, help="node name (default: the node kind)")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo or eth0 (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.add_argument("--duration", type=positive, default=None, help="stop after this many seconds")
 
 

@@ -12,6 +12,7 @@ import sys
 import time
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
+from go2vlm.cli.args import add_dds_args
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
@@ -43,8 +44,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="also serve the Go2's WebRTC route (the Unitree app's; implies --unitree) on HOST:PORT (127.0.0.1:9991)",
     )
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="any sim parameter")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     add_foxglove_args(p)
     p.set_defaults(func=run)
 

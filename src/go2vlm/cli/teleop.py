@@ -29,7 +29,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from go2vlm.cli.args import non_negative, positive
+from go2vlm.cli.args import add_dds_args, non_negative, positive
 from go2vlm.errors import UsageError
 
 # key -> (x, y, yaw) direction, as teleop_twist_keyboard's moveBindings (z is not a walking robot's)
@@ -66,8 +66,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rate", type=positive, default=10.0, help="publish rate, Hz (default 10)")
     p.add_argument("--key-timeout", type=non_negative, default=0.6, help="zero after S s without a key; 0 = never")
     p.add_argument("--topic", default="/teleop/cmd_vel", help="the gate input to publish (never /cmd_vel)")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

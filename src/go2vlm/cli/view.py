@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from go2vlm.cli.args import positive
+from go2vlm.cli.args import add_dds_args, positive
 from go2vlm.errors import ConfigError
 
 DEFAULT_PORT = 8765
@@ -27,8 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="a view parameter")
     p.add_argument("--duration", type=positive, default=None, help="stop after S seconds")
-    p.add_argument("--interface", default=None, help="network interface, e.g. lo (env GO2VLM_IFACE)")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: ROS_DOMAIN_ID or 0)")
+    add_dds_args(p)
     p.set_defaults(func=run)
 
 

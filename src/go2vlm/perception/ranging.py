@@ -27,7 +27,7 @@ import statistics
 from dataclasses import dataclass, field
 
 from go2vlm.geometry.camera import PinholeCamera
-from go2vlm.robots.go2.spec import HEAD_CAMERA_HEIGHT
+from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
 
 __all__ = ["DEFAULT_SIZES", "RangeEstimator", "RangeReading"]
 

@@ -58,7 +58,7 @@ from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
 from go2vlm.perception.ranging import DEFAULT_SIZES
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
 

@@ -47,7 +47,7 @@ from go2vlm.perception.color import PRESETS, color_mask
 from go2vlm.perception.grounding import SHAPES, ground
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
 from go2vlm.perception.tracker import HistTracker
-from go2vlm.robots.go2.spec import HEAD_CAMERA_HEIGHT
+from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
 
 __all__ = [
     "STATES",

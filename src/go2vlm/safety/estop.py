@@ -7,11 +7,15 @@ Rule (the same in the safety gate, the sim, the go2 driver and every tool):
 - `go2vlm estop` (cli/estop.py) holds a latched `true` on /emergency_stop until `go2vlm estop
   --release`, so a node that starts or restarts meanwhile latches too.
 
-`EstopLatch` is the pure rule. `EstopInput` subscribes a node to both topics with every QoS, so
-any publisher matches and a latched e-stop reaches a node that starts late, keeps a latch in step
-and logs and counts each event the same way in every node. `LatchFile` keeps a latch across
-restarts (the gate's): written atomically on every change; a file that cannot be read counts as
-latched, because the stopped state is the default.
+`EstopLatch` is the pure rule; it also remembers since when and why it holds. `EstopInput`
+subscribes a node to both topics with every QoS, so any publisher matches and a latched e-stop
+reaches a node that starts late, keeps a latch in step and logs and counts each event the same way
+in every node. `LatchFile` keeps a latch across restarts (the gate's): written atomically on every
+change; a file that cannot be read counts as latched, because the stopped state is the default.
+
+The latch belongs to the robot, not to a node name: one file per robot and DDS domain
+(`latch_path`), so every gate that commands that robot on that domain, whatever its `--name`, shares
+it, and `go2vlm demo` / `go2vlm eval` can refuse to start on a latched robot (`find_latch`).
 """
 
 from __future__ import annotations
@@ -21,27 +25,49 @@ import os
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED
+from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, discovery_info
 from go2vlm.msgs.std_msgs import Bool, String
 
 __all__ = [
     "ESTOP_TOPIC",
+    "RELEASE_COMMAND",
     "RELEASE_TOKEN",
     "RELEASE_TOPIC",
     "EstopInput",
     "EstopLatch",
     "LatchFile",
+    "LatchState",
     "check_token",
-    "default_state_file",
+    "find_latch",
+    "latch_path",
     "listen",
+    "parse_stamp",
+    "stamp_text",
 ]
 
 ESTOP_TOPIC = "/emergency_stop"
 RELEASE_TOPIC = "/emergency_stop/release"
 RELEASE_TOKEN = "RELEASE"
+RELEASE_COMMAND = "go2vlm estop --release"  # the deliberate release, as a person types it
+
+
+def stamp_text(t: float) -> str:
+    """A wall-clock time (epoch seconds) as people read it in a latch file: local, with its offset."""
+    return time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(t))
+
+
+def parse_stamp(text: str) -> float | None:
+    """`stamp_text` back to epoch seconds; None for anything else."""
+    from datetime import datetime
+
+    try:
+        return datetime.strptime(text, "%Y-%m-%dT%H:%M:%S%z").timestamp()
+    except (TypeError, ValueError):
+        return None
 
 
 def check_token(token: str) -> str:
@@ -54,17 +80,24 @@ def check_token(token: str) -> str:
 
 
 class EstopLatch:
-    """Engaged by `engage()`; only `release(token)` with exactly the right token disengages it."""
+    """Engaged by `engage()`; only `release(token)` with exactly the right token disengages it.
+    While engaged, `since` (wall-clock epoch seconds) and `why` say when and why it latched."""
 
     def __init__(self, token: str = RELEASE_TOKEN, engaged: bool = False) -> None:
         self._token = check_token(token)
         self.engaged = engaged
+        self.since: float | None = time.time() if engaged else None  # wall time: for people and files
+        self.why = "started latched" if engaged else ""
 
     @property
     def token(self) -> str:
         return self._token
 
-    def engage(self) -> None:
+    def engage(self, why: str = "", since: float | None = None) -> None:
+        """Latch (again); an engaged latch keeps its first `since` and `why`."""
+        if not self.engaged:
+            self.since = time.time() if since is None else since
+            self.why = why
         self.engaged = True
 
     def release(self, token: str) -> bool:
@@ -72,24 +105,55 @@ class EstopLatch:
         if not self.engaged or token != self._token:
             return False
         self.engaged = False
+        self.since, self.why = None, ""
         return True
 
 
-def listen(node: Any, on_estop: Callable[[Any], None], on_release: Callable[[Any], None] | None = None) -> None:
-    """Subscribe `node` to the e-stop (and the release) with every QoS a sender may use."""
+def listen(
+    node: Any,
+    on_estop: Callable[..., None],
+    on_release: Callable[..., None] | None = None,
+    *,
+    with_sender: bool = False,
+) -> None:
+    """Subscribe `node` to the e-stop (and the release) with every QoS a sender may use;
+    `with_sender`: the callbacks get (msg, sender Endpoint or None)."""
     for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
-        node.create_subscription(Bool, ESTOP_TOPIC, on_estop, qos)
+        node.create_subscription(Bool, ESTOP_TOPIC, on_estop, qos, with_sender=with_sender)
     if on_release is not None:
         for qos in (QOS_DEFAULT, QOS_ANY):
-            node.create_subscription(String, RELEASE_TOPIC, on_release, qos)
+            node.create_subscription(String, RELEASE_TOPIC, on_release, qos, with_sender=with_sender)
 
 
-def default_state_file(node_name: str, domain_id: int) -> Path:
-    """Where a node keeps its latch: $XDG_STATE_HOME (default ~/.local/state)/go2vlm/estop/, one
-    file per node name and DDS domain, so two robots on two domains never share a latch."""
+def latch_path(robot: str, domain_id: int) -> Path:
+    """Where the latch of `robot` on DDS domain `domain_id` is kept: $XDG_STATE_HOME (default
+    ~/.local/state)/go2vlm/estop/<robot>-domain<N>.json. One per robot and domain: every gate that
+    commands that robot there shares it, whatever its node name; two robots never share one."""
     base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
-    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in node_name) or "node"
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in robot) or "robot"
     return Path(base) / "go2vlm" / "estop" / f"{safe}-domain{domain_id}.json"
+
+
+@dataclass(frozen=True)
+class LatchState:
+    """A latch as a person needs to hear about it: engaged, since when, by whom, why, and where it is kept."""
+
+    engaged: bool
+    since: str = ""  # local time text (stamp_text), '' when unknown
+    by: str = ""  # the node that latched it (or last wrote the file)
+    why: str = ""
+    where: str = ""  # the latch file, or the topic a holder keeps it latched on
+    unreadable: bool = False  # a file that cannot be read: latched, because stopped is the default
+
+    def line(self, robot: str, domain_id: int) -> str:
+        """One line: what is latched, since when, who latched it, and how to release it."""
+        since = f" since {self.since}" if self.since else ""
+        by = f" by {self.by}" if self.by else ""
+        why = f" ({self.why})" if self.why else ""
+        return (
+            f"the e-stop is latched for robot {robot!r} on DDS domain {domain_id}{since}{by}{why} [{self.where}]; "
+            f"release it deliberately with `{RELEASE_COMMAND}` (same domain), then start again"
+        )
 
 
 class LatchFile:
@@ -100,27 +164,42 @@ class LatchFile:
 
     def load(self) -> tuple[bool | None, str]:
         """(engaged, note): None when there is no file; True when it cannot be read (stopped is the default)."""
+        state = self.read()
+        if state is None:
+            return None, f"no state file at {self.path}"
+        if state.unreadable:
+            return True, f"{state.why}: starting latched"
+        return state.engaged, f"{self.path} says {'latched' if state.engaged else 'released'} ({state.why or '?'})"
+
+    def read(self) -> LatchState | None:
+        """The state in the file: None without a file; engaged when it cannot be read."""
         try:
             text = self.path.read_text()
         except FileNotFoundError:
-            return None, f"no state file at {self.path}"
+            return None
         except OSError as exc:
-            return True, f"cannot read {self.path} ({exc}): starting latched"
+            return LatchState(True, why=f"cannot read {self.path} ({exc})", where=str(self.path), unreadable=True)
         try:
             data = json.loads(text)
             engaged = data["engaged"]
             if not isinstance(engaged, bool):
                 raise ValueError(f"engaged is {engaged!r}")
         except (ValueError, KeyError, TypeError) as exc:
-            return True, f"{self.path} is not a latch state ({exc}): starting latched"
-        return engaged, f"{self.path} says {'latched' if engaged else 'released'} (written {data.get('time', '?')})"
+            why = f"{self.path} is not a latch state ({exc})"
+            return LatchState(True, why=why, where=str(self.path), unreadable=True)
+        since = data.get("since") or (data.get("time", "") if engaged else "")
+        why = data.get("why") or f"written {data.get('time', '?')}"
+        return LatchState(engaged, str(since), str(data.get("node", "")), str(why), str(self.path))
 
-    def save(self, engaged: bool, node: str) -> None:
+    def save(self, engaged: bool, node: str, *, since: float | None = None, why: str = "") -> None:
         """Write the state to a temporary file in the same folder, fsync it, rename it over the old
         one: a crash leaves the old state or the new one, never half of either. Raises OSError."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        # Wall time: when the state was written, for the person reading the file.
-        data = {"engaged": engaged, "node": node, "time": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        # Wall time: when the state was written (and latched), for the person reading the file.
+        data: dict[str, Any] = {"engaged": engaged, "node": node, "time": stamp_text(time.time())}
+        if engaged:
+            data["since"] = stamp_text(since if since is not None else time.time())
+            data["why"] = why
         fd, tmp = tempfile.mkstemp(prefix=self.path.name + ".", dir=self.path.parent)
         try:
             with os.fdopen(fd, "w") as f:
@@ -168,19 +247,31 @@ class EstopInput:
         self.store = store
         self._on_engage = on_engage
         self._on_release = on_release
-        listen(node, self._estop, self._release)
+        # Who sent an e-stop, by name: the node's announcements, heard from the start (the same
+        # process-wide directory the one-commander watch reads).
+        self._names = discovery_info.directory(node.participant)
+        listen(node, self._estop, self._release, with_sender=True)
 
     @property
     def engaged(self) -> bool:
         return self.latch.engaged
 
-    def _estop(self, msg: Any) -> None:
+    def _who(self, sender: Any) -> str:
+        """The node behind an e-stop sample's writer, for the log, the status and the latch file."""
+        if sender is None:
+            return "an unknown writer"
+        return self._names.node_of(sender.guid) or f"participant {sender.participant}"
+
+    def _estop(self, msg: Any, sender: Any = None) -> None:
         log = self.node.log
         if msg.data:
             if self.latch.engaged:
                 return  # already latched (one sample arrives through several QoS; senders repeat)
-            log.warning(f"EMERGENCY STOP: {self.held} until {self.latch.token!r} is published on {RELEASE_TOPIC}")
-            self.latch.engage()
+            who = self._who(sender)
+            log.warning(
+                f"EMERGENCY STOP from {who}: {self.held} until {self.latch.token!r} is published on {RELEASE_TOPIC}"
+            )
+            self.latch.engage(f"{ESTOP_TOPIC} from {who}")
             self.node.count("estops")
             self.persist()
             self._on_engage()
@@ -197,13 +288,13 @@ class EstopInput:
         self.node.log.warning(
             f"EMERGENCY STOP ({why}): {self.held} until {self.latch.token!r} is published on {RELEASE_TOPIC}"
         )
-        self.latch.engage()
+        self.latch.engage(why)
         self.node.count("estops")
         self.persist()
         if notify:
             self._on_engage()
 
-    def _release(self, msg: Any) -> None:
+    def _release(self, msg: Any, sender: Any = None) -> None:
         if not self.latch.engaged:
             return  # nothing to release, or a duplicate read through the other QoS
         if self.latch.release(msg.data):
@@ -220,7 +311,49 @@ class EstopInput:
         if self.store is None:
             return
         try:
-            self.store.save(self.latch.engaged, self.node.node_name)
+            self.store.save(self.latch.engaged, self.node.node_name, since=self.latch.since, why=self.latch.why)
         except OSError as exc:
             n = self.node.count("estop_state_write_errors")
             self.node.log.error(f"cannot write the e-stop state to {self.store.path} ({n} so far): {exc}")
+
+
+def find_latch(
+    path: str | Path, domain_id: int | None = None, interface: str | None = None, wait_s: float = 1.5
+) -> LatchState | None:
+    """Whether a robot is latched, before anything is started for it: its latch file (`path`, see
+    `latch_path`) says so, or a holder (`go2vlm estop`) keeps a latched `true` on /emergency_stop of
+    the domain (heard within `wait_s` wall seconds of discovery). None when neither."""
+    stored = LatchFile(path).read()
+    if stored is not None and stored.engaged:
+        return stored
+    if wait_s <= 0:
+        return None
+    import threading
+
+    from go2vlm.bus import Node
+
+    heard: list[tuple[int, Any]] = []  # (source stamp in ns, writer)
+    got = threading.Event()
+    node = Node(node_name="go2vlm_estop_check", domain_id=domain_id, interface=interface, parameter_services=False)
+    names = discovery_info.directory(node.participant)
+
+    def on_estop(msg: Any, sender: Any) -> None:
+        if msg.data and not got.is_set():
+            heard.append((getattr(getattr(msg, "sample_info", None), "source_timestamp", 0) or 0, sender))
+            got.set()
+
+    node.create_subscription(Bool, ESTOP_TOPIC, on_estop, QOS_LATCHED, with_sender=True)
+    node.start()
+    try:
+        if not got.wait(wait_s):  # wall time: DDS discovery of a holder
+            return None
+        stamp, sender = heard[0]
+        who = None
+        deadline = time.monotonic() + 1.0  # its node name comes on ros_discovery_info, maybe a moment later
+        while sender is not None and who is None and time.monotonic() < deadline:
+            who = names.node_of(sender.guid)
+            time.sleep(0.05)
+        since = stamp_text(stamp / 1e9) if stamp > 0 else ""
+        return LatchState(True, since, who or "an unnamed publisher", "", f"held on {ESTOP_TOPIC}")
+    finally:
+        node.shutdown()

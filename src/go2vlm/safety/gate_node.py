@@ -12,13 +12,15 @@ Topics
                                  collision guard, frame base_link (sim, go2 driver: geometry/scan.py)
               /cmd_vel           geometry_msgs/Twist  best-effort, only to see who else writes it
               /safety/heartbeat  std_msgs/String      the other gates' heartbeats (latched)
-              /lowstate          unitree_go/LowState  best-effort: the robot's health (tilt from imu_state.rpy,
-                                 motor_state[].temperature, bms_state.soc) and stream loss; `health`
+              /lowstate          unitree_go/LowState  best-effort (`health_topic`, '' = the robot profile's:
+                                 sim /lowstate, go2 /go2/lowstate): the robot's health (tilt from
+                                 imu_state.rpy, motor_state[].temperature, bms_state.soc) and stream loss
   publishes   /cmd_vel           geometry_msgs/Twist  at rate_hz (50 Hz), exactly zero when no input is
                                  live, the e-stop is latched or another writer is on /cmd_vel; a stop
                                  goes out at once
-              /safety/status     std_msgs/String (latched) JSON {active, estop, last_zero_reason, output,
-                                 limits, guard, inputs, commander, estop_state_file, counters}, on every
+              /safety/status     std_msgs/String (latched) JSON {robot, active, estop, estop_since, estop_why,
+                                 last_zero_reason, output, limits, guard, inputs, commander,
+                                 estop_state_file, counters, health}, on every
                                  change and every status_period_s; guard = {mode: clear | limited |
                                  blind | off, reason, scale, nearest_m, scan_age_s, margin_m}
               /safety/heartbeat  std_msgs/String (latched) JSON {node, participant, cmd_vel_writer, topic}:
@@ -30,17 +32,23 @@ E-stop from a shell (cli/estop.py; it holds the latched e-stop until the release
   go2vlm estop              # latch, and keep it latched for nodes that start later
   go2vlm estop --release    # the deliberate release; waits until the gates and robots report it
 
-E-stop across restarts: every change of the latch is written atomically to estop_state_file (default
-$XDG_STATE_HOME/go2vlm/estop/<node>-domain<N>.json, ~/.local/state/... without XDG_STATE_HOME); a
-gate that went down latched (even kill -9) comes up latched, and a file it cannot read counts as
-latched. One commander: any other writer on /cmd_vel (another gate, a raw publisher) holds the
-output at zero and is named in /safety/status "commander" and in the log (safety/commander.py).
+The robot (`robot`, a profile of robot_profile/: sim, go2): the gate holds every speed limit under
+that robot's own ceilings, its collision guard sweeps that robot's footprint, and its health input is
+that robot's health topic.
+E-stop across restarts: the latch belongs to the robot. Every change of it is written atomically to
+estop_state_file (default $XDG_STATE_HOME/go2vlm/estop/<robot>-domain<N>.json, ~/.local/state/...
+without XDG_STATE_HOME): one file per robot and DDS domain, shared by every gate that commands that
+robot there whatever its node name. A gate that went down latched (even kill -9) comes up latched,
+so does a replacement under another --name, and a file it cannot read counts as latched; `go2vlm
+demo` and `go2vlm eval` refuse to start on a latched robot.
+One commander: any other writer on /cmd_vel (another gate, a raw publisher) holds the output at zero
+and is named in /safety/status "commander" and in the log (safety/commander.py).
 Rules: the live input with the highest priority wins, even when it commands zero; an input is live
 while its last valid command is younger than its timeout_s. A command with NaN/inf or absurd values
 (|v| > 100) is rejected with a rate-limited error, counted, and makes that input absent at once.
-The winner is clamped to the limits (configurable, never above the Go2 sport-mode ceilings vx
--2.5..3.8 m/s, vy +-1.0 m/s, vyaw +-4.0 rad/s) and ramped within the acceleration limits; slowing
-down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
+The winner is clamped to the limits (configurable, never above the robot's ceilings; a Go2's are
+its sport-mode range vx -2.5..3.8 m/s, vy +-1.0 m/s, vyaw +-4.0 rad/s) and ramped within the
+acceleration limits; slowing down and stopping are never ramped. Only linear.x, linear.y and angular.z are passed on.
 Health (safety/health.py, docs/safety.md): with `health` on, every /lowstate sample feeds a monitor
 whose verdict escalates warn -> cap speed (limits x health_cap_scale) -> stop (/cmd_vel zero) ->
 down (the e-stop latches: Damp; the release is a deliberate act) on tilt, the hottest motor, the
@@ -76,6 +84,7 @@ import json
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
@@ -84,8 +93,18 @@ from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.unitree import LowState
+from go2vlm.robot_profile import CEILING_BOUND, DEFAULT_ROBOT, PROFILES, RobotProfile, profile
 from go2vlm.safety.commander import GateWatch
-from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, EstopInput, LatchFile, check_token, default_state_file
+from go2vlm.safety.estop import (
+    ESTOP_TOPIC,
+    RELEASE_TOKEN,
+    EstopInput,
+    LatchFile,
+    check_token,
+    latch_path,
+    parse_stamp,
+    stamp_text,
+)
 from go2vlm.safety.guard import CollisionGuard, GuardConfig, Scan
 from go2vlm.safety.health import (
     BATTERY_PCT,
@@ -98,10 +117,10 @@ from go2vlm.safety.health import (
     Ladder,
     Level,
 )
-from go2vlm.safety.limits import HARD_VX_BACKWARD, HARD_VX_FORWARD, HARD_VY, HARD_WZ, ZERO, Limits, Velocity
+from go2vlm.safety.limits import ZERO, Limits, Velocity
 from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec, SafetyCore
 
-__all__ = ["SafetyGateConfig", "SafetyGateNode", "parse_inputs"]
+__all__ = ["SafetyGateConfig", "SafetyGateNode", "gate_latch_path", "parse_inputs"]
 
 LOG_PERIOD_S = 1.0  # at most one state-change INFO line per second
 
@@ -138,17 +157,24 @@ def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
 
 @dataclass
 class SafetyGateConfig:
+    robot: str = param(
+        DEFAULT_ROBOT,
+        help="the robot this gate commands (its profile: speed ceilings, footprint, health topic; its e-stop latch)",
+        choices=tuple(PROFILES),
+    )
     inputs: list[dict] = param(
         [{"name": s.name, "topic": s.topic, "priority": s.priority, "timeout_s": s.timeout_s} for s in DEFAULT_INPUTS],
         help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
     )
     rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
-    max_vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=HARD_VX_FORWARD, live=True)
-    max_vx_backward: float = param(
-        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=HARD_VX_BACKWARD, live=True
+    max_vx_forward: float = param(
+        0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
     )
-    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=HARD_VY, live=True)
-    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=HARD_WZ, live=True)
+    max_vx_backward: float = param(
+        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True
+    )
+    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
+    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
     accel_linear: float = param(
         1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
     )
@@ -159,8 +185,8 @@ class SafetyGateConfig:
     start_engaged: bool = param(False, help="start with the e-stop latched (a release is needed to move)")
     estop_state_file: str = param(
         "",
-        help="where the e-stop latch survives restarts; '' = $XDG_STATE_HOME (~/.local/state)"
-        "/go2vlm/estop/<node>-domain<N>.json",
+        help="where the e-stop latch survives restarts; '' = the robot's, $XDG_STATE_HOME (~/.local/state)"
+        "/go2vlm/estop/<robot>-domain<N>.json",
     )
     status_period_s: float = param(1.0, help="/safety/status period besides on-change", min=0.5, max=10.0, live=True)
     wall_timeout_s: float = param(
@@ -172,7 +198,9 @@ class SafetyGateConfig:
     )
 
     health: bool = param(True, help="watch the robot's health on health_topic (tilt, motors, battery, stream)")
-    health_topic: str = param("/lowstate", help="unitree_go/msg/LowState topic of the robot's state")
+    health_topic: str = param(
+        "", help="unitree_go/msg/LowState topic of the robot's state; '' = the robot profile's health topic"
+    )
     health_require_state: bool = param(False, help="stop until the first state sample (else armed by it)")
     health_stale_s: float = param(0.5, help="state stream silent this long: stop", min=0.05, max=10.0)
     health_clear_s: float = param(2.0, help="a lower health level is taken after it held this long", min=0.0)
@@ -201,8 +229,31 @@ class SafetyGateConfig:
         dds_topic_name(self.scan_topic)
         parse_inputs(self.inputs)
         check_token(self.release_token)
-        dds_topic_name(self.health_topic)
+        dds_topic_name(self.health_topic or "/lowstate")
         health_policy(self)
+        c = profile(self.robot).ceilings
+        for name, ceiling in (
+            ("max_vx_forward", c.vx_forward),
+            ("max_vx_backward", c.vx_backward),
+            ("max_vy", c.vy),
+            ("max_vyaw", c.vyaw),
+        ):
+            if getattr(self, name) > ceiling:
+                raise ValueError(f"{name} {getattr(self, name):g} is above robot {self.robot!r}'s ceiling {ceiling:g}")
+
+    @property
+    def robot_profile(self) -> RobotProfile:
+        return profile(self.robot)
+
+    @property
+    def health_input(self) -> str:
+        """The topic the health monitor reads: `health_topic`, else the robot's."""
+        return self.health_topic or self.robot_profile.health_topic
+
+
+def gate_latch_path(c: SafetyGateConfig, domain_id: int) -> Path:
+    """Where a gate with this configuration keeps its e-stop latch on `domain_id`."""
+    return Path(c.estop_state_file) if c.estop_state_file else latch_path(c.robot, domain_id)
 
 
 def health_policy(c: SafetyGateConfig) -> HealthPolicy:
@@ -229,7 +280,15 @@ LIMIT_PARAMS = ("max_vx_forward", "max_vx_backward", "max_vy", "max_vyaw", "acce
 
 
 def limits_of(c: SafetyGateConfig) -> Limits:
-    return Limits(c.max_vx_forward, c.max_vx_backward, c.max_vy, c.max_vyaw, c.accel_linear, c.accel_angular)
+    return Limits(
+        c.max_vx_forward,
+        c.max_vx_backward,
+        c.max_vy,
+        c.max_vyaw,
+        c.accel_linear,
+        c.accel_angular,
+        c.robot_profile.ceilings,
+    )
 
 
 class SafetyGateNode(Node):
@@ -239,8 +298,9 @@ class SafetyGateNode(Node):
     def __init__(self, config: SafetyGateConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         c = self.config
-        self.store = LatchFile(c.estop_state_file or default_state_file(self.node_name, self.domain_id))
+        self.store = LatchFile(gate_latch_path(c, self.domain_id))
         was_engaged, note = self.store.load()
+        stored = self.store.read() if was_engaged else None
         self.core = SafetyCore(
             parse_inputs(c.inputs),
             limits_of(c),
@@ -248,7 +308,8 @@ class SafetyGateNode(Node):
             c.start_engaged or bool(was_engaged),
             c.wall_timeout_s,
             CollisionGuard(
-                GuardConfig(
+                GuardConfig.of(
+                    c.robot_profile,
                     margin=c.margin,
                     blind_speed=c.blind_speed,
                     scan_timeout_s=c.scan_timeout_s,
@@ -257,6 +318,11 @@ class SafetyGateNode(Node):
                 enabled=c.guard,
             ),
         )
+        if stored is not None:  # the latch as it was stored: since when, and why
+            self.core.latch.since = parse_stamp(stored.since) or self.core.latch.since
+            self.core.latch.why = f"{stored.why or note} (restored from {self.store.path})"
+        elif c.start_engaged:
+            self.core.latch.why = "start_engaged"
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
         self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
         self._last_state: tuple[Any, ...] | None = None
@@ -282,7 +348,7 @@ class SafetyGateNode(Node):
         self._down_sent = -math.inf
         if self.health is not None:
             self.estop_pub = self.create_publisher(Bool, ESTOP_TOPIC, QOS_DEFAULT)
-            self.create_subscription(LowState, c.health_topic, self.on_lowstate, QOS_SENSOR)
+            self.create_subscription(LowState, c.health_input, self.on_lowstate, QOS_SENSOR)
         if was_engaged:
             self.log.warning(f"the e-stop was latched when this gate went down: {note}")
         if self.core.estopped:
@@ -417,9 +483,13 @@ class SafetyGateNode(Node):
         self._last_state_log, self._state_changes = t, 0
 
     def status(self, now: float, wall: float | None = None) -> dict[str, Any]:
+        latch = self.core.latch
         return {
+            "robot": self.config.robot,
             "active": self.core.active,
             "estop": self.core.estopped,
+            "estop_since": stamp_text(latch.since) if latch.engaged and latch.since is not None else None,
+            "estop_why": latch.why if latch.engaged else None,
             "last_zero_reason": self.core.reason,
             "output": self.core.output.as_dict(),
             "limits": {

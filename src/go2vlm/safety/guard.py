@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.robots.go2.spec import BASE_FRAME, FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, RobotProfile
 from go2vlm.safety.limits import ZERO, Limits, Velocity
 
 __all__ = ["CollisionGuard", "GuardConfig", "GuardState", "Scan", "stop_path", "twist_pose"]
@@ -54,10 +54,20 @@ class GuardConfig:
     blind_speed: float = 0.2  # m/s: fastest footprint point without a fresh scan
     scan_timeout_s: float = 0.5  # a scan older than this is no scan
     reaction_s: float = 0.1  # s the robot keeps going before braking (gate tick + robot latency)
-    half_length: float = FOOTPRINT_LENGTH / 2
-    half_width: float = FOOTPRINT_WIDTH / 2
-    frame: str = BASE_FRAME
+    half_length: float = PROFILES[DEFAULT_ROBOT].footprint_length / 2
+    half_width: float = PROFILES[DEFAULT_ROBOT].footprint_width / 2
+    frame: str = PROFILES[DEFAULT_ROBOT].frames.base
     step: float = 0.01  # m of footprint travel between path checks
+
+    @classmethod
+    def of(cls, robot: RobotProfile, **kw: float) -> GuardConfig:
+        """The guard of `robot`: its footprint and base frame, with these settings."""
+        return cls(
+            half_length=robot.footprint_length / 2,
+            half_width=robot.footprint_width / 2,
+            frame=robot.frames.base,
+            **kw,
+        )
 
     def __post_init__(self) -> None:
         for name in ("margin", "blind_speed", "scan_timeout_s", "reaction_s", "half_length", "half_width", "step"):

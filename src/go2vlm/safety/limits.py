@@ -1,9 +1,9 @@
-"""Velocity limits for the Go2, pure and deterministic.
+"""Velocity limits, pure and deterministic.
 
-The hard ceilings are the Go2 sport-mode Move() range (robots/go2/spec.py). Configured limits can
-only be lower: `Limits` clamps every configured value to the ceiling, whatever it is given. Only
-vx, vy and wz are ever commanded; the other Twist components are not something a walking Go2 can
-do and are always output as zero.
+The hard ceilings are the commanded robot's own velocity range (its profile's `ceilings`, e.g. the
+Go2 sport-mode Move() range; robot_profile/). Configured limits can only be lower: `Limits` clamps
+every configured value to its `ceiling`, whatever it is given. Only vx, vy and wz are ever commanded;
+the other Twist components are not something a walking robot can do and are always output as zero.
 
 Acceleration limits apply when a component speeds up (or reverses); slowing down towards zero is
 never limited, so a stop is always immediate.
@@ -14,12 +14,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from go2vlm.robots.go2.spec import VX_MAX_BACKWARD as HARD_VX_BACKWARD
-from go2vlm.robots.go2.spec import VX_MAX_FORWARD as HARD_VX_FORWARD
-from go2vlm.robots.go2.spec import VY_MAX as HARD_VY
-from go2vlm.robots.go2.spec import VYAW_MAX as HARD_WZ
+from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, SpeedCeilings
 
-__all__ = ["ABSURD", "HARD_VX_BACKWARD", "HARD_VX_FORWARD", "HARD_VY", "HARD_WZ", "ZERO", "Limits", "Velocity"]
+__all__ = ["ABSURD", "ZERO", "Limits", "Velocity"]
 
 # A component beyond this is garbage (unit mix-up, uninitialised memory), not a fast command.
 ABSURD = 100.0
@@ -57,13 +54,15 @@ class Limits:
     wz: float = 1.0
     accel_linear: float = 1.0  # m/s^2
     accel_angular: float = 3.0  # rad/s^2
+    ceiling: SpeedCeilings = PROFILES[DEFAULT_ROBOT].ceilings  # the commanded robot's own range
 
     def __post_init__(self) -> None:
         # Frozen dataclass: clamp through object.__setattr__ so no Limits can exceed the ceilings.
-        object.__setattr__(self, "vx_forward", _limit(self.vx_forward, HARD_VX_FORWARD))
-        object.__setattr__(self, "vx_backward", _limit(self.vx_backward, HARD_VX_BACKWARD))
-        object.__setattr__(self, "vy", _limit(self.vy, HARD_VY))
-        object.__setattr__(self, "wz", _limit(self.wz, HARD_WZ))
+        c = self.ceiling
+        object.__setattr__(self, "vx_forward", _limit(self.vx_forward, c.vx_forward))
+        object.__setattr__(self, "vx_backward", _limit(self.vx_backward, c.vx_backward))
+        object.__setattr__(self, "vy", _limit(self.vy, c.vy))
+        object.__setattr__(self, "wz", _limit(self.wz, c.vyaw))
         object.__setattr__(self, "accel_linear", _limit(self.accel_linear, 1e6))
         object.__setattr__(self, "accel_angular", _limit(self.accel_angular, 1e6))
 
@@ -73,7 +72,13 @@ class Limits:
             return self
         f = max(0.0, factor) if math.isfinite(factor) else 0.0
         return Limits(
-            self.vx_forward * f, self.vx_backward * f, self.vy * f, self.wz * f, self.accel_linear, self.accel_angular
+            self.vx_forward * f,
+            self.vx_backward * f,
+            self.vy * f,
+            self.wz * f,
+            self.accel_linear,
+            self.accel_angular,
+            self.ceiling,
         )
 
     def clamp(self, v: Velocity) -> Velocity:

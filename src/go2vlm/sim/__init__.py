@@ -35,7 +35,7 @@ API
 
 - ``step(n: int = 1) -> None``; ``advance(dt_s: float) -> None``; ``reset() -> None``
 - ``set_command(vx, vy, vyaw) -> np.ndarray`` clamped to the Go2 sport-mode ranges
-  (robots/go2/spec.py); ``stop()``
+  (the Go2 profile, robot_profile/go2.py); ``stop()``
 - ``stand_up(duration=1.2)``, ``lie_down(duration=1.5)``, ``damp()``,
   ``recovery_stand() -> bool`` (rolls over from side/back, then stands; False if
   already standing); ``set_ball_speed(speed)``

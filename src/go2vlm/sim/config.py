@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from go2vlm.bus.params import param
-from go2vlm.robots.go2.spec import HEAD_CAMERA_FOVY_DEG
+from go2vlm.robot_profile.go2 import GO2
 from go2vlm.sim.controller import GaitParams
 
 __all__ = ["SimConfig"]
@@ -30,7 +30,7 @@ class SimConfig:
     camera_width: int = param(640, help="head camera width (the real Go2 camera is 1280x720)", min=16, max=3840)
     camera_height: int = param(480, help="head camera height", min=16, max=2160)
     camera_fovy_deg: float = param(
-        HEAD_CAMERA_FOVY_DEG, help="head camera vertical field of view, degrees", min=10.0, max=150.0
+        GO2.head_camera.fovy_deg, help="head camera vertical field of view, degrees", min=10.0, max=150.0
     )
     world_camera_width: int = param(640, help="world camera width", min=16, max=3840)
     world_camera_height: int = param(480, help="world camera height", min=16, max=2160)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from go2vlm.robots.go2.spec import HEAD_CAMERA_FOVY_DEG, HEAD_CAMERA_POS, STAND_HEIGHT
+from go2vlm.robot_profile.go2 import GO2
 
 LEG_NAMES: tuple[str, ...] = ("FR", "FL", "RR", "RL")  # Unitree motor order
 JOINT_KINDS: tuple[str, ...] = ("hip", "thigh", "calf")
@@ -46,6 +46,8 @@ TOTAL_MASS = TRUNK_MASS + 4 * (HIP_MASS + THIGH_MASS + CALF_MASS + FOOT_MASS)
 STAND_Q = np.tile([0.0, 0.78, -1.56], 4)  # foot under the hip, base ~0.32 m
 LIE_Q = np.tile([0.0, 1.25, -2.70], 4)  # folded legs, belly near the ground
 LIE_HEIGHT = 0.11
+STAND_HEIGHT = GO2.stand_height
+HEAD_CAMERA_POS = GO2.head_camera.pos
 
 GREY = "0.62 0.64 0.66 1"
 DARK = "0.12 0.12 0.13 1"
@@ -132,7 +134,7 @@ def robot_body_xml(pos: tuple[float, float, float] = (0.0, 0.0, STAND_HEIGHT), y
     <geom class="go2_collision" type="box" size="{hx} {hy} {hz}"/>
     <geom class="go2_collision" type="box" size="0.055 0.046 0.045" pos="0.245 0 0.012"/>
     <site name="imu" pos="{_f(IMU_POS)}" size="0.01"/>
-    <camera name="head_camera" pos="{_f(HEAD_CAMERA_POS)}" xyaxes="0 -1 0 0 0 1" fovy="{HEAD_CAMERA_FOVY_DEG:g}"/>
+    <camera name="head_camera" pos="{_f(HEAD_CAMERA_POS)}" xyaxes="0 -1 0 0 0 1" fovy="{GO2.head_camera.fovy_deg:g}"/>
     {legs}
   </body>"""
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import mat_to_rpy, quat_to_mat, tilt_angle, yaw_quat
-from go2vlm.robots.go2.spec import clamp_velocity
+from go2vlm.robot_profile.go2 import GO2
 from go2vlm.sim import go2_model as gm
 from go2vlm.sim import legs
 from go2vlm.sim.ball import BallPath
@@ -134,7 +134,7 @@ class Go2Sim:
 
     def set_command(self, vx: float, vy: float, vyaw: float) -> np.ndarray:
         """Velocity command in the heading frame, clamped to the Go2 sport-mode limits."""
-        self._cmd = np.array(clamp_velocity(vx, vy, vyaw), dtype=float)
+        self._cmd = np.array(GO2.ceilings.clamp(vx, vy, vyaw), dtype=float)
         self.controller.set_command(*self._cmd)
         return self._cmd.copy()
 

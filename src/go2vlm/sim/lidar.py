@@ -1,6 +1,6 @@
 """The Go2's L1 lidar in MuJoCo: a ring of rays cast with mj_multiRay from the lidar's mount.
 
-Pure (no DDS). `Lidar.scan(data)` returns the hit points in the lidar frame (spec.LIDAR_FRAME, the
+Pure (no DDS). `Lidar.scan(data)` returns the hit points in the lidar frame (the profile's lidar frame, the
 frame of the real rt/utlidar/cloud), so that the sim publishes the cloud a real Go2 does and the same
 `geometry/scan.py` code turns either into /scan.
 
@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from go2vlm.geometry.scan import mount_transform
-from go2vlm.robots.go2.spec import LIDAR_MOUNT_PITCH, LIDAR_MOUNT_POS
+from go2vlm.robot_profile.go2 import GO2
 
 __all__ = ["ELEVATIONS", "Lidar"]
 
@@ -40,7 +40,7 @@ class Lidar:
                 np.column_stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.full_like(az, np.sin(el))])
             )
         self.dirs_base = np.vstack(rows)  # unit rays in the base frame
-        self.mount_r, self.mount_t = mount_transform(LIDAR_MOUNT_POS, LIDAR_MOUNT_PITCH)
+        self.mount_r, self.mount_t = mount_transform(GO2.lidar.pos, GO2.lidar.pitch)
         n = len(self.dirs_base)
         self._geomid = np.zeros(n, dtype=np.int32)
         self._dist = np.zeros(n, dtype=np.float64)

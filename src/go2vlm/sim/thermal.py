@@ -11,7 +11,7 @@ ambient, as a logged Go2 reads (72-78 C on its calf motors); TAU_THERMAL = 300 s
 Unitree's MotorState documents ("slow conduction of temperature leads to lag").
 
 Battery: electrical power = electronics (P_BASE) + mechanical |tau * omega| + copper losses
-R_LOSS * tau^2 per motor, drawn from the pack's energy (robots/go2/spec.py BATTERY_WH); the pack
+R_LOSS * tau^2 per motor, drawn from the pack's energy (the robot profile's battery, robot_profile/go2.py); the pack
 voltage is linear in the state of charge between 3.3 V and 4.2 V a cell.
 """
 
@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from go2vlm.robots.go2.spec import BATTERY_CELLS, BATTERY_WH
+from go2vlm.robot_profile.go2 import GO2
 
 __all__ = ["AMBIENT_C", "Battery", "MotorThermal"]
 
@@ -63,9 +63,9 @@ class Battery:
             omega = np.nan_to_num(np.asarray(velocities, dtype=float))
             n = min(len(tau), len(omega))
             power = P_BASE + float(np.sum(np.abs(tau[:n] * omega[:n])) + R_LOSS * np.sum(tau * tau))
-            self.soc_pct = max(0.0, self.soc_pct - 100.0 * power * dt / (BATTERY_WH * 3600.0))
+            self.soc_pct = max(0.0, self.soc_pct - 100.0 * power * dt / (GO2.battery.wh * 3600.0))
         return self.soc_pct
 
     @property
     def voltage(self) -> float:
-        return BATTERY_CELLS * (CELL_EMPTY_V + (CELL_FULL_V - CELL_EMPTY_V) * self.soc_pct / 100.0)
+        return GO2.battery.cells * (CELL_EMPTY_V + (CELL_FULL_V - CELL_EMPTY_V) * self.soc_pct / 100.0)

@@ -81,7 +81,7 @@ class Harness:
                 "rpc_timeout_s": 5.0,
             },
         )
-        self.gate = make_node("safety", params={"health_topic": "/go2/lowstate", "max_vx_forward": 0.5})
+        self.gate = make_node("safety", params={"robot": "go2", "max_vx_forward": 0.5})
         n = self.probe = Node(node_name="go2_webrtc_probe")
         self.odom, self.images, self.scans, self.lows = Recorder(), Recorder(), Recorder(), Recorder()
         self.status, self.sim_status, self.gate_cmd = Recorder(), Recorder(), Recorder()

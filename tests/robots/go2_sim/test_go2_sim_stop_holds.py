@@ -92,8 +92,8 @@ def test_the_sim_latches_the_estop_by_itself(procs: Procs, probe: Probe) -> None
     assert wait_for(lambda: probe.status().get("estop") is True and probe.status()["mode"] == "damped", 10)
     probe.command.publish(String(data="stand"))
     probe.command.publish(String(data="recover"))
-    time.sleep(1.0)
-    assert probe.status()["mode"] == "damped" and probe.status()["counters"].get("refused_command", 0) >= 2
+    assert wait_for(lambda: probe.status()["counters"].get("refused_command", 0) >= 2, 10), probe.status()
+    assert probe.status()["mode"] == "damped" and probe.status()["last_command"]["result"].startswith("refused")
     probe.estop.publish(Bool(data=False))  # false does not release
     probe.release.publish(String(data="RELEASE "))  # neither does a padded token
     time.sleep(1.0)

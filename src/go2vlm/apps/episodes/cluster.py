@@ -23,12 +23,11 @@ What it costs against --workers on one machine (docs/benchmarks.md, "Episodes pe
 - One Ray serves every run of a command (`--latency 0,1,2.5,5`: four runs, one start-up).
 - Ray worker processes run task after task, and the first task in each pays the imports and GL
   start-up once, as a pool worker's first episode does; a Ray worker gets OMP_NUM_THREADS=1 (Ray's
-  default for a one-CPU task), a pool worker the library defaults.
+  default for a one-CPU task), a pool worker its share of the cores (worker.worker_threads).
 """
 
 from __future__ import annotations
 
-import os
 import signal
 import socket
 import threading
@@ -69,17 +68,16 @@ def reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> str | None:
         return f"nothing answers at {hostport} ({exc.strerror or exc})"
 
 
-def _episode_task(index: int, episode: dict[str, Any], run: dict[str, Any], interface: str, log_level: str) -> dict:
-    """Runs in a Ray worker process: one episode on this process's own DDS domain."""
-    from go2vlm.apps.episodes.evaluate import EVAL_DOMAINS, run_worker_episode
+def _episode_task(
+    index: int, episode: dict[str, Any], run: dict[str, Any], interface: str, log_level: str, exclude: tuple[int, ...]
+) -> dict:
+    """Runs in a Ray worker process: one episode on this process's own DDS domain (none of `exclude`,
+    the domains where the robot is latched)."""
+    from go2vlm.apps.episodes.worker import claim_eval_domain, run_worker_episode, setup_process
 
     if "domain" not in _TASK_STATE:
-        from go2vlm.bus import Logger
-        from go2vlm.bus.domain import claim_free_domain
-
-        os.environ["GO2VLM_IFACE"] = interface
-        Logger.set_level(log_level)
-        _TASK_STATE["domain"] = claim_free_domain(*EVAL_DOMAINS, interface)
+        setup_process(interface, log_level)
+        _TASK_STATE["domain"] = claim_eval_domain(interface, exclude)
     return run_worker_episode(index, episode, run, threading.Event(), interface, _TASK_STATE["domain"])
 
 
@@ -130,15 +128,17 @@ class RayEpisodes:
         stop: ShutdownRequested,
         finished: Callable[[int, Episode, dict[str, Any]], None],
         failed: Callable[[int, Episode, str], None],
+        exclude: tuple[int, ...] = (),
     ) -> bool:
-        """Every episode of `todo` as a task; `finished` / `failed` as each ends. True if interrupted.
+        """Every episode of `todo` as a task; `finished` / `failed` as each ends; no task claims a domain of
+        `exclude`. True if interrupted.
 
         All are submitted at once: Ray runs as many at a time as the cluster has CPUs (--workers on a
         local Ray), and a worker that finishes one goes straight on to the next."""
         ray = self.ray
         pending: dict[Any, tuple[int, Episode]] = {}
         for k, ep in todo:
-            pending[self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level)] = (k, ep)
+            pending[self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level, exclude)] = (k, ep)
         interrupted = False
         while pending:
             if stop.event.is_set():

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from go2vlm.apps.episodes.episode import Episode
+from go2vlm.apps.episodes.latch import stopped_line
 from go2vlm.apps.episodes.runner import EpisodeResult, RunOptions, run_episode
 from go2vlm.bus import ShutdownRequested
 
@@ -104,6 +105,9 @@ def summary(result: EpisodeResult) -> str:
         f"  fell:              {'YES' if m['fell'] else 'no'}",
         f"  wrote:             {', '.join(result.files.values())}",
     ]
+    stopped = stopped_line(m.get("estop"))
+    if stopped is not None:
+        lines.insert(1, f"  {stopped}")
     if m.get("interrupted"):
         lines.insert(1, "  (interrupted: partial run)")
     return "\n".join(lines)
@@ -113,11 +117,16 @@ def goal_summary(result: EpisodeResult) -> str:
     """A language goal's summary (`go2vlm demo --goal`)."""
     m = result.metrics
     ep = result.episode
+    stopped = stopped_line(m.get("estop"))
+    verdict = "REACHED" if m["goal_reached"] else ("STOPPED" if stopped else "NOT reached")
+    final = f"{m['final_state']} ({m['final_reason']})"
+    if stopped:  # not "not found": the e-stop held the robot
+        final = f"stopped: the e-stop held the robot (the commander's last state: {final})"
     lines = [
-        f"go2vlm demo --goal {m['goal']!r}: {'REACHED' if m['goal_reached'] else 'NOT reached'} "
+        f"go2vlm demo --goal {m['goal']!r}: {verdict} "
         f"({m['kind']}, world {m['world']}, {m['mode']} physics, {_fmt(m['sim_s'], ' s')} sim in "
         f"{_fmt(m['wall_s'], ' s')})",
-        f"  final state:     {m['final_state']} ({m['final_reason']})",
+        f"  final state:     {final}",
         f"  states:          {' -> '.join(map(str, m['states']))}",
         f"  target body:     {m['target_body']}",
         f"  time to goal:    {_fmt(m['time_to_goal_s'], ' s')}",
@@ -133,6 +142,8 @@ def goal_summary(result: EpisodeResult) -> str:
     if m["kind"] == "go_to":
         lines.append(f"  SPL:             {_fmt(m['spl'])} (path {_fmt(m['path_length_m'], ' m')})")
     lines += perception_lines(m)
+    if stopped:
+        lines.insert(1, f"  {stopped}")
     if m.get("interrupted"):
         lines.insert(1, "  (interrupted: partial run)")
     if result.files:

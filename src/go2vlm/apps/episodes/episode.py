@@ -216,9 +216,9 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
         sim["spawn"] = list(ep.spawn)
     out: dict[str, dict[str, Any]] = {"sim": sim}
     if ep.robot == "go2":
-        from go2vlm.robots.go2 import spec
+        from go2vlm.robot_profile.go2 import GO2
 
-        hfov = spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height)
+        hfov = GO2.head_camera.hfov_deg(ep.camera_width, ep.camera_height)
         out["go2"] = {"camera_rate_hz": ep.camera_rate_hz, "camera_hfov_deg": round(hfov, 3)}
         if ep.transport == "webrtc":  # a free port on loopback, so that runs side by side do not meet
             port = free_tcp_port("127.0.0.1")

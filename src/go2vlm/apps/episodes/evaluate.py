@@ -14,9 +14,14 @@ Several runs share a folder (oracle, color and vlm side by side); the report com
 interrupted run goes on with --resume: finished episodes are kept and skipped, the unfinished one is
 run again from its start.
 
-Workers: every worker is a process with its own DDS domain (bus/domain.py claim_free_domain), so
-episodes in parallel never hear each other; each runs its episodes one after the other, every node
-in the worker process. A vlm variant's workers all ask the one server at --base-url.
+Workers (apps/episodes/worker.py): every worker is a process with its own DDS domain (bus/domain.py
+claim_free_domain), so episodes in parallel never hear each other; each runs its episodes one after
+the other, every node in the worker process. A vlm variant's workers all ask the one server at --base-url.
+
+The e-stop (apps/episodes/latch.py): with a fixed --domain, an eval on a latched robot is refused
+before any worker starts (exit 2, one line with the release command); the free domains the workers
+(and the Ray tasks) claim leave out every domain whose latch file on this machine holds the suite's
+robot latched.
 
 Ray (`--ray [ADDRESS]`, apps/episodes/cluster.py): every episode is a Ray task instead, on a local Ray
 started for the run or on a cluster; each Ray worker process claims its DDS domain on the node it
@@ -35,7 +40,6 @@ import json
 import math
 import os
 import platform
-import signal
 import subprocess
 import sys
 import time
@@ -47,12 +51,11 @@ from typing import Any
 from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides, vlm_node_params
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
+from go2vlm.apps.episodes.worker import EVAL_DOMAINS, worker_init, worker_run, worker_threads
 from go2vlm.bus import ShutdownRequested
 from go2vlm.errors import UsageError
 
 __all__ = ["EvalError", "EvalOptions", "EvalOutcome", "run_eval"]
-
-EVAL_DOMAINS = (102, 232)  # claimed per worker; test sessions claim 1..101, a robot speaks on 0
 
 
 class EvalError(UsageError):
@@ -186,73 +189,6 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
     }
 
 
-# -- worker processes ----------------------------------------------------------------------------
-
-_WORKER: dict[str, Any] = {}
-
-
-def worker_threads(workers: int) -> int:
-    """OpenMP threads per worker process: its share of the cores. A local model's torch (imported by the
-    vlm node, after this) would otherwise start one thread per core in every worker, and threads that
-    outnumber the cores spin at OpenMP's barriers waiting for each other (training the tiny grounder took
-    20x longer per step with 2 threads than with 1 on the loaded 2-core machine). Ray gives a one-CPU
-    task one thread for the same reason."""
-    return max(1, (os.cpu_count() or 1) // max(1, workers))
-
-
-def _worker_init(
-    stop_event: Any, lo: int, hi: int, interface: str, domain_id: int | None, log_level: str, threads: int
-) -> None:
-    # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
-    # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    os.environ.setdefault("OMP_NUM_THREADS", str(threads))  # the user's own setting wins
-    os.environ["GO2VLM_IFACE"] = interface
-    from go2vlm.bus import Logger
-    from go2vlm.bus.domain import claim_free_domain
-
-    Logger.set_level(log_level)  # the nodes' start-up chatter of every episode would bury the progress
-    _WORKER["stop"] = stop_event
-    _WORKER["domain"] = domain_id if domain_id is not None else claim_free_domain(lo, hi, interface)
-    _WORKER["interface"] = interface
-
-
-def _worker_run(index: int, episode: dict[str, Any], run: dict[str, Any]) -> dict[str, Any]:
-    return run_worker_episode(index, episode, run, _WORKER["stop"], _WORKER["interface"], _WORKER["domain"])
-
-
-def run_worker_episode(
-    index: int, episode: dict[str, Any], run: dict[str, Any], stop_event: Any, interface: str, domain: int
-) -> dict[str, Any]:
-    """One episode in this (worker) process on `domain`: the result a worker hands back."""
-    from go2vlm.apps.episodes.runner import RunOptions, run_episode
-
-    ep = Episode.from_dict(episode)
-    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] or run["bag"] else None
-    opts = RunOptions(
-        rtf=run["rtf"],
-        fast=run["fast"],
-        out=out,
-        video=run["video"],
-        plot=run["video"],
-        bag=run["bag"],
-        interface=interface,
-        domain_id=domain,
-    )
-    started = time.time()
-    result = run_episode(ep, opts, ShutdownRequested(event=stop_event))
-    metrics = {k: v for k, v in result.metrics.items() if k != "options"}
-    return {
-        "index": index,
-        "metrics": metrics,
-        "interrupted": result.interrupted,
-        "started_at": started,
-        "finished_at": time.time(),
-        "worker": {"pid": os.getpid(), "domain": domain, "host": platform.node()},
-    }
-
-
 # -- the run -------------------------------------------------------------------------------------
 
 
@@ -291,6 +227,31 @@ def _check(episodes: list[Episode], opts: EvalOptions) -> None:
         check_entries(with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True}))
 
 
+def _latched(episodes: list[Episode], opts: EvalOptions) -> tuple[int, ...]:
+    """With a fixed domain: RobotLatched (exit 2) if the robot is latched there. Else the domains
+    of EVAL_DOMAINS where a latch file holds the robot latched, for the workers to leave out."""
+    from go2vlm.apps.episodes.latch import gate_latch, refuse_if_latched
+    from go2vlm.apps.episodes.runner import RunOptions, episode_entries
+    from go2vlm.safety.estop import LatchFile
+
+    run = RunOptions(rtf=opts.rtf, fast=opts.fast)
+    graphs = {graph_name(ep): episode_entries(ep, run) for ep in episodes}
+    if opts.domain_id is not None:
+        for entries in graphs.values():
+            refuse_if_latched(entries, opts.domain_id, opts.interface)
+        return ()
+    out = set()
+    for d in range(EVAL_DOMAINS[0], EVAL_DOMAINS[1] + 1):
+        for entries in graphs.values():
+            found = gate_latch(entries, d)
+            state = LatchFile(found[1]).read() if found is not None else None
+            if state is not None and state.engaged:
+                out.add(d)
+    if len(out) > EVAL_DOMAINS[1] - EVAL_DOMAINS[0]:
+        raise EvalError("the e-stop is latched for this suite's robot on every eval domain; `go2vlm estop --release`")
+    return tuple(sorted(out))
+
+
 def _vlm_params(opts: EvalOptions) -> dict[str, dict[str, Any]]:
     try:
         return vlm_node_params(opts.perception, opts.model, opts.base_url, opts.params)
@@ -305,11 +266,13 @@ class _Prepared:
     params: dict[str, dict[str, Any]]
     episodes: list[Episode]
     config: dict[str, Any]
+    exclude: tuple[int, ...] = ()  # eval domains where the suite's robot is latched: no worker claims them
 
 
 def prepare(opts: EvalOptions) -> _Prepared:
     """Everything that can be checked before an episode runs: the options, the suite (its worlds load,
-    its objects are in them), every episode and graph. EvalError / SuiteError / LaunchError otherwise."""
+    its objects are in them), every episode and graph, the e-stop latch. EvalError / SuiteError / LaunchError /
+    RobotLatched otherwise."""
     if opts.workers < 1:
         raise EvalError("--workers must be at least 1")
     if opts.domain_id is not None and (opts.workers > 1 or opts.ray is not None):
@@ -323,7 +286,8 @@ def prepare(opts: EvalOptions) -> _Prepared:
     params = _vlm_params(opts)
     episodes = _episodes(suite, opts, seed, params)
     _check(episodes, opts)
-    return _Prepared(suite, seed, params, episodes, run_config(suite, opts, seed, params))
+    exclude = _latched(episodes, opts)
+    return _Prepared(suite, seed, params, episodes, run_config(suite, opts, seed, params), exclude)
 
 
 def run_eval(
@@ -417,12 +381,12 @@ def run_eval(
         if todo and not stop.event.is_set():
             if cluster is not None:
                 try:
-                    interrupted = cluster.run(todo, run, stop, finished, failed)
+                    interrupted = cluster.run(todo, run, stop, finished, failed, prep.exclude)
                 finally:
                     if own_session is not None:
                         own_session.close()
             else:
-                interrupted = _run_pool(todo, run, opts, stop, finished, failed)
+                interrupted = _run_pool(todo, run, opts, stop, finished, failed, prep.exclude)
         interrupted = interrupted or stop.event.is_set()
         if bar is not None:
             bar.close()
@@ -437,6 +401,7 @@ def _run_pool(
     stop: ShutdownRequested,
     finished: Any,
     failed: Any,
+    exclude: tuple[int, ...],
 ) -> bool:
     """The episodes in worker processes; True if interrupted. The first error stops the rest."""
     import multiprocessing
@@ -448,11 +413,11 @@ def _run_pool(
     with ProcessPoolExecutor(
         max_workers=min(opts.workers, len(todo)),
         mp_context=ctx,
-        initializer=_worker_init,
-        initargs=(stop_ev, *EVAL_DOMAINS, opts.interface, opts.domain_id, opts.log_level, worker_threads(opts.workers)),
+        initializer=worker_init,
+        initargs=(stop_ev, opts.interface, opts.domain_id, opts.log_level, exclude, worker_threads(opts.workers)),
     ) as pool:
         futs: dict[Future[dict[str, Any]], tuple[int, Episode]] = {
-            pool.submit(_worker_run, k, ep.to_dict(), run): (k, ep) for k, ep in todo
+            pool.submit(worker_run, k, ep.to_dict(), run): (k, ep) for k, ep in todo
         }
         pending = set(futs)
         while pending:

@@ -19,11 +19,15 @@ Per episode (every task):
   time_to_goal_s   sim seconds from the start to `reached` / `found`.
   path_length_m    the base's path (ground truth at 20 Hz).
   collisions       times the robot's footprint (0.70 x 0.31 m around the base: the Go2's size,
-                   robots/go2/spec.py) began to overlap an object's footprint; min_clearance_m is
+                   its robot profile, robot_profile/go2.py) began to overlap an object's footprint; min_clearance_m is
                    the smallest gap; collided_with names the bodies. Geometric, so it is the same
                    in kinematic and dynamic physics (and a moving body, such as a world's red
                    ball, that runs into a robot standing still counts too).
   fell             the sim reported a fall.
+  estop            the latches of the safety gate's e-stop that held the robot during the run
+                   (apps/episodes/latch.py): {latched, latched_s, latched_at_end, latches: [{at_s,
+                   for_s, why, released}]}, sim seconds from the start; `stopped` is then true and a
+                   goal's result is "stopped", whatever the commander's last state says.
   target_in_view_fraction  ground-truth samples with the target's centre inside the head camera's
                    horizontal field of view (geometric: occlusion is not checked); *_at_end likewise.
 Grounding (answers on /vlm/detections, or the oracle's /sim/detections), each answer against the
@@ -56,11 +60,12 @@ from typing import Any
 import numpy as np
 
 from go2vlm.apps.episodes.episode import Episode, goal_target, label_matches, target_body
+from go2vlm.apps.episodes.latch import estop_metrics
 from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile import profile
 
 __all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics", "tracker_metrics"]
 
@@ -240,7 +245,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     kind = ep.kind
     names = sorted({*ctx.shapes, *(n for _, p in rec.poses for n in p if n != "go2")})
     target = target_body(ep.goal, names, ep.target)
-    hfov = math.radians(spec.head_camera_hfov_deg(ep.camera_width, ep.camera_height))
+    robot_facts = profile(ep.robot)
+    hfov = math.radians(robot_facts.head_camera.hfov_deg(ep.camera_width, ep.camera_height))
 
     # -- geometry over time, from ground truth --------------------------------------------------
     track: list[tuple[float, float, float, float]] = []  # t, x, y, yaw
@@ -256,7 +262,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         x, y, _, qw, qx, qy, qz = p["go2"]
         yaw = quat_yaw(qw, qx, qy, qz)
         track.append((t, x, y, yaw))
-        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        robot = Footprint.rect(x, y, yaw, robot_facts.footprint_length, robot_facts.footprint_width)
         worst, worst_name = math.inf, ""
         for name, shape in ctx.shapes.items():
             if name in p:
@@ -331,6 +337,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
 
     rtf, rtf_all = _rtf(rec.status)
     duration = max([rec.sim_time, *(float(s["sim_time"]) for s in rec.status if "sim_time" in s)])
+    estop = estop_metrics(rec.estop, ctx.t0, max(rec.sim_time, ctx.t0))
     m: dict[str, Any] = {
         "episode": ep.id or None,
         "kind": kind,
@@ -350,6 +357,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         "collided_with": sorted(collided_with),
         "min_clearance_m": _r(min_clear),
         "fell": fell,
+        "estop": estop,
+        "stopped": estop["latched"],
         "target_in_view_fraction": _r(sum(in_view) / len(in_view), 4) if in_view else None,
         "target_in_view_at_end": bool(in_view[-1]) if in_view else None,
         "final_distance_m": _r(final_dist),
@@ -399,6 +408,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     else:  # a language goal: `go2vlm demo --goal`'s figures
         m.update(
             {
+                "result": "stopped" if estop["latched"] else (states[-1] if states else None),
                 "final_state": states[-1] if states else None,
                 "final_reason": final.get("reason"),
                 "states": _dedupe(states),

@@ -3,8 +3,9 @@ the plot and the video need. It runs on sim time, so every time it keeps is sim 
 the sim time at which a message arrived).
 
 Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
-/detected_target, /commander/status, /camera/camera_info, /sim/detections, /vlm/detections,
-/vlm/status, /target/tracked and, for the video, /camera/image_raw (kept as small JPEGs).
+/detected_target, /commander/status, /safety/status (the e-stop), /camera/camera_info,
+/sim/detections, /vlm/detections, /vlm/status, /target/tracked and, for the video,
+/camera/image_raw (kept as small JPEGs).
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ class Recording:
     vlm_status: list[dict[str, Any]] = field(default_factory=list)
     # /target/tracked: sim t received, frame stamp, state name, grounding_age_s (NaN before any answer)
     tracked: list[tuple[float, float, str, float]] = field(default_factory=list)
+    estop: list[tuple[float, bool, str]] = field(default_factory=list)  # sim t, the gate's e-stop and why, on change
 
 
 class EpisodeRecorder(Node):
@@ -75,6 +77,7 @@ class EpisodeRecorder(Node):
         self.create_subscription(Twist, "/behavior/cmd_vel", self._on_behavior, QOS_DEFAULT)
         self.create_subscription(PointStamped, "/detected_target", self._on_target, QOS_DEFAULT)
         self.create_subscription(String, "/commander/status", self._on_commander, QOS_LATCHED)
+        self.create_subscription(String, "/safety/status", self._on_safety, QOS_LATCHED)
         self.create_subscription(CameraInfo, "/camera/camera_info", self._on_info, QOS_DEFAULT)
         self.create_subscription(Detection2DArray, "/sim/detections", self._on_truth, QOS_DEFAULT)
         self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
@@ -111,6 +114,7 @@ class EpisodeRecorder(Node):
                 list(r.answers),
                 list(r.vlm_status),
                 list(r.tracked),
+                list(r.estop),
             )
 
     def latest_state(self) -> str | None:
@@ -180,6 +184,15 @@ class EpisodeRecorder(Node):
         if st is not None:
             with self.lock:
                 self.rec.commander.append((self.now(), st))
+
+    def _on_safety(self, msg: String) -> None:
+        st = self._json(msg)
+        if st is None or not isinstance(st.get("estop"), bool):
+            return
+        engaged, why = st["estop"], str(st.get("estop_why") or "")
+        with self.lock:
+            if not self.rec.estop or self.rec.estop[-1][1:] != (engaged, why):
+                self.rec.estop.append((self.now(), engaged, why))
 
     def _on_info(self, msg: CameraInfo) -> None:
         with self.lock:

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides
+from go2vlm.apps.episodes.latch import refuse_if_latched
 from go2vlm.apps.episodes.metrics import END_STATES, Context, compute_metrics
 from go2vlm.apps.episodes.outputs import atomic, write_json
 from go2vlm.apps.episodes.recorder import EpisodeRecorder, Recording
@@ -63,6 +64,7 @@ class RunOptions:
     cpu: bool = False  # CPU seconds per thread (Linux /proc), for the demo's figures
     bag: bool = False  # record every topic into out/bag (needs `out`)
     foxglove: dict[str, Any] | None = None  # the Foxglove view node's parameters (port, host): live view
+    refuse_latched: bool = False  # RobotLatched (exit 2) before anything starts if the robot is latched
 
 
 @dataclass
@@ -102,14 +104,21 @@ def cpu_by_thread() -> dict[str, float]:
     return out
 
 
-def build_graph(ep: Episode, opts: RunOptions) -> tuple[list[Node], Any]:
-    """The episode's nodes (not started) and the sim node among them."""
-    from go2vlm.launch.launcher import LaunchEntry, load_launch, make_nodes, with_overrides
+def episode_entries(ep: Episode, opts: RunOptions) -> list[Any]:
+    """The launch entries of the episode's graph, with the episode's parameters, on sim time."""
+    from go2vlm.launch.launcher import LaunchEntry, load_launch, with_overrides
 
     _, entries = load_launch(graph_name(ep))
     if opts.foxglove is not None:
         entries.append(LaunchEntry("view", "foxglove_view", dict(opts.foxglove)))
-    entries = with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True})
+    return with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True})
+
+
+def build_graph(ep: Episode, opts: RunOptions) -> tuple[list[Node], Any]:
+    """The episode's nodes (not started) and the sim node among them."""
+    from go2vlm.launch.launcher import make_nodes
+
+    entries = episode_entries(ep, opts)
     nodes = make_nodes(entries, interface=opts.interface, domain_id=opts.domain_id)
     sim = next(n for n, e in zip(nodes, entries, strict=True) if e.kind == "sim")
     return nodes, sim
@@ -163,10 +172,13 @@ def run_episode(
 ) -> EpisodeResult:
     """Run `ep` until its goal ends (+ settle_s), its duration or timeout passes (sim seconds), or
     `stop`; measure it; write the run folder. `on_tick(elapsed sim s, recorder, sim node)` is called
-    every POLL_S (progress). RuntimeError when the loop cannot run (no /clock, no camera frame)."""
+    every POLL_S (progress). RuntimeError when the loop cannot run (no /clock, no camera frame);
+    with `opts.refuse_latched`, RobotLatched before anything starts when the robot is latched."""
     from go2vlm.behavior.commander_node import CommanderConfig
     from go2vlm.sim.worlds import world_footprints
 
+    if opts.refuse_latched:
+        refuse_if_latched(episode_entries(ep, opts), opts.domain_id, opts.interface)
     stop = stop or ShutdownRequested()
     out = Path(opts.out) if opts.out else None
     if out is not None:

@@ -115,7 +115,7 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
     """A spawn pose in the task's region, clear of every object and not already at the goal."""
     from go2vlm.apps.episodes.episode import target_body
     from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
-    from go2vlm.robots.go2 import spec
+    from go2vlm.robot_profile.go2 import SIM
 
     sp = task["spawn"]
     shapes = _shapes(task["world"])
@@ -126,7 +126,7 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
     min_goal = float(sp.get("min_goal_distance_m", 1.3))
     for _ in range(_MAX_TRIES):
         x, y, yaw = (float(_draw(sp.get(a, 0.0), rng, f"spawn.{a}")) for a in ("x", "y", "yaw"))
-        robot = Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH)
+        robot = Footprint.rect(x, y, yaw, SIM.footprint_length, SIM.footprint_width)
         if any(clearance(robot, s) < min_clear for s in shapes.values()):
             continue
         if target is not None and surface_distance(x, y, target) < min_goal:

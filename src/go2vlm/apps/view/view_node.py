@@ -52,19 +52,21 @@ from go2vlm.msgs.msgdef import msgdef, ros_type
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.robot_profile.go2 import SIM
+from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOPIC
 
 __all__ = ["CLIENT_TOPICS", "ViewConfig", "ViewNode"]
 
 # What a Foxglove client may publish: the safety gate's inputs and a person's yes to an MCP agent's
 # goal (`go2vlm mcp --confirm`), nothing else (never /cmd_vel).
 CLIENT_TOPICS: dict[str, type] = {
-    "/emergency_stop": Bool,
-    "/emergency_stop/release": String,
+    ESTOP_TOPIC: Bool,
+    RELEASE_TOPIC: String,
     "/teleop/cmd_vel": Twist,
     "/mcp/confirm": String,
 }
 ROBOT_TOPIC = "/view/robot"
-GO2_BOX = (0.70, 0.31, 0.40)  # metres: the Go2 standing, as one box
+GO2_BOX = (SIM.footprint_length, SIM.footprint_width, 0.40)  # metres: the Go2 standing, as one box
 
 
 @dataclass
@@ -383,7 +385,7 @@ class ViewNode(Node):
             return
         self.client_pubs[topic].publish(msg)
         self.count("client_published")
-        if topic == "/emergency_stop" and msg.data:
+        if topic == ESTOP_TOPIC and msg.data:
             self.log.warning("a Foxglove client engaged the e-stop")
 
     def _refuse(self, why: str, quiet: bool = False) -> None:

@@ -75,7 +75,6 @@ The Go2 speaks on DDS domain 0; `interface` picks the network interface wired to
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -89,32 +88,28 @@ from go2vlm.bus import (
     QOS_SENSOR,
     QOS_UNITREE_READER,
     Endpoint,
-    Node,
     discovery_info,
     param,
 )
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.msgs.base_state import base_state_messages
-from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.pointcloud import scan_from_cloud
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu, LaserScan, PointCloud2
-from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.unitree import LowState, Request, SportModeState
+from go2vlm.robot_profile.go2 import GO2
+from go2vlm.robots.base import RobotEnd, RobotEndConfig
 from go2vlm.robots.go2 import protocol as p
-from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.client import RpcClient
-from go2vlm.safety.commander import CmdVelInput
-from go2vlm.safety.estop import RELEASE_TOKEN, EstopInput, EstopLatch, check_token
 
 RETRY_S = 0.25  # an unanswered Damp or StopMove is sent again after this long
 
 
 @dataclass
-class Go2DriverConfig:
+class Go2DriverConfig(RobotEndConfig):
     transport: str = param(
         "dds",
         help="dds: Unitree DDS on the Ethernet port (EDU); webrtc: the Unitree app's route (every Go2)",
@@ -135,13 +130,12 @@ class Go2DriverConfig:
     interface: str = param("", help="network interface wired to the Go2 (enp3s0, eth0; lo for a local sim); '' = env")
     domain: int = param(-1, help="DDS domain; the Go2 uses 0; -1 = ROS_DOMAIN_ID (default 0)", min=-1, max=232)
     move_rate_hz: float = param(20.0, help="rate of sport Move requests while /cmd_vel is non-zero", min=1.0, max=100.0)
-    cmd_timeout_s: float = param(0.5, help="a /cmd_vel older than this counts as zero (StopMove)", min=0.05, max=5.0)
     rpc_timeout_s: float = param(1.0, help="timeout of sport/videohub requests (unitree_sdk2 uses 1 s)", min=0.05)
     camera_rate_hz: float = param(
         10.0, help="front camera polling rate (videohub GetImageSample); 0 = camera off", min=0.0, max=30.0
     )
     camera_hfov_deg: float = param(
-        round(spec.head_camera_hfov_deg(1280, 720), 1),
+        round(GO2.head_camera.hfov_deg(GO2.head_camera.width, GO2.head_camera.height), 1),
         help="front camera horizontal FOV for /camera/camera_info (the sim's camera at 1280x720; calibrate)",
         min=10.0,
         max=179.0,
@@ -156,25 +150,31 @@ class Go2DriverConfig:
     )
     lidar: bool = param(True, help="derive /scan from the robot's rt/utlidar/cloud (for the gate's collision guard)")
     stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
-    odom_frame: str = param(spec.ODOM_FRAME, help="odometry frame")
-    base_frame: str = param(spec.BASE_FRAME, help="robot base frame")
-    camera_frame: str = param(spec.CAMERA_FRAME, help="frame_id of the camera images")
-    release_token: str = param(
-        RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
-    )
+    odom_frame: str = param(GO2.frames.odom, help="odometry frame")
+    base_frame: str = param(GO2.frames.base, help="robot base frame")
+    camera_frame: str = param(GO2.frames.camera, help="frame_id of the camera images")
     foreign_sport: str = param(
         "damp",
         help="what a foreign sport controller on rt/api/sport/request triggers: damp (latch the e-stop) or report",
         choices=("damp", "report"),
     )
 
-    def validate(self) -> None:
-        check_token(self.release_token)
 
+class Go2DriverNode(RobotEnd):
+    """The robot end of a real Go2 (robots/base.py does the e-stop, /cmd_vel, postures and status).
+    Its own part is Unitree's: the sport RPC (`self.sport`: Move, StopMove, Damp and the posture
+    chains), the videohub camera (`self.video`), and the robot's state, lowstate and lidar cloud
+    turned into ROS topics. The transport is Unitree's DDS protocol (RpcClient over rt/api/*) or WebRTC
+    (`self.link`, robots/go2/webrtc/transport.py: an RpcClient-shaped `sport` and the same callbacks
+    `_on_state`, `_on_lowstate`, `_on_cloud`, `_publish_camera`, fed on the driver's thread)."""
 
-class Go2DriverNode(Node):
     name = "go2"
     Config = Go2DriverConfig
+    profile = GO2
+    postures = p.POSTURES
+    estop_postures = p.ESTOP_ALLOWED
+    posture_topic = p.POSTURE_TOPIC
+    status_topic = "/go2/status"
 
     def __init__(self, config: Go2DriverConfig | None = None, **kwargs: Any) -> None:
         cfg = config if config is not None else Go2DriverConfig()
@@ -183,7 +183,12 @@ class Go2DriverNode(Node):
             kwargs["interface"] = cfg.interface
         if cfg.domain >= 0 and kwargs.get("domain_id") is None:
             kwargs["domain_id"] = cfg.domain
-        super().__init__(cfg, **kwargs)
+        super().__init__(
+            cfg,
+            held="Damp, no Move, no standing up",
+            released_note="the robot stays down until 'recover' or 'stand'",
+            **kwargs,
+        )
         self.link: Any = None  # the WebRTC transport (robots/go2/webrtc/transport.py), with transport=webrtc
         if cfg.transport == "webrtc":
             from go2vlm.robots.go2.webrtc.transport import WebRtcTransport
@@ -195,10 +200,7 @@ class Go2DriverNode(Node):
             self.sport = RpcClient(self, p.SPORT_SERVICE, timeout_s=cfg.rpc_timeout_s)
             self.video = RpcClient(self, p.VIDEO_SERVICE, timeout_s=cfg.rpc_timeout_s)
 
-        self._cmd = (0.0, 0.0, 0.0)
-        self._cmd_time = -math.inf
         self.moving = False  # a non-zero Move was sent since the last StopMove
-        self.estop = EstopLatch(cfg.release_token)
         self._damp_acked = False
         self._damp_in_flight = False
         self._damp_last_try = -math.inf
@@ -206,8 +208,6 @@ class Go2DriverNode(Node):
         self._stop_in_flight = False
         self._stop_last_try = -math.inf
         self._busy_command: str | None = None
-        self._command_seq = 0
-        self.last_command: dict[str, Any] | None = None
         self.foreign: dict[str, Any] = {"requests": 0, "writers": {}}
         self._camera_pending = False
         self._last_state_pub = -math.inf
@@ -222,7 +222,6 @@ class Go2DriverNode(Node):
         self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
         self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
         self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/go2/status", QOS_LATCHED)
         if cfg.camera_rate_hz > 0:
             self.pub_jpeg = (  # the robot's own JPEGs: videohub over DDS; WebRTC has H.264 video instead
                 self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
@@ -234,37 +233,26 @@ class Go2DriverNode(Node):
             if self.video is not None:  # over WebRTC the camera is a video track
                 self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
-        # The e-stop first: each executor pass takes it before /cmd_vel (the priority lane).
-        EstopInput(
-            self,
-            self.estop,
-            held="Damp, no Move, no standing up",
-            on_engage=self._on_estop,
-            on_release=self._on_release,
-            released_note="the robot stays down until 'recover' or 'stand'",
-        )
-        self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self._on_cmd_stop)
         dds = self.link is None  # over WebRTC the transport feeds the same methods
         if dds:
             self.create_subscription(
                 Request, p.request_topic(p.SPORT_SERVICE), self._on_sport_request, QOS_UNITREE_READER, with_sender=True
             )
         self._names = discovery_info.directory(self.participant)
-        self.create_subscription(String, "/go2/command", self._on_command, QOS_DEFAULT)
         if dds:
             self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self._last_lowstate_pub = -math.inf
         if cfg.lowstate_topic:
-            self.pub_lowstate = self.create_publisher(LowState, "/go2/lowstate", QOS_SENSOR)
+            self.pub_lowstate = self.create_publisher(LowState, self.profile.health_topic, QOS_SENSOR)
             if dds:
                 self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
         if cfg.lidar:
-            self._scan_spec, self._lidar_tfs = spec.lidar_scan_spec(), spec.lidar_transforms()
+            self._scan_spec, self._lidar_tfs = self.profile.scan_spec(), self.profile.lidar_transforms()
             self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
             if dds:
-                self.create_subscription(PointCloud2, spec.LIDAR_TOPIC, self._on_cloud, QOS_SENSOR)
+                self.create_subscription(PointCloud2, self.profile.lidar.topic, self._on_cloud, QOS_SENSOR)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
-        self.create_timer(1.0, self._status_tick)
+        self.create_timer(1.0, self.publish_status)
         if self.link is not None:
             self.link.start()  # the first connection, or a LinkError: one line, exit 2
 
@@ -272,29 +260,17 @@ class Go2DriverNode(Node):
         if self.link is not None:
             self.link.stop()
 
-    # -- inputs ------------------------------------------------------------------------------
-    def _on_cmd_vel(self, msg: Twist) -> None:
-        vals = (msg.linear.x, msg.linear.y, msg.angular.z)
-        if not all(isinstance(v, float) and math.isfinite(v) for v in vals):
-            self.count("bad_cmd_vel")
-            self.log.throttled("error", 2.0, f"rejected /cmd_vel with a non-finite value {vals}: stopping instead")
-            self._cmd, self._cmd_time = (0.0, 0.0, 0.0), self.clock.monotonic()
-            return
-        self._cmd = spec.clamp_velocity(*vals)
-        self._cmd_time = self.clock.monotonic()
-
-    def _on_cmd_stop(self, reason: str) -> None:
-        """Driving is not allowed any more (another /cmd_vel writer): stop now, not at the timeout."""
-        self._cmd, self._cmd_time = (0.0, 0.0, 0.0), self.clock.monotonic()
+    # -- the robot end's own parts (robots/base.py) --------------------------------------------
+    def on_stop(self, reason: str) -> None:
         if self.moving:
             self._stop_move()
 
-    def _on_estop(self) -> None:
+    def damp(self) -> None:
         self._damp_acked = False
         self._damp()
 
-    def _on_release(self) -> None:
-        self.cmd_vel.require_zero()
+    def posture(self, word: str) -> None:
+        self.run_command(word)
 
     def _on_sport_request(self, req: Request, sender: Endpoint | None) -> None:
         own = str(self.sport.writer_guid)
@@ -333,33 +309,11 @@ class Go2DriverNode(Node):
                 f"EMERGENCY STOP (foreign_sport=damp): Damp, no Move until {self.estop.token!r} is "
                 "published on /emergency_stop/release"
             )
-            self.estop.engage()
+            self.estop.engage(f"foreign sport controller {who} ({name})")
             self.count("estops")
         self._damp_acked = False  # damp again: the other controller may have stood it up
         if not self._damp_in_flight and self.clock.monotonic() - self._damp_last_try > RETRY_S:
             self._damp()
-
-    def _on_command(self, msg: String) -> None:
-        name = msg.data.strip().lower()
-        if name not in p.COMMANDS:
-            self.count("bad_command")
-            self.log.throttled(
-                "error", 2.0, f"unknown /go2/command {msg.data[:40]!r}; use one of {', '.join(p.COMMANDS)}"
-            )
-            self._command_done(name[:40], "unknown command")
-            return
-        if self.estop.engaged and name not in p.ESTOP_ALLOWED:
-            self.count("refused_command")
-            self.log.throttled("error", 2.0, f"refused {name!r}: emergency stop latched (release it first)")
-            self._command_done(name, "refused: emergency stop latched")
-            return
-        self.run_command(name)
-
-    def _command_done(self, name: str, result: str) -> None:
-        """Say how a /go2/command ended, on /go2/status at once (`go2vlm go2 <posture>` waits for it)."""
-        self._command_seq += 1
-        self.last_command = {"seq": self._command_seq, "name": name, "result": result}
-        self._status_tick()
 
     def run_command(self, name: str) -> None:
         """Send a posture command's API ids in order, each after the previous one answered ok."""
@@ -372,7 +326,7 @@ class Go2DriverNode(Node):
         if not api_ids:
             self._busy_command = None
             self.log.info(f"{name}: done")
-            self._command_done(name, "ok")
+            self.posture_done(name, "ok")
             return
         api = api_ids[0]
 
@@ -382,11 +336,11 @@ class Go2DriverNode(Node):
                 self.count("rpc_errors")
                 what = f"{p.SPORT_API_NAMES.get(api, api)} failed: {result.describe()}"
                 self.log.error(f"{name}: {what}")
-                self._command_done(name, what)
+                self.posture_done(name, what)
                 return
             if self.estop.engaged and name not in p.ESTOP_ALLOWED:
                 self._busy_command = None
-                self._command_done(name, "refused: emergency stop latched")
+                self.posture_done(name, "refused: emergency stop latched")
                 return  # an e-stop came in between: do not finish standing up
             self._chain(name, api_ids[1:])
 
@@ -423,11 +377,6 @@ class Go2DriverNode(Node):
         self.pub_lowstate.publish(msg)
 
     # -- motion ------------------------------------------------------------------------------
-    def current_command(self) -> tuple[float, float, float]:
-        if self.clock.monotonic() - self._cmd_time > self.config.cmd_timeout_s:
-            return (0.0, 0.0, 0.0)
-        return self._cmd
-
     def _move_tick(self) -> None:
         now = self.clock.monotonic()
         if self.estop.engaged:
@@ -435,7 +384,7 @@ class Go2DriverNode(Node):
             if not self._damp_acked and not self._damp_in_flight and retry_due:
                 self._damp()  # keep trying while the e-stop holds: it must not be lost
             return
-        cmd = self.current_command()
+        cmd = self.command()
         zero = not any(cmd)
         if zero:
             if self.moving:
@@ -513,14 +462,13 @@ class Go2DriverNode(Node):
         self.pub_imu.publish(imu)
         self.pub_tf.publish(tf)
 
-    def _status_tick(self) -> None:
+    def status(self) -> dict[str, Any]:
         s = self.state
-        status = {
+        status: dict[str, Any] = {
             "connected": self.sport.matched,
             "state_age_s": None if s is None else round(self.clock.monotonic() - self._state_time, 3),
-            "estop": self.estop.engaged,
             "moving": self.moving,
-            "command": [round(v, 3) for v in self.current_command()],
+            "command": [round(v, 3) for v in self.command()],
             "mode": None if s is None else p.SPORT_MODES.get(int(s.mode), str(int(s.mode))),
             "body_height": None if s is None else round(float(s.body_height), 3),
             "busy": self._busy_command,
@@ -528,16 +476,14 @@ class Go2DriverNode(Node):
             "stops_sent": self.stops_sent,
             "damps_sent": self.damps_sent,
             "stop_acked": self._stop_acked,
-            "commander": self.cmd_vel.status(),
             "foreign_sport": {"policy": self.config.foreign_sport, **self.foreign},
-            "last_command": self.last_command,
             "frames": self.frames,
             "errors": dict(self.counters),
             "transport": self.config.transport,
         }
         if self.link is not None:
             status["link"] = self.link.status()
-        self.pub_status.publish(String(data=json.dumps(status)))
+        return status
 
     # -- camera ------------------------------------------------------------------------------
     def _poll_camera(self) -> None:

@@ -26,7 +26,7 @@ from go2vlm.msgs.unitree import (
     ResponseHeader,
     ResponseStatus,
 )
-from go2vlm.robots.go2 import spec
+from go2vlm.robot_profile.go2 import GO2
 
 SPORT_SERVICE = "sport"
 VIDEO_SERVICE = "videohub"
@@ -232,7 +232,7 @@ def parse_move(params: Any) -> tuple[float, float, float]:
     if not isinstance(params, dict):
         raise ProtocolError(ERR_SERVER_API_PARAMETER, f"Move parameter must be a JSON object, got {params!r:.80}")
     vx, vy, vyaw = _number(params, "x"), _number(params, "y"), _number(params, "z")
-    return spec.clamp_velocity(vx, vy, vyaw)
+    return GO2.ceilings.clamp(vx, vy, vyaw)
 
 
 @dataclass(frozen=True)
@@ -258,7 +258,10 @@ def result_from_response(request_api_id: int, response: Response) -> RpcResult:
     return RpcResult(int(response.header.status.code), response.data, bytes(response.binary))
 
 
-# -- posture commands (driver topic /go2/command and `go2vlm go2 ...`) -------------------------
+# -- posture commands (/go2/command, `go2vlm go2 ...`): the one vocabulary -------------------
+# Every robot end of a Go2 (the go2 driver, the sim) takes these words on POSTURE_TOPIC, and
+# `go2vlm go2` offers exactly these verbs.
+POSTURE_TOPIC = "/go2/command"
 # name -> sequence of sport API ids sent in order, each after the previous one answered.
 # "stand" = StandUp (joints locked upright) then BalanceStand (balancing, accepts Move).
 COMMANDS: dict[str, tuple[int, ...]] = {
@@ -272,6 +275,7 @@ COMMANDS: dict[str, tuple[int, ...]] = {
     "hello": (HELLO,),
     "stop": (STOP_MOVE,),
 }
+POSTURES: tuple[str, ...] = tuple(COMMANDS)
 # Allowed while the emergency stop is latched: nothing that makes the robot stand or move.
 ESTOP_ALLOWED = frozenset({"damp", "standdown", "stop"})
 ESTOP_ALLOWED_APIS = frozenset(api for name in ESTOP_ALLOWED for api in COMMANDS[name])

@@ -52,8 +52,8 @@ from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.pointcloud import cloud_xyz
 from go2vlm.msgs.sensor_msgs import Image, PointCloud2
 from go2vlm.msgs.unitree import LowState, Request, Response, SportModeState
+from go2vlm.robot_profile import RobotProfile
 from go2vlm.robots.go2 import protocol as p
-from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.webrtc import codec
 from go2vlm.robots.go2.webrtc.link import stop_loop
 
@@ -89,11 +89,13 @@ class _Peer:
 
 
 class SimWebRtcServer:
-    """Serve the Go2's WebRTC signalling, data channel and video on `host`, relaying the sim's DDS topics."""
+    """Serve the Go2's WebRTC signalling, data channel and video on `host`, relaying the sim's DDS topics
+    (`robot`: the sim's profile, where its lowstate and lidar cloud are published)."""
 
     def __init__(
         self,
         node: Node,
+        robot: RobotProfile,
         *,
         host: str = "127.0.0.1",
         port: int = p.SIGNAL_PORT,
@@ -122,14 +124,15 @@ class SimWebRtcServer:
         self._frame_seq = 0
         self._frame_time = 0.0  # when the newest camera frame reached the server (wall)
         self._key = codec.new_robot_key()
-        self._lidar_tf = spec.lidar_transforms()[spec.LIDAR_FRAME]
+        self._lidar_frame = robot.lidar.frame
+        self._lidar_tf = robot.lidar_transforms()[robot.lidar.frame]
 
         self.pub_request = node.create_publisher(Request, p.request_topic(p.SPORT_SERVICE), QOS_UNITREE_WRITER)
         node.create_subscription(Response, p.response_topic(p.SPORT_SERVICE), self._on_response, QOS_UNITREE_READER)
         node.create_subscription(Request, p.request_topic(p.SPORT_SERVICE), self._on_dds_request, QOS_UNITREE_READER)
         node.create_subscription(SportModeState, p.SPORT_STATE_TOPIC, self._on_state, QOS_UNITREE_READER)
-        node.create_subscription(LowState, "/lowstate", self._on_lowstate, QOS_UNITREE_READER)
-        node.create_subscription(PointCloud2, spec.LIDAR_TOPIC, self._on_cloud, QOS_SENSOR)
+        node.create_subscription(LowState, robot.health_topic, self._on_lowstate, QOS_UNITREE_READER)
+        node.create_subscription(PointCloud2, robot.lidar.topic, self._on_cloud, QOS_SENSOR)
         node.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_IMAGE)
 
         self._loop = asyncio.new_event_loop()
@@ -350,7 +353,7 @@ class SimWebRtcServer:
         peer, state = self.peer, self._state
         if peer is None or not peer.validated or not peer.lidar or state is None:
             return
-        if p.RTC_LIDAR_VOXELS not in peer.topics or msg.header.frame_id != spec.LIDAR_FRAME:
+        if p.RTC_LIDAR_VOXELS not in peer.topics or msg.header.frame_id != self._lidar_frame:
             return
         base = to_base(cloud_xyz(msg), self._lidar_tf)
         base = base[np.isfinite(base).all(axis=1)]

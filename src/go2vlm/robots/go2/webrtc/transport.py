@@ -30,7 +30,6 @@ from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.msgs.pointcloud import xyz_cloud
 from go2vlm.msgs.std_msgs import Header
 from go2vlm.robots.go2 import protocol as p
-from go2vlm.robots.go2 import spec
 from go2vlm.robots.go2.client import RpcFuture
 from go2vlm.robots.go2.webrtc import codec
 from go2vlm.robots.go2.webrtc.link import BUSY, CLOSED_BY_ROBOT, Go2Link, LinkSettings
@@ -188,9 +187,10 @@ class WebRtcTransport:
         rot, pos = pose
         base = (world - pos) @ rot
         stamp = header.get("stamp")
-        cloud_header = Header(stamp=self.driver.stamp(), frame_id=spec.BASE_FRAME)
+        base_frame = self.driver.profile.frames.base
+        cloud_header = Header(stamp=self.driver.stamp(), frame_id=base_frame)
         if isinstance(stamp, (int, float)) and math.isfinite(stamp) and not self.driver.clock.sim:
-            cloud_header = Header(stamp=self.driver.stamp(float(stamp)), frame_id=spec.BASE_FRAME)
+            cloud_header = Header(stamp=self.driver.stamp(float(stamp)), frame_id=base_frame)
         cloud = xyz_cloud(cloud_header, base.astype(np.float32))
         self.node.call_soon(lambda: self.driver._on_cloud(cloud))
 
@@ -225,7 +225,7 @@ class WebRtcTransport:
             d.cmd_vel.require_zero()  # nothing from before the drop restarts the robot
             return
         d.count("link_down")
-        d._on_cmd_stop("the WebRTC link is down")
+        d.stop_now("the WebRTC link is down")
         d.moving = False
         if reason.startswith((BUSY, CLOSED_BY_ROBOT)):
             who = "another WebRTC client (the Unitree app?)"
