@@ -99,9 +99,21 @@ def go2vlm_msgs() -> dict[str, str]:
     return {f"go2vlm_msgs/msg/{f.stem}": f.read_text() for f in sorted(MSG_DIR.glob("*.msg"))}
 
 
+def go2vlm_srvs() -> dict[str, str]:
+    """go2vlm's own .srv files, split as rosidl splits a service: <Name>_Request and <Name>_Response."""
+    from go2vlm.msgs.go2vlm_msgs import SRV_DIR
+
+    out = {}
+    for f in sorted(SRV_DIR.glob("*.srv")):
+        request, response = f.read_text().split("\n---\n")
+        out[f"go2vlm_msgs/srv/{f.stem}_Request"] = request
+        out[f"go2vlm_msgs/srv/{f.stem}_Response"] = response
+    return out
+
+
 @cache
 def typestore() -> Any:
-    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS, **go2vlm_msgs()})
+    return rosbags_typestore({**VISION_MSGS, **RCL_SRVS, **go2vlm_msgs(), **go2vlm_srvs()})
 
 
 def fields_of(typename: str) -> list[tuple[str, Any]]:

@@ -2,7 +2,8 @@
 real sim graph (`--sim`: the MuJoCo sim, the target_tracker, the commander and the safety gate as real
 nodes over real DDS), judged from the sim's ground truth: the tools are listed; go_to reaches the blue
 cylinder without a collision; stop() stops the robot within 0.5 s of sim time; the deadman stops a
-goal whose agent went silent; after estop() a goal is refused and the robot stays still; bad
+goal whose agent went silent; after estop() a goal is refused and the robot stays still; where_is()
+answers from the graph's object memory, within 0.3 m of the truth; bad
 arguments are tool errors that say why and move nothing; off loopback HTTP needs the token."""
 
 from __future__ import annotations
@@ -83,6 +84,14 @@ def test_stdio_lists_the_tools_refuses_bad_arguments_and_drives_to_the_blue_cyli
                     break
                 await anyio.sleep(1.0)
             assert state == "reached", state
+            # where_is answers from the graph's real object_memory (/objects, frame odom = the world's)
+            got = data(await client.call_tool("where_is", {"object": "the Blue Cylinder"}))
+            assert got["remembered"] and got["frame"] == "odom", got
+            place = got["places"][0]
+            cyl = shapes["blue_cylinder"]
+            assert ((place["x"] - cyl.x) ** 2 + (place["y"] - cyl.y) ** 2) ** 0.5 <= 0.3, (place, cyl)
+            missing = data(await client.call_tool("where_is", {"object": "yellow ball"}))
+            assert missing["answer"] == "not remembered" and "blue cylinder" in missing["remembered_objects"]
 
     try:
         anyio.run(main)
@@ -294,61 +303,12 @@ def test_confirm_waits_for_a_person_at_the_terminal_or_on_the_bus(procs: Procs) 
             p.stdin.close()
 
 
-def test_where_is_answers_from_the_object_memory(procs: Procs) -> None:
-    """No object_memory node on this branch yet: the test publishes its contract itself (latched
-    vision_msgs/Detection3DArray on /objects, frame odom)."""
-    from go2vlm.bus import QOS_LATCHED, Node
-    from go2vlm.msgs.geometry_msgs import Point, Pose
-    from go2vlm.msgs.std_msgs import Header
-    from go2vlm.msgs.vision_msgs import (
-        BoundingBox3D,
-        Detection3D,
-        Detection3DArray,
-        ObjectHypothesis,
-        ObjectHypothesisWithPose,
-    )
-
-    memory = Node(node_name="object_memory_stand_in")
-    pub = memory.create_publisher(Detection3DArray, "/objects", QOS_LATCHED)
-    memory.start()
-
-    def obj(label: str, score: float, x: float, y: float) -> Detection3D:
-        hyp = ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=label, score=score))
-        return Detection3D(results=[hyp], bbox=BoundingBox3D(center=Pose(position=Point(x=x, y=y, z=0.75))))
-
-    async def main() -> None:
-        async with stdio_client() as client:
-            assert "no object memory is running" in error(
-                await client.call_tool("where_is", {"object": "blue cylinder"})
-            )
-            dets = [obj("blue cylinder", 0.9, -2.0, 0.1), obj("red ball", 0.7, 2, 0)]
-            pub.publish(Detection3DArray(header=Header(frame_id="odom"), detections=dets))
-            deadline = time.monotonic() + 20
-            while True:
-                r = await client.call_tool("where_is", {"object": "the Blue Cylinder"})
-                if not r.is_error or time.monotonic() > deadline:
-                    break
-                await anyio.sleep(0.2)
-            got = data(r)
-            assert got["remembered"] and got["frame"] == "odom"
-            assert got["places"][0] == {"x": -2.0, "y": 0.1, "z": 0.75, "confidence": 0.9}
-            missing = data(await client.call_tool("where_is", {"object": "green box"}))
-            assert missing["answer"] == "not remembered" and missing["remembered_objects"] == [
-                "blue cylinder",
-                "red ball",
-            ]
-
-    try:
-        anyio.run(main)
-    finally:
-        memory.shutdown()
-
-
 def test_mcp_needs_no_robot_to_start_and_says_what_is_missing() -> None:
     async def main() -> None:
         async with stdio_client("--deadman", "5") as client:
             assert "no safety gate" in error(await client.call_tool("sit", {}))
             assert "no image on /camera/image_raw" in error(await client.call_tool("get_image", {}))
+            assert "no object memory is running" in error(await client.call_tool("where_is", {"object": "duck"}))
             described = data(await client.call_tool("describe", {}))
             assert described["vlm"] is None and described["objects"] is None
             st = data(await client.call_tool("status", {}))

@@ -9,7 +9,8 @@ import pytest
 from busutil import Recorder, wait_for
 from pipeutil import is_zero
 
-from go2vlm.behavior.follower_node import FollowerConfig, follow_command
+from go2vlm.behavior.control import follow_command
+from go2vlm.behavior.follower_node import FollowerConfig
 from go2vlm.bus import QOS_DEFAULT, Node, build_config, running
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Twist

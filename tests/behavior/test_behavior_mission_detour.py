@@ -56,7 +56,7 @@ def sighting_at(t: float, x: float, y: float, yaw: float) -> Sighting | None:
     if abs(b) >= HFOV / 2 * 0.95:
         return None
     xn = -math.tan(b) / math.tan(HFOV / 2)
-    return Sighting(t, "blue cylinder", "tracking", xn, math.hypot(dx, dy) - CYLINDER.r, "bottom", b)
+    return Sighting(t, "blue cylinder", "tracking", xn, math.hypot(dx, dy) - CYLINDER.r, "bottom", b, HFOV)
 
 
 def drive(params: MissionParams, with_scan: bool, seconds: float = 60.0) -> tuple[Mission, float, set[str], int]:

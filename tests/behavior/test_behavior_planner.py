@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from go2vlm.behavior.planner import PlannerParams, corridor_free, steer
 
 P = PlannerParams()
+W = 0.8  # the approach's turn rate ceiling
 
 
 def box(cx: float, cy: float, hx: float, hy: float) -> np.ndarray:
@@ -21,14 +22,14 @@ def box(cx: float, cy: float, hx: float, hy: float) -> np.ndarray:
 
 
 def test_free_way_passes_unchanged() -> None:
-    s = steer(0.4, 0.1, 0.4, 0.0, 3.0, box(0.0, 3.0, 0.3, 0.3), P)
+    s = steer(0.4, 0.1, 0.4, 0.0, 3.0, box(0.0, 3.0, 0.3, 0.3), P, max_angular=W)
     assert (s.vx, s.wz, s.blocked, s.note) == (0.4, 0.1, False, "")
 
 
 def test_box_in_the_way_steers_round_it() -> None:
     pts = box(1.6, 0.05, 0.2, 0.3)
     assert corridor_free(pts, 0.0, P) < P.lookahead
-    s = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P)
+    s = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, max_angular=W)
     assert s.blocked and s.note and s.heading != 0.0
     assert corridor_free(pts, s.heading, P) >= P.lookahead
     assert 0.0 < s.vx < 0.4 and s.wz * s.heading > 0  # slower, turning towards the free heading
@@ -37,32 +38,32 @@ def test_box_in_the_way_steers_round_it() -> None:
 def test_the_goal_is_not_its_own_obstacle() -> None:
     # The cylinder itself, 1.2 m ahead, with the robot to stop 0.8 m from it: no detour.
     cyl = np.array([[1.2 + 0.3 - 0.3 * math.cos(a), 0.3 * math.sin(a)] for a in np.linspace(-1.2, 1.2, 13)])
-    s = steer(0.2, 0.0, 0.2, 0.0, 1.2, cyl, P, reach_m=0.4)
+    s = steer(0.2, 0.0, 0.2, 0.0, 1.2, cyl, P, max_angular=W, reach_m=0.4)
     assert not s.blocked and (s.vx, s.wz) == (0.2, 0.0)
 
 
 def test_goal_closer_than_the_obstacle_is_not_steered() -> None:
-    s = steer(0.3, 0.0, 0.3, 0.0, 0.5, box(2.5, 0.0, 0.3, 0.3), P)
+    s = steer(0.3, 0.0, 0.3, 0.0, 0.5, box(2.5, 0.0, 0.3, 0.3), P, max_angular=W)
     assert not s.blocked
 
 
 def test_keeps_to_the_side_it_chose() -> None:
     pts = box(1.5, 0.0, 0.2, 0.3)  # dead ahead: either side is as good
-    left = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, side=1.0)
-    right = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, side=-1.0)
+    left = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, max_angular=W, side=1.0)
+    right = steer(0.0, 0.0, 0.4, 0.0, 3.5, pts, P, max_angular=W, side=-1.0)
     assert left.heading > 0 > right.heading
 
 
 def test_boxed_in_turns_in_place() -> None:
     ring = np.array([[0.9 * math.cos(a), 0.9 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
-    s = steer(0.4, 0.0, 0.4, 0.0, 3.0, ring, P)
-    assert s.blocked and s.vx == 0.0 and "no free way" in s.note and abs(s.wz) >= P.max_angular / 2
+    s = steer(0.4, 0.0, 0.4, 0.0, 3.0, ring, P, max_angular=W)
+    assert s.blocked and s.vx == 0.0 and "no free way" in s.note and abs(s.wz) >= W / 2
 
 
 def test_a_short_free_way_is_still_progress() -> None:
     # Nothing free for the 1.2 m it would like, but 0.5 m ahead-left is: creep that way, slower.
     ring = np.array([[1.2 * math.cos(a), 1.2 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
-    s = steer(0.0, 0.0, 0.4, 0.0, 3.0, ring, P)
+    s = steer(0.0, 0.0, 0.4, 0.0, 3.0, ring, P, max_angular=W)
     assert s.blocked and 0.0 < s.vx < 0.4 * 0.5
 
 
@@ -79,12 +80,12 @@ def test_a_short_free_way_is_still_progress() -> None:
 def test_never_faster_never_backwards(
     pts: list, vx: float, wz: float, speed: float, bearing: float, goal: float | None, side: float
 ) -> None:
-    s = steer(vx, wz, speed, bearing, goal, np.array(pts).reshape(-1, 2), P, side=side)
+    s = steer(vx, wz, speed, bearing, goal, np.array(pts).reshape(-1, 2), P, max_angular=W, side=side)
     if not s.blocked:
         assert (s.vx, s.wz) == (vx, wz)
     else:
         assert 0.0 <= s.vx <= speed
-        assert abs(s.wz) <= P.max_angular
+        assert abs(s.wz) <= W
         assert abs(math.remainder(s.heading - bearing, 2 * math.pi)) <= P.max_offset + 1e-9
         if s.vx > 0 and goal is None:  # it only drives along a corridor that is free
             free = corridor_free(np.array(pts).reshape(-1, 2), s.heading, P)

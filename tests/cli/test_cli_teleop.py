@@ -117,7 +117,14 @@ def test_teleop_drives_through_the_gate_and_stops(procs: Procs, term: Terminal) 
     procs.start("run", "safety", "--param", "accel_linear=100")
     probe = Probe().start()
     try:
-        assert wait_for(lambda: b"go2vlm teleop" in term.output and probe.gate.get("active") is None, 60), term.output
+        # The gate is up (its status heard); teleop may already be its active input: the terminal starts
+        # teleop before the gate, and its first (zero) command can reach the gate before the probe looks.
+        assert wait_for(
+            lambda: (
+                b"go2vlm teleop" in term.output and "estop" in probe.gate and probe.gate["active"] in (None, "teleop")
+            ),
+            60,
+        ), term.output
 
         def typing(keys: str, pred: Any, timeout: float = 15.0) -> bool:
             return wait_for(lambda: (term.type(keys), pred())[1], timeout, 0.2)

@@ -7,31 +7,14 @@ from typing import Any
 
 import pytest
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbagsutil import go2vlm_msgs
+from rosbagsutil import VISION_MSGS, go2vlm_msgs
 
 from go2vlm.msgs import REGISTRY, get_type, ros_name
 from go2vlm.msgs.msgdef import msgdef, rihs01, short_name
 
 # The packages' own .msg files (vision_msgs 4.x; unitree_ros2 with the unitree_sdk2 SportModeState).
 EXTRA_MSGS = {
-    "vision_msgs/msg/Point2D": "float64 x\nfloat64 y\n",
-    "vision_msgs/msg/Pose2D": "vision_msgs/Point2D position\nfloat64 theta\n",
-    "vision_msgs/msg/BoundingBox2D": "vision_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y\n",
-    "vision_msgs/msg/ObjectHypothesis": "string class_id\nfloat64 score\n",
-    "vision_msgs/msg/ObjectHypothesisWithPose": (
-        "vision_msgs/ObjectHypothesis hypothesis\ngeometry_msgs/PoseWithCovariance pose\n"
-    ),
-    "vision_msgs/msg/Detection2D": (
-        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
-        "vision_msgs/BoundingBox2D bbox\nstring id\n"
-    ),
-    "vision_msgs/msg/Detection2DArray": "std_msgs/Header header\nvision_msgs/Detection2D[] detections\n",
-    "vision_msgs/msg/BoundingBox3D": "geometry_msgs/Pose center\ngeometry_msgs/Vector3 size\n",
-    "vision_msgs/msg/Detection3D": (
-        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\n"
-        "vision_msgs/BoundingBox3D bbox\nstring id\n"
-    ),
-    "vision_msgs/msg/Detection3DArray": "std_msgs/Header header\nvision_msgs/Detection3D[] detections\n",
+    **VISION_MSGS,
     "unitree_api/msg/RequestIdentity": "int64 id\nint64 api_id\n",
     "unitree_api/msg/RequestLease": "int64 id\n",
     "unitree_api/msg/RequestPolicy": "int32 priority\nbool noreply\n",
@@ -107,6 +90,14 @@ def test_known_hash() -> None:
     # The hash ROS 2 Jazzy itself reports for std_msgs/msg/String (`ros2 topic info -v`).
     assert rihs01(get_type("std_msgs/msg/String")) == (
         "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+    )
+
+
+def test_tracked_target_hash() -> None:
+    # go2vlm_msgs/msg/TrackedTarget as shipped (with bearing_rad and hfov_rad): a ROS 2 peer built from an
+    # older TrackedTarget.msg reports another hash and does not match. Change it only with the .msg file.
+    assert rihs01(get_type("go2vlm_msgs/msg/TrackedTarget")) == (
+        "RIHS01_af382f7e47b48c575652af3ab476441790d38e4fce0145dd32c34a3e0010c9d3"
     )
 
 

@@ -50,6 +50,11 @@ TYPES = [
     "vision_msgs/msg/BoundingBox3D",
     "vision_msgs/msg/Detection3D",
     "vision_msgs/msg/Detection3DArray",
+    "std_msgs/msg/ColorRGBA",
+    "visualization_msgs/msg/UVCoordinate",
+    "visualization_msgs/msg/MeshFile",
+    "visualization_msgs/msg/Marker",
+    "visualization_msgs/msg/MarkerArray",
     "go2vlm_msgs/msg/TrackedTarget",
     "tf2_msgs/msg/TFMessage",
     "rosgraph_msgs/msg/Clock",
@@ -165,3 +170,14 @@ def test_tracked_target_constants_are_the_msg_files() -> None:
     assert consts == {name.upper(): state for state, name in g.STATE_NAMES.items()}
     assert consts == {"IDLE": g.IDLE, "SEARCHING": g.SEARCHING, "TRACKING": g.TRACKING, "LOST": g.LOST,
                       "UNGROUNDABLE": g.UNGROUNDABLE}  # fmt: skip
+
+
+def test_marker_constants_are_jazzys() -> None:
+    """Marker's type and action numbers are the ones in ROS 2 Jazzy's Marker.msg (rosbags' store)."""
+    from rosbagsutil import typestore
+
+    from go2vlm.msgs.visualization_msgs import Marker
+
+    consts = [(name, typ, value) for name, typ, value in typestore().fielddefs["visualization_msgs/msg/Marker"][0]]
+    assert [(n, t, v) for t, n, v in Marker.__ros_constants__] == consts  # type: ignore[attr-defined]
+    assert (Marker.CYLINDER, Marker.TEXT_VIEW_FACING, Marker.DELETEALL) == (3, 9, 3)

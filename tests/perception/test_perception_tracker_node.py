@@ -11,11 +11,14 @@ from busutil import wait_for
 from targetutil import Cam, det
 
 from go2vlm.bus import ParamError, running
+from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.launch.registry import make_node
+from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.go2vlm_msgs import LOST, SEARCHING, TRACKING, UNGROUNDABLE
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
-from go2vlm.msgs.std_msgs import String
-from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.vision_msgs import Detection2DArray, ObjectHypothesis, ObjectHypothesisWithPose, detection_boxes
+from go2vlm.perception.tracker_node import grounding_of
 
 
 def _state(cam: Cam) -> int | None:
@@ -50,6 +53,10 @@ def test_a_late_vlm_answer_is_caught_up_and_bad_inputs_are_counted() -> None:
         assert abs(m.bbox.center.position.x - 400) < 5 and abs(m.bbox.size_y - 250) < 8
         assert 0.7 < m.distance_m < 2.7 and m.range_method == "bottom"  # camera -> surface, from the CameraInfo
         assert 0.9 < m.grounding_age_s < 3.0 and m.confidence > 0.5
+        # The bearing comes from the CameraInfo (Cam: 1.274 rad wide), not from any field of view of the reader's.
+        assert m.hfov_rad == pytest.approx(1.274, abs=1e-6)
+        real = PinholeCamera.from_hfov(640, 480, 1.274)
+        assert m.bearing_rad == pytest.approx(real.bearing(m.bbox.center.position.x), abs=1e-9) and m.bearing_rad < 0
         assert cam.counter("accepted") == 1
         # The tracker follows the object (no new answer) as it moves across the image...
         cam.cx = 330
@@ -58,7 +65,7 @@ def test_a_late_vlm_answer_is_caught_up_and_bad_inputs_are_counted() -> None:
         cam.cx = None
         assert wait_for(lambda: _state(cam) == LOST, 5)
         m = cam.last()
-        assert m.bbox.size_x == 0 and m.confidence == 0 and math.isnan(m.distance_m)
+        assert m.bbox.size_x == 0 and m.confidence == 0 and math.isnan(m.distance_m) and math.isnan(m.bearing_rad)
         cam.cx = 330
         n = len(cam.tracked)
         assert wait_for(lambda: len(cam.tracked) > n + 5, 5)
@@ -100,6 +107,18 @@ def test_colour_grounding_and_an_ungroundable_query() -> None:
         cam.query.publish(String(data="person"))
         assert wait_for(lambda: _state(cam) == UNGROUNDABLE and cam.last().label == "person", 5)
         assert cam.last().bbox.size_x == 0
+
+
+def test_an_answer_counts_its_best_hypothesis_as_every_reader_does() -> None:
+    """The tracker reads a detection's label as the metrics and the memory do (msgs/vision_msgs.py)."""
+    h = Header(stamp=Time(sec=3, nanosec=0))
+    d = det("red ball", 10, 20, 110, 220, h)
+    d.results = [ObjectHypothesisWithPose(hypothesis=ObjectHypothesis("red ball", 0.2)),
+                 ObjectHypothesisWithPose(hypothesis=ObjectHypothesis("blue cylinder", 0.9))]  # fmt: skip
+    msg = Detection2DArray(header=h, detections=[d])
+    ((label, box, score),) = detection_boxes(msg)
+    assert (label, score) == ("blue cylinder", 0.9) and box == pytest.approx((10, 20, 110, 220))
+    assert grounding_of(msg).boxes == ((label, box),) and grounding_of(msg).stamp == 3.0
 
 
 def test_bad_parameters_are_clear_errors() -> None:

@@ -204,6 +204,7 @@ def test_a_late_answer_is_caught_up_to_the_present() -> None:
     assert obs.state == "tracking" and near(obs.box, obj.box(10), 2)  # where it is now, not at frame 3
     assert obs.grounding_age == pytest.approx(0.7)
     assert obs.distance is not None and obs.range_method != "none"
+    assert obs.bearing == pytest.approx(CAM.bearing((obs.box[0] + obs.box[2]) / 2))  # the box centre's, + left
 
 
 def test_an_answer_about_a_frame_not_received_yet_waits_for_it() -> None:

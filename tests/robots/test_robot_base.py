@@ -11,7 +11,8 @@ from collections.abc import Iterator
 import pytest
 from busutil import Recorder, wait_for
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, running
+from go2vlm.bus import QOS_LATCHED, Node, running
+from go2vlm.bus.topics import EMERGENCY_STOP, GO2_COMMAND
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.std_msgs import Bool, String
@@ -35,7 +36,7 @@ def test_one_posture_vocabulary() -> None:
     assert tuple(SimNode.postures) == tuple(Go2DriverNode.postures) == protocol.POSTURES == CLI_POSTURES
     assert set(sim_node.POSTURES) == set(protocol.POSTURES)
     assert SimNode.estop_postures == Go2DriverNode.estop_postures == protocol.ESTOP_ALLOWED
-    assert SimNode.posture_topic == Go2DriverNode.posture_topic == protocol.POSTURE_TOPIC
+    assert SimNode.posture_topic == Go2DriverNode.posture_topic == GO2_COMMAND
     assert issubclass(SimNode, RobotEnd) and issubclass(Go2DriverNode, RobotEnd)
 
 
@@ -49,7 +50,7 @@ def end(request: pytest.FixtureRequest) -> Iterator[tuple[RobotEnd, _Probe, Reco
     assert isinstance(node, RobotEnd)
     probe = _Probe()
     status = Recorder()
-    probe.create_subscription(String, node.status_topic, lambda m: status(json.loads(m.data)), QOS_LATCHED)
+    node.status_topic.subscription(probe, lambda m: status(json.loads(m.data)))
     with running(node, probe):
         yield node, probe, status
 
@@ -76,8 +77,8 @@ def test_the_shared_robot_end(end: tuple[RobotEnd, _Probe, Recorder]) -> None:
     assert node.command() == (0.3, 0.0, 0.0)
 
     # Postures: one vocabulary, checked the same way; the same status fields.
-    command = probe.create_publisher(String, protocol.POSTURE_TOPIC, QOS_DEFAULT)
-    estop = probe.create_publisher(Bool, "/emergency_stop", QOS_LATCHED)
+    command = GO2_COMMAND.publisher(probe)
+    estop = EMERGENCY_STOP.publisher(probe, qos=QOS_LATCHED)
     assert wait_for(lambda: command.matched > 0 and estop.matched > 0 and len(status) > 0, 20)
     for key in ("estop", "estop_why", "commander", "last_command"):
         assert key in _last(status), _last(status)

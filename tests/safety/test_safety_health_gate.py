@@ -70,6 +70,9 @@ def test_health_caps_stops_and_downs_through_the_gate() -> None:
         msgs = status.msgs()
         return json.loads(msgs[-1].data)["health"] if msgs else {}
 
+    def sampled() -> bool:
+        return health().get("motor_temp_max_c") is not None
+
     def drive_until(pred: object, timeout: float = 10.0) -> bool:
         return wait_for(lambda: (teleop.publish(Twist(linear=Vector3(x=0.4))), pred())[1], timeout, 0.05)  # type: ignore[operator]
 
@@ -77,7 +80,8 @@ def test_health_caps_stops_and_downs_through_the_gate() -> None:
     with running(io), Robot(io) as robot:
         gate = make_node("safety", params=params)
         with running(gate):
-            assert drive_until(lambda: vx() == 0.4 and health().get("level") == "ok")
+            # Level ok holds before the first state sample too (armed by it): wait for the sample.
+            assert drive_until(lambda: vx() == 0.4 and health().get("level") == "ok" and sampled())
             assert health()["motor_temp_max_c"] == 40 and health()["battery_pct"] == 90
 
             robot.temp = 95  # cap: the limit 0.5 halves, the command 0.4 is clamped to 0.25

@@ -8,13 +8,18 @@ images: the target_tracker grounds, tracks and ranges, the vlm node answers deci
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
-                                  frame; only `tracking` reports for the goal's object count
+                                  frame; only `tracking` reports for the goal's object count; their
+                                  bearing_rad and hfov_rad (from the real CameraInfo) place it
               /vlm/decision       std_msgs/String       raw VLM scene decisions (the vlm node in
                                   mode=decide), mapped onto the whitelist of behavior/decisions.py
               /scan               sensor_msgs/LaserScan  best-effort, keep-last 5 (`scan_topic`, frame
                                   base_link): obstacles for the local planner (avoid_obstacles)
               /odom               nav_msgs/Odometry     (`odom_topic`): keeps the target's last confirmed
-                                  place while a detour takes it out of view
+                                  place while a detour takes it out of view; where the robot is, for
+                                  the remembered objects
+              /objects            vision_msgs/Detection3DArray, latched (`objects_topic`): the object
+                                  memory (world/object_memory_node.py): remembered objects in the odom
+                                  frame, and (header.stamp) the newest answer it has taken in
   publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
@@ -29,7 +34,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   the source frame's header; the follower drives
               /go2/command        std_msgs/String       "sit" / "stand" (the Go2 driver / sim acts)
               /commander/status   std_msgs/String       latched JSON: goal, kind, target, state, reason,
-                                  seen, x, distance_m, range_method, tracker, cmd, decision, counters;
+                                  seen, x, distance_m, range_method, tracker, cmd, decision, counters,
+                                  basis (tracker | memory | ''), remembered (the goal's remembered object:
+                                  id, x, y, confidence, distance_m), memory (objects, answer latency);
                                   on every change and every status_period_s
 
 Goals and states
@@ -44,6 +51,17 @@ Goals and states
   The target counts only while the tracker confirms it (its newest report says tracking, younger than
   lost_timeout_s): otherwise zero at once (`lost`), then go to / look for search (turn in place
   towards where it was last seen) if search_on_loss.
+
+The world (use_memory, with an object_memory running): go to / look for use the most confident
+remembered object of the goal's label while the tracker does not confirm it: turn to it, approach
+its remembered place with the local planner once the memory is sure of it (memory_confirm_confidence),
+and stop there only when an answer about a frame taken at the stop placed it within reach (or the
+tracker confirms it); look for ends found when an answer about a frame taken facing it saw it. A goal
+for an object already remembered goes straight there. Search, with answers so slow that turning at
+search_yaw_rate would turn more than search_view_per_answer of the view between two of them: stop and
+look (hold still until an answer about a frame taken at this heading has come back, then turn
+search_step_deg at search_step_rate). The memory never commands a velocity: every
+command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
 
 Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow (follow_control=self)
 steer round what lies between the robot and the target, planner_margin_m each side of the footprint.
@@ -61,137 +79,181 @@ Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_tim
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
-search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s; goal (use
-/goal), follow_control, the topics, scan_timeout_s, camera_fovy_deg and the rates are read-only.
+search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
+settings; goal (use /goal), follow_control, the topics, scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
-from go2vlm.behavior.planner import PlannerParams
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
-from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.bus import Node, core_params, param
+from go2vlm.bus.topics import (
+    BEHAVIOR_CMD_VEL,
+    COMMANDER_STATUS,
+    DETECTED_TARGET,
+    GO2_COMMAND,
+    GOAL,
+    OBJECTS,
+    ODOM,
+    SCAN,
+    TARGET_QUERY,
+    TARGET_TRACKED,
+    VLM_DECISION,
+)
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.geometry.target import normalized_target
+from go2vlm.geometry.target import circle_target
 from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.vision_msgs import Detection3DArray
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.objects_msg import remembered
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
 MAX_IMAGE_SIDE = 100_000  # a TrackedTarget claiming a bigger image is garbage
+_MP = MissionParams()
 
 
 @dataclass
 class CommanderConfig:
+    """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
+
     goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
     follow_control: str = param(
-        "follower", choices=("follower", "self"), help="follow: /detected_target for the follower, or own control"
-    )
+        _MP.follow_control, choices=("follower", "self"),
+        help="follow: /detected_target for the follower, or own control",
+    )  # fmt: skip
     stop_distance_m: float = param(
-        0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
+        _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
     )
-    follow_distance_m: float = param(1.2, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True)
+    follow_distance_m: float = param(
+        _MP.follow_distance_m, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True
+    )
     distance_tolerance_m: float = param(
-        0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
+        _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
     )
     max_linear: float = param(
-        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+        _MP.max_linear, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
     )
-    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
-    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
-    kp_angular: float = param(1.5, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True)
-    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True)
-    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0, live=True)
-    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost", live=True)
+    max_angular: float = param(_MP.max_angular, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    kp_linear: float = param(
+        _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
+    )
+    kp_angular: float = param(
+        _MP.kp_angular, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True
+    )
+    search_yaw_rate: float = param(
+        _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
+    )
+    search_timeout_s: float = param(
+        _MP.search_timeout_s, help="give up searching after this long", min=1.0, max=600.0, live=True
+    )
+    search_on_loss: bool = param(
+        _MP.search_on_loss, help="go to / look for: search again when the target is lost", live=True
+    )
     lost_timeout_s: float = param(
-        1.0, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
+        _MP.lost_timeout_s, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
     )
     camera_forward_m: float = param(
-        spec.HEAD_CAMERA_POS[0], help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
+        _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
     )
-    camera_fovy_deg: float = param(
-        spec.HEAD_CAMERA_FOVY_DEG, help="the camera's vertical field of view: a box's bearing", min=1.0, max=170.0
+    avoid_obstacles: bool = param(
+        _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
     )
-    avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
-    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the local planner")
-    odom_topic: str = param("/odom", help="nav_msgs/Odometry: the target's place while a detour hides it")
-    scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
+    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the local planner")
+    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry: the target's place while a detour hides it")
+    scan_timeout_s: float = param(
+        _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
+    )
     planner_margin_m: float = param(
-        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
+        _MP.planner.margin, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
     )
     detour_memory_s: float = param(
-        8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
+        _MP.detour_memory_s, help="a detour out of view lasts this long after the last sighting (s)", min=0.0,
+        max=60.0, live=True,
+    )  # fmt: skip
+    use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
+    objects_topic: str = param(OBJECTS.name, help="vision_msgs/Detection3DArray: the object memory")
+    memory_min_confidence: float = param(
+        _MP.memory_min_confidence, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
     )
+    memory_confirm_confidence: float = param(
+        _MP.memory_confirm_confidence, help="... and this sure walked to", min=0.01, max=1.0, live=True
+    )
+    reach_slack_m: float = param(
+        _MP.reach_slack_m, help="a remembered place within reach: stop + tolerance + this (m)", min=0.0, max=2.0,
+        live=True,
+    )  # fmt: skip
+    confirm_looks: int = param(_MP.confirm_looks, help="answered looks without it before giving up", min=1, max=20,
+                               live=True)  # fmt: skip
+    search_step_deg: float = param(_MP.search_step_deg, help="stop and look: the turn between looks", min=5.0,
+                                   max=90.0, live=True)  # fmt: skip
+    search_view_per_answer: float = param(
+        _MP.search_view_per_answer, help="turning on would turn more of the view than this per answer: stop and look",
+        min=0.05, max=2.0, live=True,
+    )  # fmt: skip
+    search_step_rate: float = param(_MP.search_step_rate, help="stop and look: the turn between looks (rad/s)",
+                                    min=0.05, max=1.5, live=True)  # fmt: skip
+    look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
+                                 min=0.0, max=5.0, live=True)  # fmt: skip
+    look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
+                                  min=0.5, max=120.0, live=True)  # fmt: skip
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
-    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
+    decision_hold_s: float = param(
+        _MP.decision_hold_s, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True
+    )
+    decision_turn_rate: float = param(
+        _MP.decision_turn_rate, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True
+    )
     max_turn_deg: float = param(
-        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
+        _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
     )
 
     def mission_params(self) -> MissionParams:
-        return MissionParams(
-            follow_control=self.follow_control,
-            stop_distance_m=self.stop_distance_m,
-            follow_distance_m=self.follow_distance_m,
-            distance_tolerance_m=self.distance_tolerance_m,
-            max_linear=self.max_linear,
-            max_angular=self.max_angular,
-            kp_linear=self.kp_linear,
-            kp_angular=self.kp_angular,
-            search_yaw_rate=self.search_yaw_rate,
-            search_timeout_s=self.search_timeout_s,
-            search_on_loss=self.search_on_loss,
-            lost_timeout_s=self.lost_timeout_s,
-            camera_forward_m=self.camera_forward_m,
-            decision_hold_s=self.decision_hold_s,
-            decision_turn_rate=self.decision_turn_rate,
-            max_turn_deg=self.max_turn_deg,
-            avoid_obstacles=self.avoid_obstacles,
-            scan_timeout_s=self.scan_timeout_s,
-            detour_memory_s=self.detour_memory_s,
-            planner=PlannerParams(margin=self.planner_margin_m, max_angular=self.max_angular),
+        return core_params(
+            MissionParams,
+            self,
+            planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
         )
 
 
-def sighting_of(
-    msg: TrackedTarget, t: float, fovy_deg: float = spec.HEAD_CAMERA_FOVY_DEG
-) -> tuple[Sighting, str | None]:
+def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
+    hfov = float(msg.hfov_rad)  # the Mission takes only a plausible one
     state = STATE_NAMES.get(int(msg.state))
     if state is None:
-        return Sighting(t, msg.label, "lost"), f"unknown state {msg.state}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"unknown state {msg.state}"
     if state != "tracking":
-        return Sighting(t, msg.label, state), None
+        return Sighting(t, msg.label, state, hfov=hfov), None
     b, w, h = msg.bbox, int(msg.image_width), int(msg.image_height)
     vals = (b.center.position.x, b.center.position.y, b.size_x, b.size_y)
     if not all(math.isfinite(v) for v in vals) or b.size_x <= 0 or b.size_y <= 0:
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad box {vals}"
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad box {vals}"
     if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
-        return Sighting(t, msg.label, "lost"), f"a tracking report with a bad image size {w}x{h}"
-    x, _, _ = normalized_target(_xyxy(msg), w, h)
+        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad image size {w}x{h}"
+    x, _, _ = _target(msg)
     d = msg.distance_m
     distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
-    cam = PinholeCamera.from_fovy(w, h, fovy_deg)
-    bearing = -math.atan2(b.center.position.x - cam.cx, cam.fx)
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing), None
+    bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
+    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov), None
 
 
-def _xyxy(msg: TrackedTarget) -> tuple[float, float, float, float]:
+def _target(msg: TrackedTarget) -> tuple[float, float, float]:
+    """The tracked box in the /detected_target convention (geometry/target.py)."""
     b = msg.bbox
-    cx, cy = b.center.position.x, b.center.position.y
-    return cx - b.size_x / 2, cy - b.size_y / 2, cx + b.size_x / 2, cy + b.size_y / 2
+    r = max(b.size_x, b.size_y) / 2.0
+    return circle_target(b.center.position.x, b.center.position.y, r, int(msg.image_width), int(msg.image_height))
 
 
 class CommanderNode(Node):
@@ -204,16 +266,18 @@ class CommanderNode(Node):
         super().__init__(config, **kwargs)
         cfg: CommanderConfig = self.config
         self.mission = Mission(cfg.mission_params())
-        self.pub_query = self.create_publisher(String, "/target/query", QOS_LATCHED)
-        self.pub_target = self.create_publisher(PointStamped, "/detected_target", QOS_DEFAULT)
-        self.pub_cmd = self.create_publisher(Twist, "/behavior/cmd_vel", QOS_DEFAULT)
-        self.pub_go2 = self.create_publisher(String, "/go2/command", QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/commander/status", QOS_LATCHED)
-        self.create_subscription(String, "/goal", self.on_goal, QOS_DEFAULT)
-        self.create_subscription(TrackedTarget, "/target/tracked", self.on_tracked, QOS_DEFAULT)
-        self.create_subscription(String, "/vlm/decision", self.on_decision, QOS_DEFAULT)
-        self.create_subscription(LaserScan, cfg.scan_topic, self.on_scan, QOS_SENSOR)
-        self.create_subscription(Odometry, cfg.odom_topic, self.on_odom, QOS_DEFAULT)
+        self.pub_query = TARGET_QUERY.publisher(self)
+        self.pub_target = DETECTED_TARGET.publisher(self)
+        self.pub_cmd = BEHAVIOR_CMD_VEL.publisher(self)
+        self.pub_go2 = GO2_COMMAND.publisher(self)
+        self.pub_status = COMMANDER_STATUS.publisher(self)
+        GOAL.subscription(self, self.on_goal)
+        TARGET_TRACKED.subscription(self, self.on_tracked)
+        VLM_DECISION.subscription(self, self.on_decision)
+        SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
+        ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
+        OBJECTS.subscription(self, self.on_objects, name=cfg.objects_topic)
+        self._odom_frame = ""
         self._query: str | None = None
         self._tracked: TrackedTarget | None = None  # the newest report for the goal's object, not yet relayed
         self._last_key: tuple[str, str] | None = None
@@ -244,7 +308,7 @@ class CommanderNode(Node):
         self.tick()
 
     def on_tracked(self, msg: TrackedTarget) -> None:
-        sighting, bad = sighting_of(msg, self.clock.monotonic(), self.config.camera_fovy_deg)
+        sighting, bad = sighting_of(msg, self.clock.monotonic())
         if bad is not None:
             n = self.count("bad_tracked")
             self.log.throttled("error", 5.0, f"ignoring a bad /target/tracked ({n} so far): {bad}", key="tracked")
@@ -270,11 +334,24 @@ class CommanderNode(Node):
         self.mission.observe_scan(pts, now)
 
     def on_odom(self, msg: Odometry) -> None:
+        self._odom_frame = msg.header.frame_id
         pose = msg.pose.pose
         q = pose.orientation
         self.mission.observe_pose(
             pose.position.x, pose.position.y, quat_yaw(q.w, q.x, q.y, q.z), self.clock.monotonic()
         )
+
+    def on_objects(self, msg: Detection3DArray) -> None:
+        if self._odom_frame and msg.header.frame_id != self._odom_frame:
+            n = self.count("objects_wrong_frame")
+            self.log.throttled("error", 5.0, f"ignoring {self.config.objects_topic} in frame {msg.header.frame_id!r} "
+                               f"({n} so far): /odom is in {self._odom_frame!r}", key="objects")  # fmt: skip
+            return
+        shift = self.clock.monotonic() - self.clock.now()  # stamps -> this node's clock (0 on sim time)
+        objs = [dataclasses.replace(r, last_seen=r.last_seen + shift)
+                for r in map(remembered, msg.detections) if r is not None]  # fmt: skip
+        stamp = msg.header.stamp.to_sec()
+        self.mission.observe_memory(objs, stamp + shift if stamp > 0 else None, self.clock.monotonic())
 
     def on_decision(self, msg: String) -> None:
         before = self.mission.counters["decisions_rejected"]
@@ -308,7 +385,7 @@ class CommanderNode(Node):
             self.log.info(f"{self._last_key[0]} -> {intent.state}: {intent.reason}")
 
     def _relay(self, msg: TrackedTarget) -> None:
-        x, y, z = normalized_target(_xyxy(msg), int(msg.image_width), int(msg.image_height))
+        x, y, z = _target(msg)
         header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
         self.pub_target.publish(PointStamped(header=header, point=Point(x=x, y=y, z=z)))
 
@@ -335,7 +412,23 @@ class CommanderNode(Node):
             "planner": m.planner_note,
             "decision": m.last_decision,
             "counters": {**m.counters, **self.counters},
-        }
+            "basis": m.basis,
+            "remembered": self._remembered_status(now),
+            "memory": None if m.memory is None else {
+                "objects": len(m.memory),
+                "answer_latency_s": None if m.answer_latency is None else round(m.answer_latency, 3),
+            },
+        }  # fmt: skip
+
+    def _remembered_status(self, now: float) -> dict[str, Any] | None:
+        o = self.mission.target_obj
+        if o is None:
+            return None
+        rel = self.mission.relative(o, now)
+        return {
+            "id": o.id, "label": o.label, "x": round(o.x, 3), "y": round(o.y, 3),
+            "confidence": round(o.confidence, 3), "distance_m": None if rel is None else round(rel[1], 3),
+        }  # fmt: skip
 
     def publish_status(self) -> None:
         self._last_key = (self.mission.state, self.mission.reason)

@@ -6,7 +6,7 @@ Topics
   publishes   /follower/cmd_vel    geometry_msgs/Twist at rate_hz (20 Hz); the safety gate turns it
                                    into /cmd_vel
 
-Control law, per target (the article's numbers are the defaults):
+Control law, per target (behavior/control.py follow_command; the article's numbers are the defaults):
   angular.z = clamp(-kp_angular * x - kd_angular * dx/dt, +-max_angular)
   linear.x  = clamp(kp_linear * (1 - z), 0, max_linear) while |x| < align_threshold, else 0
               (forward only: it turns first, then walks)
@@ -31,10 +31,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from go2vlm.bus import QOS_DEFAULT, Node, param
+from go2vlm.behavior.control import follow_command
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import DETECTED_TARGET, FOLLOWER_CMD_VEL
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist, Vector3
 
-__all__ = ["FollowerConfig", "FollowerNode", "follow_command"]
+__all__ = ["FollowerConfig", "FollowerNode"]
 
 # Beyond these a "normalised" target is garbage, not a far-off-centre target.
 MAX_ABS_XY = 2.0
@@ -61,25 +63,14 @@ class FollowerConfig:
     )
 
 
-def _clamp(v: float, lo: float, hi: float) -> float:
-    return max(lo, min(hi, v))
-
-
-def follow_command(x: float, size: float, cfg: FollowerConfig, dx_dt: float = 0.0) -> tuple[float, float]:
-    """(linear.x, angular.z) for a target at normalised offset `x` with normalised size `size`."""
-    angular = _clamp(-cfg.kp_angular * x - cfg.kd_angular * dx_dt, -cfg.max_angular, cfg.max_angular)
-    linear = cfg.kp_linear * (1.0 - size) if abs(x) < cfg.align_threshold else 0.0
-    return _clamp(linear, 0.0, cfg.max_linear), angular
-
-
 class FollowerNode(Node):
     name = "follower"
     Config = FollowerConfig
 
     def __init__(self, config: FollowerConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
-        self.cmd_pub = self.create_publisher(Twist, "/follower/cmd_vel", QOS_DEFAULT)
-        self.create_subscription(PointStamped, "/detected_target", self.on_target, QOS_DEFAULT)
+        self.cmd_pub = FOLLOWER_CMD_VEL.publisher(self)
+        DETECTED_TARGET.subscription(self, self.on_target)
         self._last_target: float | None = None  # receive time (clock.monotonic())
         self._last_x: float | None = None
         self._goal = (0.0, 0.0)  # linear.x, angular.z from the latest target

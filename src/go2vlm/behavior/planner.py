@@ -42,8 +42,7 @@ class PlannerParams:
     side_bias: float = math.radians(15.0)  # a heading on the other side must be this much closer
     min_free: float = 0.3  # m: the shortest free way it still drives along when nothing longer is free
     goal_radius: float = 0.5  # m round the goal's surface point that is the goal itself
-    kp: float = 1.5  # rad/s per rad of heading error
-    max_angular: float = 0.8
+    kp: float = 1.5  # rad/s per rad of heading error (not the approach's kp_angular, which is per offset x)
     turn_only: float = math.radians(60.0)  # |heading| beyond which it only turns
     half_length: float = FOOTPRINT_LENGTH / 2
     half_width: float = FOOTPRINT_WIDTH / 2
@@ -57,7 +56,6 @@ class PlannerParams:
             "min_free",
             "goal_radius",
             "kp",
-            "max_angular",
             "turn_only",
         )
         for name in names:
@@ -99,6 +97,7 @@ def steer(
     points: np.ndarray,
     p: PlannerParams,
     *,
+    max_angular: float,
     reach_m: float | None = None,
     side: float = 0.0,
 ) -> Steer:
@@ -106,8 +105,8 @@ def steer(
 
     `bearing` (rad, + left) and `goal_m` (base centre -> the goal's near surface; None: unknown)
     place the goal; `reach_m` is how far the robot still has to go (default: up to the goal).
-    `speed` (>= 0) is the forward speed the approach would like on a free way; `side` (-1, 0, +1) the
-    side chosen last time."""
+    `speed` (>= 0) is the forward speed the approach would like on a free way, `max_angular` its turn
+    rate ceiling; `side` (-1, 0, +1) the side chosen last time."""
     if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
         return Steer(vx, wz, bearing, False, "")
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -129,7 +128,7 @@ def steer(
         ok = [(h, f) for h, f in free if f >= want]
         if ok:
             h, f = _wrap(ok[0][0]), ok[0][1]
-            turn = max(-p.max_angular, min(p.max_angular, p.kp * h))
+            turn = max(-max_angular, min(max_angular, p.kp * h))
             fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
             note = f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg round an obstacle"
             return Steer(fwd, turn, h, True, note)
@@ -137,7 +136,7 @@ def steer(
     # standing still facing a blocked way.
     h = _wrap(max(free, key=lambda hf: hf[1])[0])
     direction = math.copysign(1.0, h) if abs(h) > p.step else (side or 1.0)
-    turn = direction * max(min(p.max_angular, p.kp * abs(h)), p.max_angular / 2)
+    turn = direction * max(min(max_angular, p.kp * abs(h)), max_angular / 2)
     return Steer(0.0, turn, h, True, "no free way towards the goal: turning")
 
 

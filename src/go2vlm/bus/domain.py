@@ -31,6 +31,7 @@ import threading
 import time
 from collections.abc import Collection
 from pathlib import Path
+from typing import Any
 
 from cyclonedds.core import DDSException
 from cyclonedds.domain import Domain, DomainParticipant
@@ -40,7 +41,7 @@ from go2vlm.bus.params import ParamError
 
 _lock = threading.Lock()
 _participants: dict[int, tuple[DomainParticipant, Domain | None]] = {}
-_topics: dict[tuple[int, str, str], Topic] = {}
+_topics: dict[tuple[int, str, str], Topic[Any]] = {}
 
 _IFACE_RE = re.compile(r"^[A-Za-z0-9_.:\-]{1,32}$")
 
@@ -162,9 +163,9 @@ def _domain(did: int, iface: str | None) -> Domain:
         raise ParamError(f"cannot start DDS (check CYCLONEDDS_URI): {exc}") from None
 
 
-def topic(dp: DomainParticipant, name: str, msg_type: type) -> Topic:
+def topic(dp: DomainParticipant, name: str, msg_type: type) -> Topic[Any]:
     """A cached Topic, so that many nodes in one process share one DDS topic entity."""
-    key = (id(dp), name, msg_type.__idl_typename__)
+    key = (id(dp), name, msg_type.__idl_typename__)  # type: ignore[attr-defined]  # an IdlStruct class
     with _lock:
         t = _topics.get(key)
         if t is None:

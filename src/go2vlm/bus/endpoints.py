@@ -63,7 +63,7 @@ class Publisher(Generic[M]):
         self.msg_type = msg_type
         self.qos = qos
         dds_topic = domain.topic(participant, dds_name or domain.dds_topic_name(topic), msg_type)
-        self._writer: DataWriter | None = DataWriter(participant, dds_topic, qos=qos.to_dds(user_data))
+        self._writer: DataWriter[Any] | None = DataWriter(participant, dds_topic, qos=qos.to_dds(user_data))
         self.count = 0
         self._lock = threading.Lock()  # nodes publish from worker threads, and shutdown closes
 
@@ -88,14 +88,16 @@ class Publisher(Generic[M]):
     @property
     def matched(self) -> int:
         """How many readers are matched (a readiness check before publishing)."""
-        return len(self._writer.get_matched_subscriptions())
+        return len(self._writer.get_matched_subscriptions()) if self._writer is not None else 0
 
     @property
     def guid(self) -> Any:
+        if self._writer is None:
+            raise RuntimeError(f"the publisher on {self.topic} is closed")
         return self._writer.guid
 
     @property
-    def dds_writer(self) -> DataWriter | None:
+    def dds_writer(self) -> DataWriter[Any] | None:
         """The DDS writer (None after close)."""
         return self._writer
 
@@ -115,7 +117,7 @@ class Subscription(Generic[M]):
         participant: DomainParticipant,
         msg_type: type[M],
         topic: str,
-        callback: Callable[..., None],
+        callback: Callable[..., object],  # what it returns is dropped
         qos: QosProfile,
         *,
         with_sender: bool = False,
@@ -173,7 +175,7 @@ class Subscription(Generic[M]):
         return self._reader.guid
 
     @property
-    def dds_reader(self) -> DataReader:
+    def dds_reader(self) -> DataReader[Any]:
         return self._reader
 
     @property

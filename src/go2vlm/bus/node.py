@@ -52,13 +52,15 @@ from go2vlm.bus.clock import Clock
 from go2vlm.bus.endpoints import Publisher, RawSample, RawSubscription, Subscription
 from go2vlm.bus.log import Logger
 from go2vlm.bus.param_services import ParameterServer
-from go2vlm.bus.qos import QOS_CLOCK, QOS_DEFAULT, QOS_SERVICES, QosProfile
+from go2vlm.bus.qos import QOS_DEFAULT, QOS_SERVICES, QosProfile
 from go2vlm.bus.service import Service, SrvType
+from go2vlm.bus.topics import CLOCK
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
 
 M = TypeVar("M")
+S = TypeVar("S", bound=Subscription[Any])
 
 # Sim times arrive in whole nanoseconds and due times are sums of float periods: a due time within
 # this much of the clock counts as reached, so that a 50 ms timer on a 10 ms /clock fires at 0.15 s,
@@ -144,7 +146,7 @@ class Node:
         discovery_info.node_added(self)  # so `ros2 node list` sees us
         if use_sim_time and not self.provides_clock:
             # First subscription, so each executor pass takes /clock before anything else.
-            self.create_subscription(ClockMsg, "/clock", self._node_clock_msg, QOS_CLOCK)
+            CLOCK.subscription(self, self._node_clock_msg)
         # ROS 2's parameter services (~/list_parameters, ~/set_parameters, ...), as every rclcpp node
         # has them; tools (CLI helpers) turn them off as ros2cli does (start_parameter_services=False).
         self.parameter_server = ParameterServer(self) if parameter_services else None
@@ -172,7 +174,7 @@ class Node:
         self,
         msg_type: type[M],
         topic: str,
-        callback: Callable[..., None],
+        callback: Callable[..., object],
         qos: QosProfile = QOS_DEFAULT,
         *,
         with_sender: bool = False,
@@ -181,7 +183,7 @@ class Node:
         sub = Subscription(self.participant, msg_type, self.resolve(topic), callback, qos, with_sender=with_sender)
         return self._add_subscription(sub)
 
-    def _add_subscription(self, sub: Subscription[M]) -> Subscription[M]:
+    def _add_subscription(self, sub: S) -> S:
         with self._lock:
             self.subscriptions.append(sub)
             self._waitset.attach(sub.condition)
@@ -206,12 +208,12 @@ class Node:
         sub.close()
 
     def create_service(
-        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
+        self, srv_type: SrvType[Any, Any], name: str, handler: Callable[[Any], Any], qos: QosProfile = QOS_SERVICES
     ) -> Service[Any, Any]:
         """Serve `name` (`~/x` is `/<node>/x`) over DDS as rmw_cyclonedds_cpp does (bus/service.py);
         `handler(request) -> response` runs on this node's executor thread."""
         full = f"{self.fully_qualified_name}/{name[2:]}" if name.startswith("~/") else name
-        svc = Service(self, srv_type, full if full.startswith("/") else "/" + full, handler, qos)
+        svc: Service[Any, Any] = Service(self, srv_type, full if full.startswith("/") else "/" + full, handler, qos)
         # Writer first, then reader, as rmw_cyclonedds creates them.
         self._add_publisher(svc.reply_pub)
         self._add_subscription(svc.request_sub)
@@ -362,7 +364,7 @@ class Node:
         self._clock_started_seen = True
         self._jumps_seen = self.clock.jumps_back
 
-    def _call(self, fn: Callable[..., None], arg: Any, where: str, *more: Any) -> None:
+    def _call(self, fn: Callable[..., object], arg: Any, where: str, *more: Any) -> None:
         try:
             fn() if arg is None and where == "timer" else fn(arg, *more)
         except Exception as exc:

@@ -25,6 +25,7 @@ on the node's executor thread, between its callbacks, so node code needs no lock
 
 from __future__ import annotations
 
+import builtins
 import dataclasses
 import math
 import typing
@@ -223,7 +224,7 @@ def parse_value(text: str, declared: int) -> ParameterValue:
     return python_to_value(parsed)
 
 
-def describe(field: dataclasses.Field, tp: Any, read_only: bool) -> ParameterDescriptor:
+def describe(field: dataclasses.Field[Any], tp: Any, read_only: bool) -> ParameterDescriptor:
     kind, is_yaml = param_kind(tp)
     meta = field.metadata
     notes = []
@@ -274,7 +275,7 @@ class ParamHost(Protocol):
     def stamp(self, t: float | None = None) -> Time: ...
     def create_publisher(self, msg_type: type[M], topic: str, qos: QosProfile = ...) -> Publisher[M]: ...
     def create_service(
-        self, srv_type: SrvType, name: str, handler: Callable[[Any], Any], qos: QosProfile = ...
+        self, srv_type: SrvType[Any, Any], name: str, handler: Callable[[Any], Any], qos: QosProfile = ...
     ) -> Service[Any, Any]: ...
 
 
@@ -288,7 +289,9 @@ class ParameterServer:
         hints = typing.get_type_hints(cfg_cls) if own else {}
         base_hints = typing.get_type_hints(NodeParams)
         # name -> (field, annotated type, is a base parameter)
-        self.fields: dict[str, tuple[dataclasses.Field, Any, bool]] = {f.name: (f, hints[f.name], False) for f in own}
+        self.fields: dict[str, tuple[dataclasses.Field[Any], Any, bool]] = {
+            f.name: (f, hints[f.name], False) for f in own
+        }
         for f in dataclasses.fields(NodeParams):
             self.fields[f.name] = (f, base_hints[f.name], True)
         self.events = node.create_publisher(ParameterEvent, "/parameter_events", QOS_PARAMETERS)
@@ -433,28 +436,28 @@ class ParameterClient:
             hint = "is the node running, on this domain and network interface?"
             raise ServiceError(f"node {self.node}: {exc} ({hint})") from None
 
-    def list(self) -> list[str]:
+    def list(self) -> builtins.list[str]:
         return list(self._call("list_parameters", rcl.ListParameters_Request()).result.names)
 
-    def _known(self, names: list[str], got: list[Any]) -> list[Any]:
+    def _known(self, names: builtins.list[str], got: builtins.list[Any]) -> builtins.list[Any]:
         if len(got) != len(names):  # an unknown name empties the whole answer (rclcpp does the same)
             declared = set(self.list())
             missing = [n for n in names if n not in declared] or names
             raise ParamError(f"node {self.node} does not declare parameter(s) {', '.join(map(repr, missing))}")
         return got
 
-    def get(self, names: list[str]) -> list[ParameterValue]:
+    def get(self, names: builtins.list[str]) -> builtins.list[ParameterValue]:
         return self._known(names, list(self._call("get_parameters", rcl.GetParameters_Request(names=names)).values))
 
-    def describe(self, names: list[str]) -> list[ParameterDescriptor]:
+    def describe(self, names: builtins.list[str]) -> builtins.list[ParameterDescriptor]:
         resp = self._call("describe_parameters", rcl.DescribeParameters_Request(names=names))
         return self._known(names, list(resp.descriptors))
 
-    def types(self, names: list[str]) -> list[int]:
+    def types(self, names: builtins.list[str]) -> builtins.list[int]:
         resp = self._call("get_parameter_types", rcl.GetParameterTypes_Request(names=names))
         return self._known(names, list(resp.types))
 
-    def set(self, values: dict[str, ParameterValue]) -> list[SetParametersResult]:
+    def set(self, values: dict[str, ParameterValue]) -> builtins.list[SetParametersResult]:
         params = [Parameter(name=n, value=v) for n, v in values.items()]
         return list(self._call("set_parameters", rcl.SetParameters_Request(parameters=params)).results)
 

@@ -7,6 +7,18 @@ for every change at runtime (bus/param_services.py; only parameters declared `li
         kp_angular: float = param(0.8, help="P gain on the horizontal error", min=0.0)
 
 A bad value is a `ParamError` naming the node, the parameter, the value and what was expected.
+
+A node over a pure core takes each default from the core's params dataclass, so that it is written
+once, and builds the core's params from its config with `core_params`:
+
+    _MP = MissionParams()
+
+    @dataclass
+    class CommanderConfig:
+        kp_angular: float = param(_MP.kp_angular, help="...", min=0.0, live=True)
+
+        def mission_params(self) -> MissionParams:
+            return core_params(MissionParams, self, planner=PlannerParams(margin=self.planner_margin_m))
 """
 
 from __future__ import annotations
@@ -17,7 +29,7 @@ import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import yaml
 
@@ -29,11 +41,15 @@ __all__ = [
     "ParamError",
     "build_config",
     "build_node_config",
+    "core_params",
     "describe_params",
     "load_params_file",
     "param",
     "parse_overrides",
 ]
+
+
+T = TypeVar("T")
 
 
 class ParamError(ConfigError):
@@ -160,7 +176,7 @@ def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
 
 
-def _validate(field: dataclasses.Field, value: Any, where: str) -> None:
+def _validate(field: dataclasses.Field[Any], value: Any, where: str) -> None:
     meta = field.metadata
     choices, lo, hi = meta.get("choices"), meta.get("min"), meta.get("max")
     if choices is not None and value is not None and value not in choices:
@@ -228,6 +244,16 @@ def build_node_config(config_cls: type, values: Mapping[str, Any], node: str = "
     own = {k: v for k, v in values.items() if k not in BASE_PARAMS}
     base = {k: v for k, v in values.items() if k in BASE_PARAMS}
     return build_config(config_cls, own, node, also_known=BASE_PARAMS), build_config(NodeParams, base, node)
+
+
+def core_params(core_cls: type[T], config: Any, **given: Any) -> T:
+    """An instance of a pure core's params dataclass from a node's config: every field of the core that
+    the config has under the same name, then `given` (what the node names or derives differently)."""
+    own = {f.name for f in dataclasses.fields(config)}
+    core_fields = dataclasses.fields(core_cls)  # type: ignore[arg-type]  # T is a dataclass by contract
+    values = {f.name: getattr(config, f.name) for f in core_fields if f.init and f.name in own}
+    values.update(given)
+    return core_cls(**values)
 
 
 def load_params_file(path: str | Path, node: str) -> dict[str, Any]:

@@ -52,6 +52,9 @@ QOS_ANY = QosProfile(reliable=False, transient_local=False, depth=10)
 # /clock as rclcpp reads it (ClockQoS): best-effort matches any publisher, and keep-last 1 because
 # only the newest time matters.
 QOS_CLOCK = QosProfile(reliable=False, transient_local=False, depth=1)
+# /safety/heartbeat's readers: heartbeats are latched (a late robot end hears every live gate's);
+# each gate's arrive in one keyless instance, so the reader keeps a deep history to hear every gate's.
+QOS_HEARTBEAT_READER = QosProfile(reliable=True, transient_local=True, depth=32)
 # Camera images: reliable, so both reliable and best-effort (sensor-QoS) readers match; depth 2
 # keeps a slow reader from holding more than two frames.
 QOS_IMAGE = QosProfile(reliable=True, transient_local=False, depth=2)

@@ -71,6 +71,8 @@ __all__ = [
 
 Req = TypeVar("Req")
 Resp = TypeVar("Resp")
+ReqT_co = TypeVar("ReqT_co", covariant=True)
+RespT_co = TypeVar("RespT_co", covariant=True)
 
 # The request header's fields in our flat declaration of the wrapper (names are ours; only the
 # layout is on the wire).
@@ -82,12 +84,16 @@ SEQ_FIELD = "cdds_request_seq"
 REPLY_WAIT_S = 1.0
 
 
-class SrvType(Protocol):
+class SrvType(Protocol[ReqT_co, RespT_co]):
     """A service type as msgs/ declares one: `NAME`, `Request`, `Response` (like rclpy's)."""
 
-    NAME: str
-    Request: type
-    Response: type
+    # Read-only, so that a class with these class attributes (msgs/) is one.
+    @property
+    def NAME(self) -> str: ...
+    @property
+    def Request(self) -> type[ReqT_co]: ...
+    @property
+    def Response(self) -> type[RespT_co]: ...
 
 
 class ServiceHost(Protocol):
@@ -113,8 +119,13 @@ def reply_topic(service: str) -> str:
     return "rr" + domain.dds_topic_name(service)[2:] + "Reply"
 
 
-@cache
 def wire_type(cls: type) -> type:
+    """`cls` with rmw_cyclonedds' request header in front (see `_wire_type`)."""
+    return _wire_type(cls)  # uncached here: mypy reads a type[X] argument of a cached function as unhashable
+
+
+@cache
+def _wire_type(cls: type) -> type:
     """`cls` with rmw_cyclonedds' request header (uint64 guid, int64 seq) in front of its fields, under
     `cls`'s own DDS type name: what a service request or reply is on the wire. A flat struct rather
     than {header; body}: a nested struct of the same type name would look recursive to XTypes."""
@@ -146,7 +157,7 @@ def wrap(msg: Any, guid: int, seq: int) -> Any:
 
 def unwrap(sample: Any, cls: type[Req]) -> tuple[int, int, Req]:
     """(guid, seq, message) from a wire sample."""
-    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    values = {f.name: getattr(sample, f.name) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]  # an IdlStruct is a dataclass
     return getattr(sample, GUID_FIELD), getattr(sample, SEQ_FIELD), cls(**values)
 
 
@@ -195,9 +206,9 @@ class Service(Generic[Req, Resp]):
     def __init__(
         self,
         node: ServiceHost,
-        srv_type: SrvType,
+        srv_type: SrvType[Req, Resp],
         name: str,
-        handler: Callable[[Any], Any],
+        handler: Callable[[Req], Resp],
         qos: QosProfile = QOS_SERVICES,
     ) -> None:
         self.node = node
@@ -207,10 +218,10 @@ class Service(Generic[Req, Resp]):
         self.id = endpoint_id(node.participant)
         user_data = f"serviceid={self.id};"
         self._pending: list[_Reply] = []
-        self.reply_pub = Publisher(
+        self.reply_pub: Publisher[Any] = Publisher(
             node.participant, wire_type(srv_type.Response), name, qos, dds_name=reply_topic(name), user_data=user_data
         )
-        self.request_sub = Subscription(
+        self.request_sub: Subscription[Any] = Subscription(
             node.participant,
             wire_type(srv_type.Request),
             name,
@@ -282,7 +293,7 @@ class ServiceClient(Generic[Req, Resp]):
 
     def __init__(
         self,
-        srv_type: SrvType,
+        srv_type: SrvType[Req, Resp],
         name: str,
         participant: DomainParticipant | None = None,
         qos: QosProfile = QOS_SERVICES,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Any
 
 __all__ = ["add_dds_args", "add_node_params", "non_negative", "node_params", "positive"]
 
@@ -51,11 +52,11 @@ def add_node_params(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--param", "-p", action="append", default=[], metavar="NODE.NAME=VALUE", help=help)
 
 
-def node_params(items: list[str]) -> dict[str, dict]:
+def node_params(items: list[str]) -> dict[str, dict[str, Any]]:
     """{node: {name: value}} from NODE.NAME=VALUE items; ParamError (exit 2) for a malformed one."""
     from go2vlm.bus import ParamError, parse_overrides
 
-    out: dict[str, dict] = {}
+    out: dict[str, dict[str, Any]] = {}
     for item in items:
         name, sep, value = item.partition("=")
         node, dot, pname = name.partition(".")

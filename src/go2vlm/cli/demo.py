@@ -11,7 +11,7 @@ from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "demo",
         help="the closed loop in one command: sim + color_detector + follower + safety gate",

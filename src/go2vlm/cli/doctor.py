@@ -19,6 +19,7 @@ Time here is wall time (time.monotonic): a tool's waits are for DDS discovery, n
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import socket
 import struct
@@ -66,7 +67,7 @@ class Verdict:
         return f"[{self.level:>4}] {self.check}: {self.text}{fix}"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "doctor",
         help="check the known traps (network, DDS, buffers, rendering, GPU, /cmd_vel writers)",
@@ -169,7 +170,9 @@ def check_peers(wait_s: float) -> tuple[Verdict, Verdict]:
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsParticipant, BuiltinTopicDcpsPublication
 
     from go2vlm.bus import discovery_info, domain
+    from go2vlm.bus.topics import CMD_VEL
 
+    cmd_vel = domain.dds_topic_name(CMD_VEL.name)
     dp = domain.participant()
     names = discovery_info.directory(dp)
     parts = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
@@ -182,7 +185,7 @@ def check_peers(wait_s: float) -> tuple[Verdict, Verdict]:
             if hasattr(s, "key") and s.key != dp.guid:
                 others.add(str(s.key))
         for ep in pubs.take(N=256):
-            if getattr(ep, "topic_name", None) == "rt/cmd_vel" and ep.participant_key != dp.guid:
+            if getattr(ep, "topic_name", None) == cmd_vel and ep.participant_key != dp.guid:
                 writers[str(ep.key)] = str(ep.participant_key)
         if time.monotonic() >= deadline:
             break
@@ -323,7 +326,7 @@ def run(args: argparse.Namespace) -> int:
         from go2vlm.robots.go2.webrtc.probe import probe
 
         for check, level, text, fix in probe(args.robot, args.robot_port, args.aes_key):
-            add(f"webrtc.{check}", lambda c=check, lv=level, t=text, f=fix: Verdict(f"webrtc.{c}", lv, t, f))
+            add(f"webrtc.{check}", functools.partial(Verdict, f"webrtc.{check}", level, text, fix))
     failed = [v.check for v in verdicts if v.level == FAIL]
     warned = [v.check for v in verdicts if v.level == WARN]
     if failed:

@@ -32,8 +32,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from go2vlm.bus import (
-    QOS_ANY,
-    QOS_DEFAULT,
     QOS_LATCHED,
     Endpoint,
     Node,
@@ -42,16 +40,17 @@ from go2vlm.bus import (
     interrupt_on_signals,
     signal_of,
 )
+from go2vlm.bus.topics import EMERGENCY_STOP, ESTOP_RELEASE, GO2_STATUS, SAFETY_STATUS, SIM_STATUS, TOPICS
 from go2vlm.cli.args import add_dds_args
 from go2vlm.msgs.std_msgs import Bool, String
-from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check_token
+from go2vlm.safety.estop import RELEASE_TOKEN, check_token
 
 # Who reports the e-stop, and as what.
-REPORTERS = {"/safety/status": "gate", "/go2/status": "robot (go2 driver)", "/sim/status": "robot (sim)"}
+REPORTERS = {SAFETY_STATUS.name: "gate", GO2_STATUS.name: "robot (go2 driver)", SIM_STATUS.name: "robot (sim)"}
 HOLDER_NODE = "go2vlm_estop"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "estop",
         help="hold the emergency stop (latched until `go2vlm estop --release`)",
@@ -84,9 +83,7 @@ class Reports:
         self._names = discovery_info.directory(node.participant)
         self.by_writer: dict[str, Report] = {}
         for topic in REPORTERS:
-            node.create_subscription(
-                String, topic, lambda m, s, t=topic: self._on(t, m, s), QOS_LATCHED, with_sender=True
-            )
+            TOPICS[topic].subscription(node, lambda m, s, t=topic: self._on(t, m, s), with_sender=True)
 
     def _on(self, topic: str, msg: String, sender: Endpoint | None) -> None:
         try:
@@ -159,12 +156,12 @@ def hold(node: Node, token: str, args: argparse.Namespace) -> int:
             released.set()
 
     reports = Reports(node)
-    node.create_subscription(String, RELEASE_TOPIC, on_release, QOS_ANY, with_sender=True)
-    pub = node.create_publisher(Bool, ESTOP_TOPIC, QOS_LATCHED)
+    ESTOP_RELEASE.subscription(node, on_release, with_sender=True)
+    pub = EMERGENCY_STOP.publisher(node, qos=QOS_LATCHED)  # held latched: nodes that start later hear it
     node.start()
     pub.publish(Bool(data=True))
     print(
-        f"go2vlm estop: HOLDING {ESTOP_TOPIC} = true (latched): every gate and robot end, including any that "
+        f"go2vlm estop: HOLDING {EMERGENCY_STOP.name} = true (latched): every gate and robot end, including any that "
         f"starts later, stops and stays stopped. Release with `go2vlm estop --release`.",
         flush=True,
     )
@@ -176,14 +173,14 @@ def hold(node: Node, token: str, args: argparse.Namespace) -> int:
             print(f"go2vlm estop: {now}", flush=True)
             last = now
     pub.close()  # no latched `true` left behind for late joiners
-    print(f"go2vlm estop: released by {by[0]}; no longer holding {ESTOP_TOPIC}", flush=True)
+    print(f"go2vlm estop: released by {by[0]}; no longer holding {EMERGENCY_STOP.name}", flush=True)
     return 0
 
 
 def release(node: Node, token: str, args: argparse.Namespace) -> int:
     reports = Reports(node)
-    holders = node.create_subscription(Bool, ESTOP_TOPIC, lambda _m: None, QOS_ANY)
-    pub = node.create_publisher(String, RELEASE_TOPIC, QOS_DEFAULT)
+    holders = EMERGENCY_STOP.subscription(node, lambda _m: None)
+    pub = ESTOP_RELEASE.publisher(node)
     node.start()
     deadline = time.monotonic() + args.wait
     while time.monotonic() < deadline:  # discovery: the latched statuses and the release readers
@@ -192,7 +189,7 @@ def release(node: Node, token: str, args: argparse.Namespace) -> int:
     latched = {g for g, r in before.items() if r.estop}
     sent_at = time.monotonic()
     pub.publish(String(data=token))
-    print(f"go2vlm estop: sent the release on {RELEASE_TOPIC}; {describe(before)}", flush=True)
+    print(f"go2vlm estop: sent the release on {ESTOP_RELEASE.name}; {describe(before)}", flush=True)
     deadline = sent_at + args.timeout
     next_send = sent_at + 1.0
 
@@ -208,7 +205,7 @@ def release(node: Node, token: str, args: argparse.Namespace) -> int:
     after = reports.snapshot()
     still = sorted(label(after[g]) for g in latched if g in after and after[g].estop)
     gone = sorted(label(before[g]) for g in latched if g not in after)
-    stored = release_stored(args.domain, {r.robot for r in after.values() if r.topic == "/safety/status"})
+    stored = release_stored(args.domain, {r.robot for r in after.values() if r.topic == SAFETY_STATUS.name})
     for line in stored:
         print(f"go2vlm estop: released the stored latch of {line} (no gate of it is running)", flush=True)
     if not before and stored:

@@ -10,7 +10,7 @@ from typing import Any
 from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "eval",
         help="run a suite of seeded sim episodes and report success, SPL and grounding with confidence intervals",

@@ -22,15 +22,15 @@ import time
 from typing import Any
 
 from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
+from go2vlm.bus.topics import EMERGENCY_STOP, GO2_COMMAND, GO2_STATUS, SAFETY_STATUS, TELEOP_CMD_VEL
 from go2vlm.cli.args import add_dds_args, positive
-from go2vlm.robots.go2.protocol import POSTURE_TOPIC, POSTURES
-from go2vlm.safety.estop import ESTOP_TOPIC
+from go2vlm.robots.go2.protocol import POSTURES
 
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
 MAX_MOVE_S = 10.0
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "go2",
         help="command a Go2 (or the sim) over Unitree's sport RPC",
@@ -64,8 +64,7 @@ class _Session:
     """A node with a sport client and an /emergency_stop listener, spinning in the background."""
 
     def __init__(self, args: argparse.Namespace) -> None:
-        from go2vlm.bus import QOS_LATCHED, Node
-        from go2vlm.msgs.std_msgs import String
+        from go2vlm.bus import Node
         from go2vlm.robots.go2 import protocol as p
         from go2vlm.robots.go2.client import RpcClient
         from go2vlm.safety import estop
@@ -77,16 +76,16 @@ class _Session:
         # The e-stop as the gate and the driver see it (they latch it; /emergency_stop false does
         # not release), plus the raw topic for setups without them.
         estop.listen(self.node, self._on_estop)
-        for topic in ("/safety/status", "/go2/status"):
-            self.node.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
+        for topic in (SAFETY_STATUS, GO2_STATUS):
+            topic.subscription(self.node, lambda m, t=topic.name: self._on_status(t, m))
         self.sport = RpcClient(self.node, p.SPORT_SERVICE, timeout_s=args.timeout)
-        self.command = self.node.create_publisher(String, POSTURE_TOPIC)
+        self.command = GO2_COMMAND.publisher(self.node)
         self.node.start()
         self.timeout = args.timeout
 
     def _on_estop(self, msg: Any) -> None:
         if msg.data:
-            self._estop[ESTOP_TOPIC] = True
+            self._estop[EMERGENCY_STOP.name] = True
 
     def _on_status(self, topic: str, msg: Any) -> None:
         try:
@@ -94,15 +93,15 @@ class _Session:
             self._estop[topic] = bool(status.get("estop"))
         except (ValueError, AttributeError):
             return
-        if topic == "/go2/status":
+        if topic == GO2_STATUS.name:
             self.driver = status
 
     @property
     def estop(self) -> bool:
-        statuses = [v for k, v in self._estop.items() if k != ESTOP_TOPIC]
+        statuses = [v for k, v in self._estop.items() if k != EMERGENCY_STOP.name]
         if statuses:  # the gate/driver know about releases; the raw topic keeps a stale `true`
             return any(statuses)
-        return self._estop.get(ESTOP_TOPIC, False)
+        return self._estop.get(EMERGENCY_STOP.name, False)
 
     def connect(self) -> bool:
         if self.sport.wait_for_server(self.timeout):
@@ -167,7 +166,7 @@ def cmd_posture(args: argparse.Namespace) -> int:
         if not s.connect():
             return 1
         if s.estop and args.posture not in s.p.ESTOP_ALLOWED:
-            msg = f"go2vlm go2: refused {args.posture!r}: {ESTOP_TOPIC} is latched; release it first"
+            msg = f"go2vlm go2: refused {args.posture!r}: {EMERGENCY_STOP.name} is latched; release it first"
             print(msg, file=sys.stderr)
             return 1
         if s.driver is not None:
@@ -207,7 +206,7 @@ def cmd_move(args: argparse.Namespace) -> int:
     if (vx, vy, vz) != values:
         print(f"go2vlm go2 move: clamped to the CLI limits {CLI_LIMITS}: ({vx}, {vy}, {vz})", file=sys.stderr)
     node = Node(node_name="go2_cli_teleop", domain_id=args.domain, interface=args.interface, parameter_services=False)
-    pub = node.create_publisher(Twist, "/teleop/cmd_vel")
+    pub = TELEOP_CMD_VEL.publisher(node)
     try:
         deadline = time.monotonic() + args.timeout
         while pub.matched == 0 and time.monotonic() < deadline:

@@ -37,6 +37,7 @@ COMMANDS = {
     "teleop": "go2vlm.cli.teleop",
     "doctor": "go2vlm.cli.doctor",
     "mcp": "go2vlm.cli.mcp",
+    "objects": "go2vlm.cli.objects",
 }
 
 

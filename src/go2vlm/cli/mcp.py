@@ -24,7 +24,7 @@ TOKEN_ENV = "GO2VLM_MCP_TOKEN"
 MIN_TOKEN_CHARS = 16
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "mcp",
         help="a Model Context Protocol server: an LLM agent gives the robot goals, through the safety gate",

@@ -15,7 +15,7 @@ import time
 from go2vlm.cli.args import non_negative
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("node", help="list nodes (like `ros2 node list`)")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     ls = verbs.add_parser("list", help="nodes seen on the bus")

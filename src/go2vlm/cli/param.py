@@ -25,7 +25,7 @@ import yaml
 from go2vlm.cli.args import add_dds_args, positive
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("param", help="get and set a running node's parameters (like `ros2 param`)")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
 

@@ -10,7 +10,7 @@ from go2vlm.bus import ParamError, ShutdownRequested
 from go2vlm.cli.args import add_dds_args, non_negative, positive
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "play",
         help="play a rosbag2 bag (MCAP) back onto the bus, like `ros2 bag play`",

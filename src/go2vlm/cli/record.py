@@ -5,12 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import TYPE_CHECKING
 
 from go2vlm.bus import ParamError, ShutdownRequested
 from go2vlm.cli.args import add_dds_args
 
+if TYPE_CHECKING:
+    from go2vlm.apps.bag.recorder_node import TopicStats
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "record",
         help="record topics into a rosbag2 bag (MCAP), like `ros2 bag record`",
@@ -52,7 +56,7 @@ class Progress:
         self.t0 = time.monotonic()
         self.next_line = self.t0 + 5.0
 
-    def show(self, stats: list, force: bool = False) -> None:
+    def show(self, stats: list[TopicStats], force: bool = False) -> None:
         if not self.enabled:
             return
         now = time.monotonic()

@@ -47,7 +47,7 @@ class _NodesHelp(argparse.RawDescriptionHelpFormatter):
     pass
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "run",
         help="run one node",

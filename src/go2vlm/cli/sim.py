@@ -10,14 +10,18 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import TYPE_CHECKING, cast
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
 from go2vlm.cli.args import add_dds_args
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
+if TYPE_CHECKING:
+    from go2vlm.robots.go2_sim.sim_node import SimNode
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "sim",
         help="run the simulated Go2 (MuJoCo) on ROS 2 topics",
@@ -76,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"--webrtc takes HOST:PORT, e.g. 127.0.0.1:9991, not {args.webrtc!r}")
         params.update(webrtc=True, webrtc_host=host, webrtc_port=int(port))
     params.update(parse_overrides(args.param))
-    node = make_node("sim", params=params, domain_id=args.domain, interface=args.interface)
+    node = cast("SimNode", make_node("sim", params=params, domain_id=args.domain, interface=args.interface))
     view_params = foxglove_params(args)
     view = make_view(view_params, domain_id=args.domain, interface=args.interface) if view_params else None
     stop = ShutdownRequested()

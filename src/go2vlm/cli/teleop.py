@@ -29,6 +29,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from go2vlm.bus.topics import CMD_VEL, EMERGENCY_STOP, SAFETY_STATUS, TELEOP_CMD_VEL
 from go2vlm.cli.args import add_dds_args, non_negative, positive
 from go2vlm.errors import UsageError
 
@@ -54,7 +55,7 @@ HELP = """go2vlm teleop: /teleop/cmd_vel through the safety gate
 q/z speeds +-10%  w/x linear  e/c angular  space/k stop (twice: e-stop)  ! e-stop  Ctrl-C quit"""
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "teleop",
         help="drive from the keyboard through the safety gate (like teleop_twist_keyboard)",
@@ -65,7 +66,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--turn", type=positive, default=0.5, help="yaw rate, rad/s (default 0.5)")
     p.add_argument("--rate", type=positive, default=10.0, help="publish rate, Hz (default 10)")
     p.add_argument("--key-timeout", type=non_negative, default=0.6, help="zero after S s without a key; 0 = never")
-    p.add_argument("--topic", default="/teleop/cmd_vel", help="the gate input to publish (never /cmd_vel)")
+    p.add_argument("--topic", default=TELEOP_CMD_VEL.name, help="the gate input to publish (never /cmd_vel)")
     add_dds_args(p)
     p.set_defaults(func=run)
 
@@ -117,25 +118,24 @@ def keyboard(fd: int) -> Iterator[None]:
 
 def run(args: argparse.Namespace) -> int:
     topic = args.topic if args.topic.startswith("/") else "/" + args.topic
-    if topic == "/cmd_vel":
+    if topic == CMD_VEL.name:
         raise UsageError("teleop publishes a gate input, never /cmd_vel: only the safety gate drives the robot")
     if not sys.stdin.isatty():
         raise UsageError("teleop reads the keyboard: run it in a terminal (stdin is not a TTY)")
 
-    from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, exit_code, interrupt_on_signals, signal_of
+    from go2vlm.bus import Node, exit_code, interrupt_on_signals, signal_of
     from go2vlm.msgs.geometry_msgs import Twist, Vector3
-    from go2vlm.msgs.std_msgs import Bool, String
-    from go2vlm.safety.estop import ESTOP_TOPIC
+    from go2vlm.msgs.std_msgs import Bool
 
     class _Teleop(Node):
         name = "teleop"
 
     interrupt_on_signals()
     node = _Teleop(node_name="go2vlm_teleop", domain_id=args.domain, interface=args.interface, parameter_services=False)
-    pub = node.create_publisher(Twist, topic, QOS_DEFAULT)
-    estop = node.create_publisher(Bool, ESTOP_TOPIC, QOS_DEFAULT)  # volatile: no latched sample outlives the release
+    pub = TELEOP_CMD_VEL.publisher(node, name=topic)
+    estop = EMERGENCY_STOP.publisher(node)  # volatile: no latched sample outlives the release
     gate: dict[str, Any] = {}
-    node.create_subscription(String, "/safety/status", lambda m: gate.update(json.loads(m.data)), QOS_LATCHED)
+    SAFETY_STATUS.subscription(node, lambda m: gate.update(json.loads(m.data)))
     node.start()
     pad = Teleop(args.speed, args.turn)
     fd = sys.stdin.fileno()

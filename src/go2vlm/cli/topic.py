@@ -25,7 +25,7 @@ from go2vlm.msgs import get_type, ros_name
 from go2vlm.msgs.convert import from_dict, to_dict, to_yaml_text
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("topic", help="list, echo, measure and publish topics (like `ros2 topic`)")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
 
@@ -65,7 +65,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     pb.set_defaults(func=cmd_pub)
 
 
-def lookup_type(name: str) -> type:
+def lookup_type(name: str) -> type[Any]:
     """The message class named on the command line; an unknown name is a usage error (exit 2)."""
     try:
         return get_type(name)

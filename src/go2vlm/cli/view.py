@@ -13,7 +13,7 @@ DEFAULT_PORT = 8765
 LAYOUT = "docs/foxglove/go2vlm_layout.json"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
         "view",
         help="show the robot live in Foxglove (WebSocket server, foxglove-sdk)",

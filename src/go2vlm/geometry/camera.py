@@ -66,6 +66,10 @@ class PinholeCamera:
         """Row-major 3x3 K as in sensor_msgs/CameraInfo."""
         return [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0]
 
+    def bearing(self, u: float) -> float:
+        """The horizontal bearing (rad, + left) of image column `u` from the optical axis."""
+        return math.atan2(self.cx - u, self.fx)
+
     @property
     def hfov(self) -> float:
         """Horizontal field of view, radians."""

@@ -14,6 +14,7 @@ NODES: dict[str, str] = {
     "vlm": "go2vlm.perception.vlm.vlm_node:VlmNode",
     "target_tracker": "go2vlm.perception.tracker_node:TargetTrackerNode",
     "answer_delay": "go2vlm.perception.answer_delay_node:AnswerDelayNode",
+    "object_memory": "go2vlm.world.object_memory_node:ObjectMemoryNode",
     "follower": "go2vlm.behavior.follower_node:FollowerNode",
     "commander": "go2vlm.behavior.commander_node:CommanderNode",
     "safety": "go2vlm.safety.gate_node:SafetyGateNode",

@@ -17,6 +17,7 @@ from go2vlm.msgs import (
     std_msgs,
     tf2_msgs,
     vision_msgs,
+    visualization_msgs,
 )
 from go2vlm.msgs._base import REGISTRY, IdlStruct, ros_typename
 
@@ -34,6 +35,7 @@ __all__ = [
     "std_msgs",
     "tf2_msgs",
     "vision_msgs",
+    "visualization_msgs",
 ]
 
 

@@ -34,7 +34,7 @@ def _describe_bytes_as_octet_sequence() -> None:
         return original(cls, name, octets if entity is bytes else entity, minimal)
 
     type_identifier._go2vlm_bytes = True  # type: ignore[attr-defined]
-    XTBuilder._xt_type_identifier = classmethod(type_identifier)  # type: ignore[method-assign]
+    XTBuilder._xt_type_identifier = classmethod(type_identifier)  # type: ignore[assignment]
 
 
 _describe_bytes_as_octet_sequence()

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.geometry_msgs import (
     Point,
@@ -27,17 +29,20 @@ from go2vlm.msgs.tf2_msgs import TFMessage
 
 __all__ = ["base_state_messages", "quaternion", "transform_stamped", "vector3"]
 
+# A vector given as a list or as a NumPy array (the sim's state).
+Floats = Sequence[float] | np.ndarray
 
-def vector3(v: Sequence[float]) -> Vector3:
+
+def vector3(v: Floats) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
 
-def quaternion(wxyz: Sequence[float]) -> Quaternion:
+def quaternion(wxyz: Floats) -> Quaternion:
     """From (w, x, y, z), MuJoCo's and Unitree's order."""
     return Quaternion(x=float(wxyz[1]), y=float(wxyz[2]), z=float(wxyz[3]), w=float(wxyz[0]))
 
 
-def transform_stamped(header: Header, child: str, pos: Sequence[float], wxyz: Sequence[float]) -> TransformStamped:
+def transform_stamped(header: Header, child: str, pos: Floats, wxyz: Floats) -> TransformStamped:
     return TransformStamped(header=header, child_frame_id=child, transform=Transform(vector3(pos), quaternion(wxyz)))
 
 
@@ -45,12 +50,12 @@ def base_state_messages(
     stamp: Time,
     odom_frame: str,
     base_frame: str,
-    position: Sequence[float],
-    wxyz: Sequence[float],
-    lin_vel_body: Sequence[float],
-    ang_vel_body: Sequence[float],
-    gyro: Sequence[float],
-    acc: Sequence[float],
+    position: Floats,
+    wxyz: Floats,
+    lin_vel_body: Floats,
+    ang_vel_body: Floats,
+    gyro: Floats,
+    acc: Floats,
 ) -> tuple[Odometry, Imu, TFMessage]:
     """Odometry (odom -> base, twist in the base frame), Imu (base frame) and the odom -> base TF,
     all with this stamp. Velocities are in the base frame; `wxyz` is the base orientation in odom."""

@@ -40,7 +40,7 @@ def from_dict(cls: type[IdlStruct], data: Any, where: str = "") -> Any:
     if not isinstance(data, dict):
         raise ValueError(f"{where}: expected a mapping of fields, got {data!r}")
     hints = get_extended_type_hints(cls)
-    names = {f.name for f in dataclasses.fields(cls)}
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]  # an IdlStruct is a dataclass
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"{where}: unknown field(s) {', '.join(unknown)}; fields are {', '.join(sorted(names))}")

@@ -150,7 +150,7 @@ def fields(cls: type[IdlStruct]) -> list[tuple[str, FieldType, type[IdlStruct] |
     hints = get_extended_type_hints(cls)
     owner = ros_type(cls)
     out = []
-    for f in dataclasses.fields(cls):
+    for f in dataclasses.fields(cls):  # type: ignore[arg-type]  # an IdlStruct is a dataclass
         tp = hints[f.name]
         ft = _field_type(tp, owner, f.name)
         out.append((f.name, ft, _nested_class(tp) if ft.nested else None))

@@ -9,6 +9,7 @@ length do not add up raises `ValueError` naming the fields.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from go2vlm.msgs.std_msgs import Header
 __all__ = ["MAX_POINTS", "cloud_xyz", "laser_scan", "scan_from_cloud", "xyz_cloud"]
 
 MAX_POINTS = 2_000_000  # refuse absurd headers before allocating anything
-_DTYPES = {FLOAT32: np.dtype(np.float32), FLOAT64: np.dtype(np.float64)}
+_DTYPES: dict[int, np.dtype[Any]] = {FLOAT32: np.dtype(np.float32), FLOAT64: np.dtype(np.float64)}
 
 
 def xyz_cloud(header: Header, xyz: np.ndarray, intensity: np.ndarray | None = None) -> PointCloud2:

@@ -250,7 +250,15 @@ class GetParameterTypes:
 
 
 # The services every ROS 2 node serves for its parameters: `~/<name>`, as rclcpp's ParameterService.
-PARAMETER_SERVICES = {
+PARAMETER_SERVICES: dict[
+    str,
+    type[DescribeParameters]
+    | type[GetParameterTypes]
+    | type[GetParameters]
+    | type[ListParameters]
+    | type[SetParameters]
+    | type[SetParametersAtomically],
+] = {
     "describe_parameters": DescribeParameters,
     "get_parameter_types": GetParameterTypes,
     "get_parameters": GetParameters,

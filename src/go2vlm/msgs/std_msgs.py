@@ -1,4 +1,4 @@
-"""std_msgs/msg: Header, String, Bool, Float32."""
+"""std_msgs/msg: Header, String, Bool, Float32, ColorRGBA."""
 
 from dataclasses import dataclass
 
@@ -31,3 +31,12 @@ class Bool(IdlStruct, typename="std_msgs::msg::dds_::Bool_"):
 @dataclass
 class Float32(IdlStruct, typename="std_msgs::msg::dds_::Float32_"):
     data: types.float32 = 0.0
+
+
+@register
+@dataclass
+class ColorRGBA(IdlStruct, typename="std_msgs::msg::dds_::ColorRGBA_"):
+    r: types.float32 = 0.0
+    g: types.float32 = 0.0
+    b: types.float32 = 0.0
+    a: types.float32 = 0.0

@@ -1,7 +1,13 @@
 """vision_msgs/msg (ROS 2 Jazzy, vision_msgs 4.x): Point2D, Pose2D, BoundingBox2D, ObjectHypothesis,
 ObjectHypothesisWithPose, Detection2D, Detection2DArray, BoundingBox3D, Detection3D, Detection3DArray
 (objects in the world: the object memory's /objects); and the one conversion between pixel boxes
-(label, (x1, y1, x2, y2), score) and a Detection2DArray, both ways."""
+(label, (x1, y1, x2, y2), score) and a Detection2DArray, both ways:
+
+- `bbox_2d` / `box_corners`: corners (x1, y1, x2, y2) <-> a BoundingBox2D (centre and size);
+- `best_hypothesis`: which of a detection's hypotheses counts (the best-scoring one, the first of
+  equals). Every reader of a detection's label takes it from here, so that the robot and the metrics
+  read one message alike;
+- `detection_array` / `detection_boxes`: labelled pixel boxes <-> a Detection2DArray."""
 
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -88,36 +94,52 @@ class Detection3DArray(IdlStruct, typename="vision_msgs::msg::dds_::Detection3DA
     detections: types.sequence[Detection3D] = default(list)
 
 
-PixelBox = tuple[str, tuple[float, float, float, float], float]  # label, (x1, y1, x2, y2), score
+Corners = tuple[float, float, float, float]  # x1, y1, x2, y2 in pixels
+PixelBox = tuple[str, Corners, float]  # label, (x1, y1, x2, y2), score
+
+
+def bbox_2d(box: Corners) -> BoundingBox2D:
+    """Pixel corners -> a BoundingBox2D (centre and size)."""
+    x1, y1, x2, y2 = box
+    return BoundingBox2D(
+        center=Pose2D(position=Point2D(x=(x1 + x2) / 2.0, y=(y1 + y2) / 2.0), theta=0.0),
+        size_x=float(x2 - x1),
+        size_y=float(y2 - y1),
+    )
+
+
+def box_corners(b: BoundingBox2D) -> Corners:
+    """A BoundingBox2D -> its pixel corners (x1, y1, x2, y2)."""
+    cx, cy, hw, hh = b.center.position.x, b.center.position.y, b.size_x / 2.0, b.size_y / 2.0
+    return cx - hw, cy - hh, cx + hw, cy + hh
+
+
+def best_hypothesis(results: Iterable[ObjectHypothesisWithPose]) -> ObjectHypothesis | None:
+    """The hypothesis of a detection that counts: the best-scoring one (the first of equals); None: none."""
+    best = max(results, key=lambda r: r.hypothesis.score, default=None)
+    return None if best is None else best.hypothesis
 
 
 def detection_array(header: Header, boxes: Iterable[PixelBox]) -> Detection2DArray:
     """Labelled pixel boxes -> a Detection2DArray: class_id = the label, id = the index, every
     detection with the array's header (the source image's stamp and frame)."""
-    dets = []
-    for i, (label, (x1, y1, x2, y2), score) in enumerate(boxes):
-        dets.append(
-            Detection2D(
-                header=Header(stamp=header.stamp, frame_id=header.frame_id),
-                results=[ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=label, score=float(score)))],
-                bbox=BoundingBox2D(
-                    center=Pose2D(position=Point2D(x=(x1 + x2) / 2.0, y=(y1 + y2) / 2.0), theta=0.0),
-                    size_x=float(x2 - x1),
-                    size_y=float(y2 - y1),
-                ),
-                id=str(i),
-            )
+    dets = [
+        Detection2D(
+            header=Header(stamp=header.stamp, frame_id=header.frame_id),
+            results=[ObjectHypothesisWithPose(hypothesis=ObjectHypothesis(class_id=label, score=float(score)))],
+            bbox=bbox_2d(box),
+            id=str(i),
         )
+        for i, (label, box, score) in enumerate(boxes)
+    ]
     return Detection2DArray(header=header, detections=dets)
 
 
 def detection_boxes(msg: Detection2DArray) -> list[PixelBox]:
-    """A Detection2DArray -> (label, (x1, y1, x2, y2), score) per detection (its best hypothesis)."""
+    """A Detection2DArray -> (label, (x1, y1, x2, y2), score) per detection (its best hypothesis;
+    none: label '' and score 0)."""
     out: list[PixelBox] = []
     for d in msg.detections:
-        best = max(d.results, key=lambda r: r.hypothesis.score, default=None)
-        label, score = (best.hypothesis.class_id, best.hypothesis.score) if best is not None else ("", 0.0)
-        cx, cy = d.bbox.center.position.x, d.bbox.center.position.y
-        hw, hh = d.bbox.size_x / 2.0, d.bbox.size_y / 2.0
-        out.append((label, (cx - hw, cy - hh, cx + hw, cy + hh), score))
+        h = best_hypothesis(d.results)
+        out.append(("", box_corners(d.bbox), 0.0) if h is None else (h.class_id, box_corners(d.bbox), h.score))
     return out

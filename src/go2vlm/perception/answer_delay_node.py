@@ -6,7 +6,7 @@ Topics
   publishes   <output_topic>   vision_msgs/Detection2DArray (reliable; default /vlm/detections): one frame
                                at a time, the newest when free, re-published `latency_s` after its frame's
                                stamp with that stamp (perception/answer_delay.py); the others are dropped
-              /answer_delay/status  std_msgs/String, JSON every 1 s: latency_s, counters
+              /answer_delay/status  std_msgs/String, latched JSON every 1 s: latency_s, counters
 
 Parameters
   latency_s          2.5   seconds from a frame's stamp to its answer (sim seconds with use_sim_time)
@@ -29,9 +29,10 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import ANSWER_DELAY_STATUS, SIM_DETECTIONS, VLM_DETECTIONS
 from go2vlm.msgs.std_msgs import String
-from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis
 from go2vlm.perception.answer_delay import AnswerDelay
 
 __all__ = ["AnswerDelayConfig", "AnswerDelayNode"]
@@ -40,8 +41,8 @@ __all__ = ["AnswerDelayConfig", "AnswerDelayNode"]
 @dataclass
 class AnswerDelayConfig:
     latency_s: float = param(2.5, help="seconds from a frame's stamp to its answer", min=0.0, max=60.0)
-    input_topic: str = param("/sim/detections", help="perfect answers, one per frame (vision_msgs/Detection2DArray)")
-    output_topic: str = param("/vlm/detections", help="where the delayed answers go")
+    input_topic: str = param(SIM_DETECTIONS.name, help="perfect answers, one per frame (vision_msgs/Detection2DArray)")
+    output_topic: str = param(VLM_DETECTIONS.name, help="where the delayed answers go")
     target_body: str = param("", help="only this body's boxes pass ('' = all, unchanged)")
     target_label: str = param("", help="with target_body: the label its boxes get")
     release_period_s: float = param(0.0, help="> 0: release due answers on a timer too", min=0.0, max=10.0)
@@ -55,9 +56,9 @@ class AnswerDelayNode(Node):
         super().__init__(config, **kwargs)
         cfg: AnswerDelayConfig = self.config
         self.delay: AnswerDelay[Detection2DArray] = AnswerDelay(cfg.latency_s)
-        self.pub = self.create_publisher(Detection2DArray, cfg.output_topic, QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/answer_delay/status", QOS_DEFAULT)
-        self.create_subscription(Detection2DArray, cfg.input_topic, self.on_answer, QOS_DEFAULT)
+        self.pub = VLM_DETECTIONS.publisher(self, name=cfg.output_topic)
+        self.pub_status = ANSWER_DELAY_STATUS.publisher(self)
+        SIM_DETECTIONS.subscription(self, self.on_answer, name=cfg.input_topic)
         self.create_timer(1.0, self.publish_status)
         if cfg.release_period_s > 0:
             self.create_timer(cfg.release_period_s, self.release)
@@ -66,11 +67,13 @@ class AnswerDelayNode(Node):
     def on_answer(self, msg: Detection2DArray) -> None:
         cfg: AnswerDelayConfig = self.config
         if cfg.target_body:
-            msg.detections = [
-                d for d in msg.detections if d.results and d.results[0].hypothesis.class_id == cfg.target_body
-            ]
+            kept = []
             for d in msg.detections:
-                d.results[0].hypothesis.class_id = cfg.target_label or cfg.target_body
+                h = best_hypothesis(d.results)
+                if h is not None and h.class_id == cfg.target_body:
+                    h.class_id = cfg.target_label or cfg.target_body
+                    kept.append(d)
+            msg.detections = kept
         for _, held in self.delay.offer(msg.header.stamp.to_sec(), msg):
             self.pub.publish(held)
 

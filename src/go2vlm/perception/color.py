@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -51,7 +52,10 @@ class Detection:
         return circle_target(self.cx, self.cy, self.radius, self.width, self.height)
 
 
-def _check_hsv(value: Sequence[int], what: str) -> Hsv:
+_KERNEL = np.ones((3, 3), np.uint8)  # OpenCV's default for erode and dilate
+
+
+def _check_hsv(value: Sequence[Any], what: str) -> Hsv:  # a parameter's value, checked here
     if len(value) != 3:
         raise ValueError(f"{what} {tuple(value)!r} must have 3 values (H, S, V)")
     h, s, v = (int(x) for x in value)
@@ -91,8 +95,8 @@ def color_mask(bgr: np.ndarray, ranges: Sequence[HsvRange], iterations: int = 2)
     for lo, hi in ranges[1:]:
         mask = cv2.bitwise_or(mask, cv2.inRange(hsv, lo, hi))
     if iterations > 0:
-        mask = cv2.erode(mask, None, iterations=iterations)
-        mask = cv2.dilate(mask, None, iterations=iterations)
+        mask = cv2.erode(mask, _KERNEL, iterations=iterations)
+        mask = cv2.dilate(mask, _KERNEL, iterations=iterations)
     return mask
 
 

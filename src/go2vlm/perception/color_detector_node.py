@@ -24,7 +24,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-from go2vlm.bus import QOS_SENSOR, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import CAMERA_IMAGE, COLOR_DEBUG_IMAGE, DETECTED_TARGET
 from go2vlm.msgs.geometry_msgs import Point, PointStamped
 from go2vlm.msgs.image import numpy_to_image, to_bgr
 from go2vlm.msgs.sensor_msgs import Image
@@ -65,9 +66,9 @@ class ColorDetectorNode(Node):
     def __init__(self, config: ColorDetectorConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         self._ranges = self.config.ranges()
-        self.target_pub = self.create_publisher(PointStamped, "/detected_target")
-        self.debug_pub = self.create_publisher(Image, "/color_detector/debug_image", QOS_SENSOR)
-        self.create_subscription(Image, "/camera/image_raw", self.on_image, QOS_SENSOR)
+        self.target_pub = DETECTED_TARGET.publisher(self)
+        self.debug_pub = COLOR_DEBUG_IMAGE.publisher(self)
+        CAMERA_IMAGE.subscription(self, self.on_image)
         self._debug_wanted = self.config.debug_image
         self._debug_checked = 0.0
         self.frames = 0

@@ -17,7 +17,7 @@ Distance = camera -> the object's near surface:
    the width it is reported as at distance 0 ("fills the view") -- stopping early is the safe side.
 
 The target_tracker ranges every tracked box with one `RangeEstimator` per query; behaviours add the
-camera's offset from the robot's base (behavior/approach.py turns the distance into motion).
+camera's offset from the robot's base (behavior/control.py turns the distance into motion).
 """
 
 from __future__ import annotations
@@ -25,15 +25,25 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass, field
+from typing import Any
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
 
-__all__ = ["DEFAULT_SIZES", "RangeEstimator", "RangeReading"]
+__all__ = ["DEFAULT_SIZES", "RangeEstimator", "RangeReading", "check_object_sizes"]
 
 # Sizes of the objects in vision_test (the VLM article's Gazebo world): ball radius, box face
 # width, cylinder radius.
 DEFAULT_SIZES = {"ball": 0.5, "box": 1.0, "cylinder": 0.3}
+
+
+def check_object_sizes(sizes: dict[str, Any]) -> None:
+    """ValueError unless `sizes` maps known shapes to sizes in 0.01..20 m (an `object_sizes` parameter)."""
+    for key, value in sizes.items():
+        if key not in DEFAULT_SIZES:
+            raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
+            raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
 
 
 @dataclass(frozen=True)
@@ -89,8 +99,9 @@ class RangeEstimator:
                 return RangeReading(dist, "size" if self.calibrated else "default_size")
             dist = h / math.tan(beta)
             if width_ok and shape == "cylinder":
-                s = math.sin(half)
-                self._calibrate(dist * s / max(1e-6, 1.0 - s))
+                # r = D sin(half), with D = (dist + r) / cos(bearing) the centre along its ray
+                s, cb = math.sin(half), math.cos((a1 + a2) / 2.0)
+                self._calibrate(dist * s / max(1e-6, cb - s))
             elif width_ok and shape == "box":
                 self._calibrate(dist * (math.tan(a2) - math.tan(a1)))
             return RangeReading(dist, "bottom")

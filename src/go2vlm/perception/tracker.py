@@ -88,7 +88,7 @@ class HistTracker:
         h_img, w_img = bgr.shape[:2]
         hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
         back = cv2.calcBackProject([hsv], [0, 1], self.hist, _RANGES, 1)
-        back &= self._valid_mask(hsv)
+        back &= self._valid_mask(hsv)  # type: ignore[misc]  # uint8; the stubs allow a float image
         x, y, w, h = self.window
         # Search a window grown by half its size: CamShift only climbs from where it starts.
         gx, gy = max(0, x - w // 2), max(0, y - h // 2)

@@ -8,16 +8,24 @@ Topics
                                      parameter is the query until one arrives.
               <image_topic>          sensor_msgs/Image (/camera/image_raw, sensor-data QoS)
               <camera_info_topic>    sensor_msgs/CameraInfo (/camera/camera_info, sensor-data QoS):
-                                     intrinsics for ranging; default_hfov_deg until one arrives
+                                     intrinsics for ranging and bearings; default_hfov_deg until one arrives
               /vlm/detections        vision_msgs/Detection2DArray (reliable), grounding=vlm only: the vlm
                                      node's answers (mode=detect), boxes in the image's pixels, stamped
-                                     with the frame they describe, label in results[0].hypothesis.class_id
+                                     with the frame they describe, label = each detection's best hypothesis
+                                     (msgs/vision_msgs.py best_hypothesis)
   publishes   /target/tracked        go2vlm_msgs/TrackedTarget (reliable, keep-last 10), one per camera
                                      frame: header = the frame's header; label = the query; state idle |
                                      searching | tracking | lost | ungroundable; bbox (pixels) only while
-                                     tracking; image size; confidence; distance_m (camera -> the object's
-                                     near surface, NaN unknown) and range_method; grounding_age_s (NaN
-                                     before any answer). Every behaviour reads this.
+                                     tracking; image size; confidence; bearing_rad (the box centre's, + left,
+                                     from the camera model; NaN unless tracking) and hfov_rad (that model's
+                                     field of view); distance_m (camera -> the object's near surface, NaN
+                                     unknown) and range_method; grounding_age_s (NaN before any answer).
+                                     Every behaviour reads this.
+              /target_tracker/detections  vision_msgs/Detection2DArray (reliable), grounding=color only:
+                                     the colour grounder's own answers, one per run (every frame while
+                                     searching, every reground_period_s while tracking), stamped with
+                                     the frame, the box it found for the query (label = the query) or
+                                     none: what the object memory places (world/object_memory_node.py)
               /target_tracker/status std_msgs/String, latched JSON: query, state, grounding, last_refusal,
                                      counters (refused.<reason>, accepted, tracks_lost, ...); on every
                                      state change and every status_period_s
@@ -48,103 +56,103 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import Node, core_params, param
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    TARGET_QUERY,
+    TARGET_TRACKED,
+    TRACKER_DETECTIONS,
+    TRACKER_STATUS,
+    VLM_DETECTIONS,
+)
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import camera_model, to_bgr
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
-from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
-from go2vlm.perception.ranging import DEFAULT_SIZES
+from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, bbox_2d, detection_array, detection_boxes
+from go2vlm.perception.ranging import check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
 from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
 
-TOPIC_QUERY = "/target/query"
-TOPIC_TRACKED = "/target/tracked"
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
+
+
+_TP = TrackingParams()
 
 
 @dataclass
 class TargetTrackerConfig:
+    """The target_tracker's parameters; each default the TargetTracking core knows is its TrackingParams'."""
+
     query: str = param("", help="label to track until /target/query says otherwise, e.g. 'red ball'")
-    grounding: str = param("color", choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
-    image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
-    camera_info_topic: str = param("/camera/camera_info", help="sensor_msgs/CameraInfo input")
-    reground_period_s: float = param(0.5, help="color: re-ground this often while tracking", min=0.0)
-    min_shape_score: float = param(0.35, help="color: shape score the grounder needs", min=0.0, max=1.0)
+    grounding: str = param(_TP.grounding, choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
+    camera_info_topic: str = param(CAMERA_INFO.name, help="sensor_msgs/CameraInfo input")
+    reground_period_s: float = param(_TP.reground_period_s, help="color: re-ground this often while tracking", min=0.0)
+    min_shape_score: float = param(_TP.min_shape_score, help="color: shape score the grounder needs", min=0.0, max=1.0)
     min_label_color: float = param(
-        0.15, help="an answer's box must hold this fraction of the colour its label names", min=0.0, max=1.0
+        _TP.min_label_color, help="an answer's box must hold this fraction of the colour its label names", min=0.0,
+        max=1.0,
+    )  # fmt: skip
+    max_answer_age_s: float = param(
+        _TP.max_answer_age_s, help="refuse answers about frames older than this", min=0.1, max=60.0
     )
-    max_answer_age_s: float = param(5.0, help="refuse answers about frames older than this", min=0.1, max=60.0)
     max_grounding_age_s: float = param(
-        15.0, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
+        _TP.max_grounding_age_s, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
     )
     max_unconfirmed_answers: int = param(
-        3, help="vlm: drop a track this many answers in a row did not confirm (0 = never)", min=0, max=100
+        _TP.max_unconfirmed_answers, help="vlm: drop a track this many answers in a row did not confirm (0 = never)",
+        min=0, max=100,
+    )  # fmt: skip
+    camera_height_m: float = param(_TP.camera_height_m, help="camera height above the floor (ranging)", min=0.05)
+    camera_pitch_deg: float = param(
+        math.degrees(_TP.camera_pitch_rad), help="camera pitch, + = looking down", min=-45.0, max=45.0
     )
-    camera_height_m: float = param(spec.HEAD_CAMERA_HEIGHT, help="camera height above the floor (ranging)", min=0.05)
-    camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
     default_hfov_deg: float = param(
         round(spec.head_camera_hfov_deg(640, 480), 1),
         help="horizontal FOV used until a CameraInfo arrives",
         min=10.0,
         max=170.0,
     )
-    object_sizes: dict = param(
-        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width (m)"
+    object_sizes: dict[str, float] = param(
+        _TP.object_sizes, help="ranging before calibration: ball/cylinder radius, box width (m)"
     )
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:
-        for key, value in self.object_sizes.items():
-            if key not in DEFAULT_SIZES:
-                raise ValueError(f"object_sizes: unknown shape {key!r}; use {sorted(DEFAULT_SIZES)}")
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not 0.01 <= float(value) <= 20:
-                raise ValueError(f"object_sizes[{key!r}] = {value!r} must be a number in 0.01..20 m")
+        check_object_sizes(self.object_sizes)
 
     def tracking_params(self) -> TrackingParams:
-        return TrackingParams(
-            grounding=self.grounding,
-            reground_period_s=self.reground_period_s,
-            min_shape_score=self.min_shape_score,
-            min_label_color=self.min_label_color,
-            max_answer_age_s=self.max_answer_age_s,
-            max_grounding_age_s=self.max_grounding_age_s,
-            max_unconfirmed_answers=self.max_unconfirmed_answers,
-            camera_height_m=self.camera_height_m,
+        return core_params(
+            TrackingParams,
+            self,
             camera_pitch_rad=math.radians(self.camera_pitch_deg),
             object_sizes={k: float(v) for k, v in self.object_sizes.items()},
         )
 
 
 def grounding_of(msg: Detection2DArray) -> Grounding:
-    """A Detection2DArray (centre + size) -> a Grounding (labelled x1, y1, x2, y2 boxes)."""
-    boxes = []
-    for d in msg.detections:
-        label = d.results[0].hypothesis.class_id if d.results else ""
-        b = d.bbox
-        cx, cy, sx, sy = b.center.position.x, b.center.position.y, b.size_x, b.size_y
-        boxes.append((label, (cx - sx / 2, cy - sy / 2, cx + sx / 2, cy + sy / 2)))
-    return Grounding(msg.header.stamp.to_sec(), tuple(boxes))
+    """A Detection2DArray -> a Grounding (labelled x1, y1, x2, y2 boxes)."""
+    return Grounding(msg.header.stamp.to_sec(), tuple((label, box) for label, box, _ in detection_boxes(msg)))
 
 
-def tracked_msg(obs: Observation, header: Header) -> TrackedTarget:
-    bbox = BoundingBox2D()
-    if obs.box is not None:
-        x1, y1, x2, y2 = obs.box
-        bbox = BoundingBox2D(center=Pose2D(position=Point2D(x=(x1 + x2) / 2, y=(y1 + y2) / 2)), size_x=x2 - x1,
-                             size_y=y2 - y1)  # fmt: skip
+def tracked_msg(obs: Observation, header: Header, camera: PinholeCamera) -> TrackedTarget:
+    """An Observation -> the TrackedTarget of its frame; `camera`: the frame's camera model."""
     return TrackedTarget(
         header=header,
         label=obs.label,
         state=STATE_CODES[obs.state],
-        bbox=bbox,
+        bbox=BoundingBox2D() if obs.box is None else bbox_2d(obs.box),
         image_width=obs.width,
         image_height=obs.height,
         confidence=float(obs.confidence),
+        bearing_rad=math.nan if obs.bearing is None else float(obs.bearing),
+        hfov_rad=float(camera.scaled_to(obs.width, obs.height).hfov),
         distance_m=math.nan if obs.distance is None else float(obs.distance),
         range_method=obs.range_method,
         grounding_age_s=math.nan if obs.grounding_age is None else float(obs.grounding_age),
@@ -166,13 +174,15 @@ class TargetTrackerNode(Node):
         self.frames = 0
         self.last: Observation | None = None
         self._last_status_key: tuple[str, str] | None = None
-        self.pub_tracked = self.create_publisher(TrackedTarget, TOPIC_TRACKED, QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, "/target_tracker/status", QOS_LATCHED)
-        self.create_subscription(String, TOPIC_QUERY, self.on_query, QOS_LATCHED)
-        self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
-        self.create_subscription(CameraInfo, cfg.camera_info_topic, self.on_camera_info, QOS_SENSOR)
+        self.pub_tracked = TARGET_TRACKED.publisher(self)
+        self.pub_status = TRACKER_STATUS.publisher(self)
+        TARGET_QUERY.subscription(self, self.on_query)
+        CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
+        CAMERA_INFO.subscription(self, self.on_camera_info, name=cfg.camera_info_topic)
         if cfg.grounding == "vlm":
-            self.create_subscription(Detection2DArray, "/vlm/detections", self.on_detections, QOS_DEFAULT)
+            VLM_DETECTIONS.subscription(self, self.on_detections)
+        else:
+            self.pub_answers = TRACKER_DETECTIONS.publisher(self)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.publish_status()
         self.log.info(f"grounding={cfg.grounding}, query={cfg.query!r}, listening on {self.resolve(cfg.image_topic)}")
@@ -225,7 +235,11 @@ class TargetTrackerNode(Node):
         obs = self.tracking.on_frame(header.stamp.to_sec(), bgr, cam)
         self.last = obs
         stamp = Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec)
-        self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id)))
+        self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id), cam))
+        for _, box in self.tracking.color_answers:  # the colour grounder's answers (about this frame), as a VLM's
+            h = Header(stamp=stamp, frame_id=header.frame_id)
+            self.pub_answers.publish(detection_array(h, [] if box is None else [(obs.label, box, 1.0)]))
+        self.tracking.color_answers.clear()
         self._status_if_changed()
 
     # -- status --------------------------------------------------------------------------------

@@ -28,8 +28,12 @@ Rules
   or `max_unconfirmed_answers` VLM answers in a row did not confirm it, it is `lost`: no box, never
   the last box, until an answer grounds it again. Before the first confirmed box it is `searching`.
 - A new query drops everything of the old one (track, pending answer, range calibration).
-- Ranging (perception/ranging.py) measures each tracked box; `grounding_age` is the frame's stamp
-  minus the stamp of the frame the last accepted answer described.
+- Ranging (perception/ranging.py) measures each tracked box, and the camera model (the frame's
+  CameraInfo) gives its centre's bearing; `grounding_age` is the frame's stamp minus the stamp of the
+  frame the last accepted answer described.
+- The colour grounder's own answers (`grounding="color"`: each run, the frame's stamp and the box it
+  found for the query, or None) are kept in `color_answers` until the caller takes them, so that they
+  can be published like a VLM's (the object memory places them).
 """
 
 from __future__ import annotations
@@ -138,6 +142,7 @@ class Observation:
     distance: float | None = None  # camera -> near surface (m)
     range_method: str = "none"
     grounding_age: float | None = None  # s; None before any accepted answer for this query
+    bearing: float | None = None  # the box centre's bearing from the optical axis (rad, + left); None: no camera
 
 
 @dataclass(frozen=True)
@@ -195,6 +200,7 @@ class TargetTracking:
         self._last_ground = -math.inf  # color: stamp of the last grounder run while tracking
         self._misses = 0
         self._ranger = RangeEstimator(None)
+        self.color_answers: list[tuple[float, Box | None]] = []  # (frame stamp, box or None), taken by the caller
 
     # -- inputs --------------------------------------------------------------------------------
     def set_query(self, text: str) -> None:
@@ -377,13 +383,16 @@ class TargetTracking:
         self.counters["color_groundings"] += 1
         q = self.query
         cands = ground(bgr, q.color, q.shape, min_shape_score=self.params.min_shape_score)
+        del self.color_answers[:-16]  # nobody takes them: keep only the newest
         if not cands:
+            self.color_answers.append((stamp, None))
             return  # a failed re-grounding does not drop a track the tracker still follows
         pick = cands[0]
         if self._box is not None:  # prefer the candidate that is the tracked object
             best = max(cands, key=lambda c: _iou(c.xyxy, self._box))  # type: ignore[arg-type]
             if _iou(best.xyxy, self._box) >= 0.1:
                 pick = best
+        self.color_answers.append((stamp, tuple(float(v) for v in pick.xyxy)))  # type: ignore[arg-type]
         why = self._seed(len(self._history) - 1, pick.xyxy, self._label_mask(bgr))
         if why:
             self.counters[f"refused.{why}"] += 1
@@ -396,11 +405,13 @@ class TargetTracking:
         box = self._box
         if box is None:
             return Observation(stamp, label, self.state, None, w, h, grounding_age=age)
-        distance, method = None, "none"
+        distance, method, bearing = None, "none", None
         if camera is not None:
-            reading = self._ranger.estimate(box, camera.scaled_to(w, h))
+            cam = camera.scaled_to(w, h)
+            reading = self._ranger.estimate(box, cam)
             distance, method = reading.distance, reading.method
-        return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age)
+            bearing = cam.bearing((box[0] + box[2]) / 2.0)
+        return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
 
 
 def box_fraction(mask: np.ndarray, box: Box) -> float:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from go2vlm.bus.topics import GO2_LOWSTATE, LIDAR_CLOUD, LOWSTATE
 from go2vlm.robot_profile.profile import Battery, HeadCamera, LidarMount, RobotProfile, SpeedCeilings
 
 __all__ = [
@@ -41,13 +42,13 @@ GO2 = RobotProfile(
     # on rt/utlidar/cloud, which is the ROS 2 topic /utlidar/cloud, in the lidar's frame. The mount pose
     # (the sensor looks forward and down, tilted ~165 deg about y) is the one public Go2 launch files
     # use (docs/safety.md#range-sensing).
-    lidar=LidarMount(topic="/utlidar/cloud", frame="utlidar_lidar", pos=(0.28945, 0.0, -0.046825), pitch=2.8782),
+    lidar=LidarMount(topic=LIDAR_CLOUD.name, frame="utlidar_lidar", pos=(0.28945, 0.0, -0.046825), pitch=2.8782),
     # A Go2's standard pack: 8 Li-ion cells in series (28.8 V nominal), 8000 mAh.
     battery=Battery(cells=8, wh=28.8 * 8.0),
-    health_topic="/go2/lowstate",
+    health_topic=GO2_LOWSTATE.name,
 )
 
-SIM = replace(GO2, name="sim", description="the MuJoCo Go2 (go2vlm's simulator)", health_topic="/lowstate")
+SIM = replace(GO2, name="sim", description="the MuJoCo Go2 (go2vlm's simulator)", health_topic=LOWSTATE.name)
 
 FOOTPRINT_LENGTH = GO2.footprint_length
 FOOTPRINT_WIDTH = GO2.footprint_width

@@ -37,7 +37,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import Topic
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.std_msgs import String
 from go2vlm.robot_profile import RobotProfile
@@ -72,8 +73,8 @@ class RobotEnd(Node):
     profile: ClassVar[RobotProfile]
     postures: ClassVar[Iterable[str]] = ()
     estop_postures: ClassVar[frozenset[str]] = frozenset()
-    posture_topic: ClassVar[str] = ""
-    status_topic: ClassVar[str] = ""
+    posture_topic: ClassVar[Topic[String]]  # from the topic table (bus/topics.py)
+    status_topic: ClassVar[Topic[String]]
 
     def __init__(
         self,
@@ -90,7 +91,7 @@ class RobotEnd(Node):
         self._cmd_t = -math.inf  # node-clock time of the last valid /cmd_vel
         self._command_seq = 0
         self.last_command: dict[str, Any] | None = None
-        self.pub_status = self.create_publisher(String, self.status_topic, QOS_LATCHED)
+        self.pub_status = self.status_topic.publisher(self)
         # The e-stop first: each executor pass takes it before /cmd_vel.
         self.estop = EstopLatch(self.config.release_token)
         self.estop_input = EstopInput(
@@ -103,7 +104,7 @@ class RobotEnd(Node):
         )
         self.cmd_vel = CmdVelInput(self, self._on_cmd_vel, self.stop_now)
         if take_postures:
-            self.create_subscription(String, self.posture_topic, self._on_posture, QOS_DEFAULT)
+            self.posture_topic.subscription(self, self._on_posture)
 
     # -- what a robot end implements ---------------------------------------------------------
     def damp(self) -> None:
@@ -171,7 +172,7 @@ class RobotEnd(Node):
         if word not in known:
             self.count("bad_command")
             self.log.throttled(
-                "error", 2.0, f"unknown {self.posture_topic} {msg.data[:40]!r}; use one of {', '.join(known)}"
+                "error", 2.0, f"unknown {self.posture_topic.name} {msg.data[:40]!r}; use one of {', '.join(known)}"
             )
             self.posture_done(word[:40], "unknown command")
             return

@@ -26,7 +26,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, Endpoint, QosProfile, discovery_info
+from go2vlm.bus import QOS_ANY, Endpoint, discovery_info
+from go2vlm.bus.topics import CMD_VEL, SAFETY_HEARTBEAT
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.msgs.std_msgs import String
 
@@ -43,14 +44,11 @@ __all__ = [
     "parse_heartbeat",
 ]
 
-HEARTBEAT_TOPIC = "/safety/heartbeat"
+HEARTBEAT_TOPIC = SAFETY_HEARTBEAT.name
 # A new writer may show up in discovery a moment before its gate's heartbeat: it is refused at
 # once, but reported as foreign only once it has stayed unannounced this long (wall seconds).
 ALARM_GRACE_S = 1.0
 CHECK_PERIOD_S = 0.1  # how often the matched writers are re-read (wall time: DDS discovery)
-# Heartbeats are latched (a late robot end hears every live gate's); each gate's arrive in one keyless
-# instance, so the reader keeps a deep history to hear every gate's.
-QOS_HEARTBEAT_READER = QosProfile(reliable=True, transient_local=True, depth=32)
 
 
 @dataclass(frozen=True)
@@ -197,7 +195,7 @@ class _Watch:
         self._reported: tuple[str, ...] = ()
         self._names = discovery_info.directory(node.participant)
         self._node_names: dict[str, str] = {}  # writer GUID -> node, once announced (it never changes)
-        node.create_subscription(String, HEARTBEAT_TOPIC, self._on_heartbeat, QOS_HEARTBEAT_READER)
+        SAFETY_HEARTBEAT.subscription(node, self._on_heartbeat)
         node.create_timer(CHECK_PERIOD_S, self.check, wall=True)
 
     def _on_heartbeat(self, msg: String) -> None:
@@ -257,14 +255,14 @@ class CmdVelInput:
         node: Any,
         on_cmd: Callable[[Twist], None],
         on_stop: Callable[[str], None],
-        topic: str = "/cmd_vel",
+        topic: str = CMD_VEL.name,
     ) -> None:
         self.node = node
         self._on_cmd = on_cmd
         self._on_stop = on_stop
         self.zero = ThroughZero()
         self._drove = False  # driving has been allowed once
-        self.sub = node.create_subscription(Twist, topic, self._on_msg, QOS_DEFAULT, with_sender=True)
+        self.sub = CMD_VEL.subscription(node, self._on_msg, name=topic, with_sender=True)
         self.watch = _Watch(node, self.sub, own_writer=None, on_change=self._changed)
 
     @property
@@ -309,9 +307,9 @@ class GateWatch:
     def __init__(self, node: Any, own_writer: str, topic: str, on_change: Callable[[], None]) -> None:
         self.own_writer = own_writer
         # Best-effort matches every writer; the gate takes its own samples and drops them.
-        sub = node.create_subscription(Twist, topic, lambda _m: None, QOS_ANY)
+        sub = CMD_VEL.subscription(node, lambda _m: None, name=topic, qos=QOS_ANY)
         self.watch = _Watch(node, sub, own_writer=own_writer, on_change=on_change)
-        self._heartbeat = node.create_publisher(String, HEARTBEAT_TOPIC, QOS_LATCHED)
+        self._heartbeat = SAFETY_HEARTBEAT.publisher(node)
         self._msg = heartbeat(
             discovery_info.full_name("/", discovery_info.ros_node_name(node.node_name)),
             str(node.participant.guid),

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, discovery_info
-from go2vlm.msgs.std_msgs import Bool, String
+from go2vlm.bus.topics import EMERGENCY_STOP, ESTOP_RELEASE
 
 __all__ = [
     "ESTOP_TOPIC",
@@ -49,8 +49,8 @@ __all__ = [
     "stamp_text",
 ]
 
-ESTOP_TOPIC = "/emergency_stop"
-RELEASE_TOPIC = "/emergency_stop/release"
+ESTOP_TOPIC = EMERGENCY_STOP.name
+RELEASE_TOPIC = ESTOP_RELEASE.name
 RELEASE_TOKEN = "RELEASE"
 RELEASE_COMMAND = "go2vlm estop --release"  # the deliberate release, as a person types it
 
@@ -119,10 +119,10 @@ def listen(
     """Subscribe `node` to the e-stop (and the release) with every QoS a sender may use;
     `with_sender`: the callbacks get (msg, sender Endpoint or None)."""
     for qos in (QOS_LATCHED, QOS_DEFAULT, QOS_ANY):
-        node.create_subscription(Bool, ESTOP_TOPIC, on_estop, qos, with_sender=with_sender)
+        EMERGENCY_STOP.subscription(node, on_estop, qos=qos, with_sender=with_sender)
     if on_release is not None:
         for qos in (QOS_DEFAULT, QOS_ANY):
-            node.create_subscription(String, RELEASE_TOPIC, on_release, qos, with_sender=with_sender)
+            ESTOP_RELEASE.subscription(node, on_release, qos=qos, with_sender=with_sender)
 
 
 def latch_path(robot: str, domain_id: int) -> Path:
@@ -342,7 +342,7 @@ def find_latch(
             heard.append((getattr(getattr(msg, "sample_info", None), "source_timestamp", 0) or 0, sender))
             got.set()
 
-    node.create_subscription(Bool, ESTOP_TOPIC, on_estop, QOS_LATCHED, with_sender=True)
+    EMERGENCY_STOP.subscription(node, on_estop, qos=QOS_LATCHED, with_sender=True)  # the held, latched one
     node.start()
     try:
         if not got.wait(wait_s):  # wall time: DDS discovery of a holder

@@ -87,8 +87,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import QOS_ANY, Node, param
 from go2vlm.bus.domain import dds_topic_name
+from go2vlm.bus.topics import CMD_VEL, EMERGENCY_STOP, LOWSTATE, SAFETY_STATUS, SCAN
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
@@ -96,7 +97,6 @@ from go2vlm.msgs.unitree import LowState
 from go2vlm.robot_profile import CEILING_BOUND, DEFAULT_ROBOT, PROFILES, RobotProfile, profile
 from go2vlm.safety.commander import GateWatch
 from go2vlm.safety.estop import (
-    ESTOP_TOPIC,
     RELEASE_TOKEN,
     EstopInput,
     LatchFile,
@@ -123,6 +123,11 @@ from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec,
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "gate_latch_path", "parse_inputs"]
 
 LOG_PERIOD_S = 1.0  # at most one state-change INFO line per second
+# The defaults of the parameters below are the pure cores' own (mux, limits, guard, health).
+_LIM = Limits()
+_GUARD = GuardConfig()
+_HEALTH = HealthPolicy()
+_INPUT_TIMEOUT_S = InputSpec.timeout_s
 
 
 def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
@@ -139,7 +144,7 @@ def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
         name = str(item.get("name") or topic.strip("/").split("/")[0])
         try:
             priority = int(item.get("priority", 0))
-            timeout = float(item.get("timeout_s", 0.5))
+            timeout = float(item.get("timeout_s", _INPUT_TIMEOUT_S))
         except (TypeError, ValueError):
             raise ValueError(f"inputs[{i}]: priority must be an int and timeout_s a number") from None
         if not (math.isfinite(timeout) and 0.0 < timeout <= 10.0):
@@ -150,8 +155,8 @@ def parse_inputs(raw: list[dict[str, Any]]) -> list[InputSpec]:
     names = [s.name for s in out]
     if len(set(names)) != len(names):
         raise ValueError(f"inputs: names must be unique, got {names}")
-    if "/cmd_vel" in {s.topic for s in out}:
-        raise ValueError("inputs: /cmd_vel is the gate's output and cannot be an input")
+    if CMD_VEL.name in {s.topic for s in out}:
+        raise ValueError(f"inputs: {CMD_VEL.name} is the gate's output and cannot be an input")
     return out
 
 
@@ -162,23 +167,24 @@ class SafetyGateConfig:
         help="the robot this gate commands (its profile: speed ceilings, footprint, health topic; its e-stop latch)",
         choices=tuple(PROFILES),
     )
-    inputs: list[dict] = param(
+    inputs: list[dict[str, Any]] = param(
         [{"name": s.name, "topic": s.topic, "priority": s.priority, "timeout_s": s.timeout_s} for s in DEFAULT_INPUTS],
         help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
     )
     rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
     max_vx_forward: float = param(
-        0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
+        _LIM.vx_forward, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
     )
     max_vx_backward: float = param(
-        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True
-    )
-    max_vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
-    max_vyaw: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
+        _LIM.vx_backward, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward,
+        live=True,
+    )  # fmt: skip
+    max_vy: float = param(_LIM.vy, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
+    max_vyaw: float = param(_LIM.wz, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
     accel_linear: float = param(
-        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
+        _LIM.accel_linear, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
     )
-    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
+    accel_angular: float = param(_LIM.accel_angular, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
     )
@@ -201,10 +207,14 @@ class SafetyGateConfig:
     health_topic: str = param(
         "", help="unitree_go/msg/LowState topic of the robot's state; '' = the robot profile's health topic"
     )
-    health_require_state: bool = param(False, help="stop until the first state sample (else armed by it)")
-    health_stale_s: float = param(0.5, help="state stream silent this long: stop", min=0.05, max=10.0)
-    health_clear_s: float = param(2.0, help="a lower health level is taken after it held this long", min=0.0)
-    health_cap_scale: float = param(0.5, help="speed limits factor at health level cap", min=0.0, max=1.0)
+    health_require_state: bool = param(
+        _HEALTH.require_state, help="stop until the first state sample (else armed by it)"
+    )
+    health_stale_s: float = param(_HEALTH.stale_s, help="state stream silent this long: stop", min=0.05, max=10.0)
+    health_clear_s: float = param(
+        _HEALTH.clear_s, help="a lower health level is taken after it held this long", min=0.0
+    )
+    health_cap_scale: float = param(_HEALTH.cap_scale, help="speed limits factor at health level cap", min=0.0, max=1.0)
     health_tilt_deg: list[float] = param(
         list(TILT_DEG.steps), help="max(|roll|, |pitch|) thresholds [warn, cap, stop, down], degrees"
     )
@@ -215,21 +225,24 @@ class SafetyGateConfig:
         list(BATTERY_PCT.steps), help="battery state-of-charge thresholds [warn, cap, stop, down], percent"
     )
     guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
-    scan_topic: str = param("/scan", help="sensor_msgs/LaserScan in base_link for the collision guard")
-    margin: float = param(0.3, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
+    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the collision guard")
+    margin: float = param(_GUARD.margin, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
     blind_speed: float = param(
-        0.2, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
+        _GUARD.blind_speed, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
     )
-    scan_timeout_s: float = param(0.5, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0)
+    scan_timeout_s: float = param(
+        _GUARD.scan_timeout_s, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0
+    )
     reaction_s: float = param(
-        0.1, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)", min=0.0, max=2.0
-    )
+        _GUARD.reaction_s, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)",
+        min=0.0, max=2.0,
+    )  # fmt: skip
 
     def validate(self) -> None:
         dds_topic_name(self.scan_topic)
         parse_inputs(self.inputs)
         check_token(self.release_token)
-        dds_topic_name(self.health_topic or "/lowstate")
+        dds_topic_name(self.health_topic or LOWSTATE.name)
         health_policy(self)
         c = profile(self.robot).ceilings
         for name, ceiling in (
@@ -264,7 +277,8 @@ def health_policy(c: SafetyGateConfig) -> HealthPolicy:
         if len(steps) != 4:
             raise ValueError(f"health_{name}: expected [warn, cap, stop, down], got {steps}")
         try:
-            ladders[name] = Ladder(*map(float, steps), hysteresis=base.hysteresis, rising=base.rising)
+            warn, cap, stop, down = map(float, steps)
+            ladders[name] = Ladder(warn, cap, stop, down, hysteresis=base.hysteresis, rising=base.rising)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"health_{name}: {exc}") from None
     return HealthPolicy(
@@ -323,8 +337,8 @@ class SafetyGateNode(Node):
             self.core.latch.why = f"{stored.why or note} (restored from {self.store.path})"
         elif c.start_engaged:
             self.core.latch.why = "start_engaged"
-        self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_DEFAULT)
-        self.status_pub = self.create_publisher(String, "/safety/status", QOS_LATCHED)
+        self.cmd_pub = CMD_VEL.publisher(self)
+        self.status_pub = SAFETY_STATUS.publisher(self)
         self._last_state: tuple[Any, ...] | None = None
         self._last_status = 0.0
         self._state_changes = 0  # logged at most once per LOG_PERIOD_S (alternating bad input flips state)
@@ -339,16 +353,17 @@ class SafetyGateNode(Node):
             store=self.store,
         )
         for spec in self.core.specs:
-            self.create_subscription(Twist, spec.topic, lambda m, n=spec.name: self.on_cmd(n, m), QOS_ANY)
+            # Best-effort: an input is heard whatever QoS its sender picked.
+            CMD_VEL.subscription(self, lambda m, n=spec.name: self.on_cmd(n, m), name=spec.topic, qos=QOS_ANY)
         if c.guard:
-            self.create_subscription(LaserScan, c.scan_topic, self.on_scan, QOS_SENSOR)
+            SCAN.subscription(self, self.on_scan, name=c.scan_topic)
         self.commander = GateWatch(self, str(self.cmd_pub.guid), self.cmd_pub.topic, self._commander_changed)
         self.health = HealthMonitor(health_policy(c)) if c.health else None
         self.verdict = HealthVerdict(Level.OK, 1.0, ())
         self._down_sent = -math.inf
         if self.health is not None:
-            self.estop_pub = self.create_publisher(Bool, ESTOP_TOPIC, QOS_DEFAULT)
-            self.create_subscription(LowState, c.health_input, self.on_lowstate, QOS_SENSOR)
+            self.estop_pub = EMERGENCY_STOP.publisher(self)
+            LOWSTATE.subscription(self, self.on_lowstate, name=c.health_input)
         if was_engaged:
             self.log.warning(f"the e-stop was latched when this gate went down: {note}")
         if self.core.estopped:

@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from go2vlm.bus.topics import BEHAVIOR_CMD_VEL, FOLLOWER_CMD_VEL, TELEOP_CMD_VEL
 from go2vlm.safety.estop import RELEASE_TOKEN, EstopLatch
 from go2vlm.safety.guard import CollisionGuard
 from go2vlm.safety.limits import ZERO, Limits, Velocity, check, ramp
@@ -52,9 +53,9 @@ class InputSpec:
 
 
 DEFAULT_INPUTS = (
-    InputSpec("teleop", "/teleop/cmd_vel", 100, 0.5),
-    InputSpec("follower", "/follower/cmd_vel", 50, 0.5),
-    InputSpec("behavior", "/behavior/cmd_vel", 10, 0.5),
+    InputSpec("teleop", TELEOP_CMD_VEL.name, 100, 0.5),
+    InputSpec("follower", FOLLOWER_CMD_VEL.name, 50, 0.5),
+    InputSpec("behavior", BEHAVIOR_CMD_VEL.name, 10, 0.5),
 )
 
 

@@ -43,7 +43,7 @@ class MotorThermal:
     def __post_init__(self) -> None:
         self.temps = np.full(self.n, self.ambient_c)
 
-    def step(self, dt: float, torques: Sequence[float]) -> np.ndarray:
+    def step(self, dt: float, torques: Sequence[float] | np.ndarray) -> np.ndarray:
         """Advance by `dt` seconds with these motor torques (N*m); returns the temperatures (C)."""
         if dt > 0:
             tau = np.nan_to_num(np.asarray(torques, dtype=float)[: self.n])
@@ -56,7 +56,7 @@ class MotorThermal:
 class Battery:
     soc_pct: float = 100.0
 
-    def step(self, dt: float, torques: Sequence[float], velocities: Sequence[float]) -> float:
+    def step(self, dt: float, torques: Sequence[float] | np.ndarray, velocities: Sequence[float] | np.ndarray) -> float:
         """Drain for `dt` seconds of this motor load; returns the state of charge (percent)."""
         if dt > 0:
             tau = np.nan_to_num(np.asarray(torques, dtype=float))

@@ -7,9 +7,10 @@ Topics
              /camera/camera_info  sensor_msgs/CameraInfo (latched), same stamp as each image
 
 Parameters at runtime: frame_id and hfov_rad (from the next frame); period_s is read-only.
-QoS: reliable keep-last (ROS default), so best-effort and reliable readers both match. The first
-frame goes out at start-up, and a fresh frame whenever a new reader matches, so a late joiner does
-not wait a whole period_s (5 s by default, as in the article).
+QoS: the topic table's (bus/topics.py: CAMERA_IMAGE, reliable keep-last 2), so best-effort and
+reliable readers both match. The first frame goes out at start-up, and a fresh frame whenever a
+new reader matches, so a late joiner does not wait a whole period_s (5 s by default, as in the
+article).
 Time: period_s, the new-reader check and the stamps are in the node's clock (sim time with
 use_sim_time: nothing but the first frame, stamped 0, goes out before /clock starts).
 """
@@ -21,10 +22,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import CAMERA_IMAGE, CAMERA_INFO
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.image import camera_info, numpy_to_image
-from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 
 __all__ = ["TestPatternConfig", "TestPatternNode", "draw_pattern"]
 
@@ -53,8 +54,8 @@ class TestPatternNode(Node):
 
     def __init__(self, config: TestPatternConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
-        self.image_pub = self.create_publisher(Image, "/camera/image_raw", QOS_DEFAULT)
-        self.info_pub = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
+        self.image_pub = CAMERA_IMAGE.publisher(self)
+        self.info_pub = CAMERA_INFO.publisher(self)
         self.frame = 0
         self._matched = 0
         self._again_at: float | None = None

@@ -1,7 +1,7 @@
 """video_source: a camera from OpenCV VideoCapture: a video file, a device index or an RTSP/HTTP URL.
 
 Topics
-  publishes  /camera/image_raw    sensor_msgs/Image bgr8 (reliable keep-last), at most rate_hz
+  publishes  /camera/image_raw    sensor_msgs/Image bgr8 (reliable keep-last 2), at most rate_hz
              /camera/camera_info  sensor_msgs/CameraInfo (latched), same stamp as each image
 
 `source`: a path (`clip.mp4`), a device index (`0`, or `/dev/video0`) or a URL (`rtsp://...`,
@@ -28,10 +28,10 @@ import threading
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import CAMERA_IMAGE, CAMERA_INFO
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.msgs.image import camera_info, numpy_to_image
-from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 
 __all__ = ["VideoSourceConfig", "VideoSourceNode", "parse_source"]
 
@@ -78,8 +78,8 @@ class VideoSourceNode(Node):
     def __init__(self, config: VideoSourceConfig | None = None, **kwargs: object) -> None:
         super().__init__(config, **kwargs)  # type: ignore[arg-type]
         self.kind, self.target = parse_source(self.config.source)
-        self.image_pub = self.create_publisher(Image, "/camera/image_raw", QOS_DEFAULT)
-        self.info_pub = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
+        self.image_pub = CAMERA_IMAGE.publisher(self)
+        self.info_pub = CAMERA_INFO.publisher(self)
         self.frames = 0
         self.state = "starting"
         self._halt = threading.Event()

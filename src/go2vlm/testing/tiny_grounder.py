@@ -352,7 +352,7 @@ class _Batcher:
     def batch(self, size: int) -> dict[str, Any]:
         import torch
 
-        rows = []
+        rows: list[tuple[np.ndarray, list[int], list[int]]] = []
         while len(rows) < size:
             i = self.rng.randrange(len(self.data.frames))
             labels = _sample_labels(self.rng, self.data.frames[i], self.spec)

@@ -255,8 +255,8 @@ def _train_tokenizer(vocab_size: int = 512, corpus: Sequence[str] | None = None)
         vocab.setdefault(token, len(vocab))
     tokenizer = Qwen2Tokenizer(
         vocab=vocab,
-        merges=merges,
-        unk_token=None,
+        merges=merges,  # type: ignore[arg-type]  # (a, b) pairs, as tokenizers takes them
+        unk_token=None,  # type: ignore[arg-type]  # byte-level BPE: no unknown token
         eos_token="<|im_end|>",
         pad_token="<|endoftext|>",
         extra_special_tokens=[t for t in QWEN_SPECIAL_TOKENS if t not in ("<|im_end|>", "<|endoftext|>")],

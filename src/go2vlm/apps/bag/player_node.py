@@ -26,6 +26,7 @@ from typing import Any
 
 from go2vlm.apps.bag.bagfile import BagReader
 from go2vlm.bus import QOS_DEFAULT, Node, Publisher, QosProfile, param
+from go2vlm.bus.topics import CLOCK
 from go2vlm.msgs import get_type
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.rosgraph_msgs import Clock
@@ -66,7 +67,7 @@ class PlayerNode(Node):
         self.pubs: dict[str, Publisher[Any]] = {}
         for name in sorted(wanted):
             t = self.reader.topics[name]
-            if name == "/clock" and c.clock:
+            if name == CLOCK.name and c.clock:
                 self.log.info("not replaying the recorded /clock: the player publishes the bag's time (clock=false)")
                 continue
             try:
@@ -75,7 +76,7 @@ class PlayerNode(Node):
                 self.log.warning(f"skipping {name}: go2vlm has no definition of type {t.type}")
                 continue
             self.pubs[name] = self.create_publisher(cls, name, _replay_qos(t.offered_qos))
-        self.clock_pub = self.create_publisher(Clock, "/clock", QOS_DEFAULT) if c.clock else None
+        self.clock_pub = CLOCK.publisher(self) if c.clock else None
         self.published = 0
         self.loops = 0
         self.bag_time_ns = self.reader.start_ns

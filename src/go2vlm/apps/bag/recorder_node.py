@@ -18,6 +18,7 @@ time, publish_time = the sample's source timestamp). Shutting the node down fini
 
 from __future__ import annotations
 
+import functools
 import threading
 import time
 from dataclasses import dataclass
@@ -150,7 +151,7 @@ class RecorderNode(Node):
             t.retiring = [*(t.retiring or []), (t.sub, time.monotonic() + 2.0)]
             t.seen = {}
         t.qos = want
-        t.sub = self.create_raw_subscription(t.cls, t.name, lambda s, t=t: self._on_sample(t, s), want)
+        t.sub = self.create_raw_subscription(t.cls, t.name, functools.partial(self._on_sample, t), want)
         if t.retiring is None:
             self.log.info(f"recording {t.name} [{ros_type(t.cls)}] ({want.describe()})")
 
@@ -190,13 +191,14 @@ class RecorderNode(Node):
         """Messages and bytes per topic so far (safe from any thread)."""
         with self._stats_lock:
             topics: list[BagTopic] = list(self.bag.topics.values())
+            qos = {name: tp.qos.describe() for name, tp in self._topics.items() if tp.qos is not None}
             return [
                 TopicStats(
                     t.name,
                     t.type,
                     t.message_count,
                     t.bytes,
-                    self._topics[t.name].qos.describe() if t.name in self._topics and self._topics[t.name].qos else "",
+                    qos.get(t.name, ""),
                 )
                 for t in topics
             ]

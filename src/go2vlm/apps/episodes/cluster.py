@@ -70,7 +70,7 @@ def reachable(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> str | None:
 
 def _episode_task(
     index: int, episode: dict[str, Any], run: dict[str, Any], interface: str, log_level: str, exclude: tuple[int, ...]
-) -> dict:
+) -> dict[str, Any]:
     """Runs in a Ray worker process: one episode on this process's own DDS domain (none of `exclude`,
     the domains where the robot is latched)."""
     from go2vlm.apps.episodes.worker import claim_eval_domain, run_worker_episode, setup_process

@@ -27,6 +27,7 @@ __all__ = [
     "demo_world",
     "goal_episode",
     "goal_summary",
+    "memory_lines",
     "perception_lines",
     "run_with_progress",
     "summary",
@@ -144,6 +145,7 @@ def goal_summary(result: EpisodeResult) -> str:
     lines += perception_lines(m)
     if stopped:
         lines.insert(1, f"  {stopped}")
+    lines += memory_lines(m)
     if m.get("interrupted"):
         lines.insert(1, "  (interrupted: partial run)")
     if result.files:
@@ -182,6 +184,23 @@ def perception_lines(m: dict[str, Any]) -> list[str]:
             f"carried it from an older answer on {_pct(tr['carried_fraction'])} of those "
             f"(grounding age p50 {_fmt(tr['grounding_age_s_p50'], ' s')}, p95 {_fmt(tr['grounding_age_s_p95'], ' s')})"
         )
+    return lines
+
+
+def memory_lines(m: dict[str, Any]) -> list[str]:
+    """What the object memory remembers at the end, and where each object really is (the sim's ground truth)."""
+    mem = m.get("memory")
+    if not mem:
+        return []
+    lines = [
+        f"  remembered:      {len(mem['objects'])} object(s), {mem.get('accurate', 0)} within 0.3 m, "
+        f"{mem['phantoms']} phantom(s), "
+        f"error max {_fmt(mem['max_error_m'], ' m')}, mean {_fmt(mem['mean_error_m'], ' m')} (odom frame = the world's)"
+    ]
+    for o in mem["objects"]:
+        truth = "no such object" if o["body"] is None else (
+            f"really ({o['true_x']:.2f}, {o['true_y']:.2f}) [{o['body']}], error {o['error_m']:.2f} m")  # fmt: skip
+        lines.append(f"    {o['label']:<16} at ({o['x']:.2f}, {o['y']:.2f}), confidence {o['confidence']:.2f}; {truth}")
     return lines
 
 

@@ -15,7 +15,9 @@ An episode may name its `target`, the body its goal refers to ("the ball under t
 red_ball): the metrics judge against that body, and the oracle answers with that body's box alone,
 labelled as the commander asked, as a perfect model would. `answer_latency_s` (0 too) delivers the
 answers late (oracle: the ground truth; vlm: the model's own, held back) through the `answer_delay`
-node: the latency axis of `go2vlm eval --latency` (every point of it, 0 too, runs that graph).
+node: the latency axis of `go2vlm eval --latency` (every point of it, 0 too, runs that graph). A
+goal's timeout grows by TIMEOUT_PER_LATENCY_S per second of latency (`latency_timeout`): a search that
+holds still for each answer needs time in proportion to it.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ from go2vlm.behavior.goals import GoalParseError, Target, parse_goal, parse_targ
 __all__ = [
     "FOLLOW_BALL_GOAL",
     "PERCEPTIONS",
+    "TIMEOUT_PER_LATENCY_S",
+    "latency_timeout",
     "Episode",
     "graph_name",
     "label_matches",
@@ -40,6 +44,12 @@ __all__ = [
 FOLLOW_BALL_GOAL = "follow the red ball"  # the ball follow demo through the tracker (perception oracle/vlm)
 
 PERCEPTIONS = ("oracle", "color", "vlm")
+TIMEOUT_PER_LATENCY_S = 20.0  # sim seconds of a goal's timeout per second of answer latency
+
+
+def latency_timeout(duration_s: float, latency_s: float, kind: str) -> float:
+    """A goal's timeout with answers `latency_s` late (a follow runs its duration whatever the latency)."""
+    return duration_s if kind == "follow" else duration_s + TIMEOUT_PER_LATENCY_S * latency_s
 
 
 @dataclass(frozen=True)
@@ -164,10 +174,10 @@ def target_body(goal: str | None, names: list[str], target: str | None = None) -
     names (red_sphere for "the red ball", ...); the first by name when several fit."""
     if target is not None:
         return target if target in names else None
-    target = goal_target(goal)
-    if target is None:
+    wanted = goal_target(goal)
+    if wanted is None:
         return None
-    fits = sorted(n for n in names if label_matches(target, n))
+    fits = sorted(n for n in names if label_matches(wanted, n))
     return fits[0] if fits else None
 
 

@@ -30,7 +30,8 @@ worker dies is retried once, then recorded in errors.jsonl (it is not in results
 runs it again); the eval goes on.
 
 Latency (`--latency L`, `EvalOptions.latency`): every episode's grounding answers are held back L sim
-seconds (Episode.answer_latency_s): a run of its own per latency, side by side in the report.
+seconds (Episode.answer_latency_s), and a goal's timeout grows with it (episode.latency_timeout): a run
+of its own per latency, side by side in the report.
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from go2vlm.apps.episodes.episode import Episode, graph_name, node_overrides, vlm_node_params
+from go2vlm.apps.episodes.episode import Episode, graph_name, latency_timeout, node_overrides, vlm_node_params
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
 from go2vlm.apps.episodes.worker import EVAL_DOMAINS, worker_init, worker_run, worker_threads
@@ -206,6 +207,7 @@ def _episodes(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict
             values["mode"] = opts.mode
         if opts.latency is not None:
             values["answer_latency_s"] = opts.latency
+            values["duration_s"] = latency_timeout(ep.duration_s, opts.latency, ep.kind)
         try:
             out.append(Episode.from_dict(values))
         except ValueError as exc:

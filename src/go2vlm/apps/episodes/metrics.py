@@ -46,9 +46,17 @@ Tracking (/target/tracked, goal episodes):
   grounding_age_s    p50/p95 of grounding_age_s over the tracking frames;
   forward_unconfirmed  /cmd_vel samples with forward speed > 0.05 m/s although no `tracking` message came
                      in the UNCONFIRMED_GRACE_S before (the commander's lost_timeout_s 1.0 s + the
-                     gate's ramp-down): motion toward a target the tracker did not confirm (a
-                     detour round an obstacle that takes the target out of view counts here too:
-                     behavior/mission.py bounds it by detour_memory_s).
+                     gate's ramp-down) and the object memory did not hold the goal's object confirmed
+                     (confidence >= the commander's memory_confirm_confidence on the newest /objects):
+                     motion toward a target nothing confirmed (a detour round an obstacle that takes
+                     the target out of view counts here too: behavior/mission.py bounds it by
+                     detour_memory_s);
+  forward_on_memory  of the forward samples, those the memory alone confirmed (the tracker did not).
+Memory (/objects, episodes with an object_memory), at the end, against the ground truth:
+  objects          every remembered object: label, place, confidence, and the world body of that
+                   label nearest to it (apps/episodes/episode.py label_matches) with the error (m);
+  phantoms         remembered objects with no body of their label within PHANTOM_M (1 m): not there;
+  max_error_m      the largest error of the others; `accurate`: how many are within ACCURATE_M (0.3 m).
 """
 
 from __future__ import annotations
@@ -62,12 +70,16 @@ import numpy as np
 from go2vlm.apps.episodes.episode import Episode, goal_target, label_matches, target_body
 from go2vlm.apps.episodes.latch import estop_metrics
 from go2vlm.apps.episodes.recorder import Recording
+from go2vlm.behavior.goals import GoalParseError, parse_target
+from go2vlm.behavior.mission import MissionParams
 from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
 from go2vlm.robot_profile import profile
+from go2vlm.world.labels import label_fits
+from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics", "tracker_metrics"]
+__all__ = ["Context", "box_iou", "compute_metrics", "grounding_metrics", "memory_metrics", "tracker_metrics"]
 
 SUCCESS_STATES = {"go_to": "reached", "look_for": "found"}
 END_STATES = ("reached", "found", "not_found", "done", "stopped", "rejected", "sat")
@@ -76,6 +88,8 @@ TRACKED_MIN = 0.7  # follow: tracked at least this fraction of the time after fi
 NEAR_MIN = 0.7  # follow: within follow_success_m at least this fraction of that time
 UNCONFIRMED_GRACE_S = 1.5  # commander lost_timeout_s (1.0) + the gate's ramp from 0.4 m/s to 0 (< 0.5 s)
 FORWARD_MPS = 0.05  # forward speed that counts as driving toward something
+PHANTOM_M = 1.0  # a remembered object farther than this from every body of its label is a phantom
+ACCURATE_M = 0.3  # ... and one within this of its body is where it is
 
 
 @dataclass
@@ -196,22 +210,32 @@ def vlm_latency(status: list[dict[str, Any]]) -> dict[str, Any] | None:
 
 
 def tracker_metrics(
-    tracked: list[tuple[float, float, str, float]], cmds: list[tuple[float, float, float, float]]
+    tracked: list[tuple[float, float, str, float]],
+    cmds: list[tuple[float, float, float, float]],
+    memory_confirmed: list[tuple[float, bool]] | None = None,
 ) -> dict[str, Any] | None:
-    """How the target_tracker carried the target (see the module docstring); None without /target/tracked."""
+    """How the target_tracker carried the target (see the module docstring); None without /target/tracked.
+    `memory_confirmed`: (sim t, the newest /objects held the goal's object confirmed), in time order."""
     if not tracked:
         return None
     tracking = [(t, age) for t, _, state, age in tracked if state == "tracking"]
     ages = [age for _, age in tracking if math.isfinite(age)]
     carried = sum(1 for a in ages if a > 1e-6)
     confirmed_at = [t for t, _ in tracking]
-    unconfirmed = 0
-    j = 0  # confirmed_at and cmds are both in receive order (sim time)
+    mem = memory_confirmed or []
+    unconfirmed = on_memory = 0
+    j = k = 0  # confirmed_at, mem and cmds are all in receive order (sim time)
     for t, vx, _, _ in cmds:
         while j < len(confirmed_at) and confirmed_at[j] <= t:
             j += 1
-        if vx > FORWARD_MPS and (j == 0 or t - confirmed_at[j - 1] > UNCONFIRMED_GRACE_S):
-            unconfirmed += 1
+        while k < len(mem) and mem[k][0] <= t:
+            k += 1
+        if vx <= FORWARD_MPS:
+            continue
+        tracker_ok = j > 0 and t - confirmed_at[j - 1] <= UNCONFIRMED_GRACE_S
+        memory_ok = k > 0 and mem[k - 1][1]
+        unconfirmed += not (tracker_ok or memory_ok)
+        on_memory += memory_ok and not tracker_ok
     return {
         "frames": len(tracked),
         "tracking_frames": len(tracking),
@@ -221,6 +245,41 @@ def tracker_metrics(
         "grounding_age_s_p95": _r(float(np.percentile(ages, 95)), 3) if ages else None,
         "forward_cmds": sum(1 for c in cmds if c[1] > FORWARD_MPS),
         "forward_unconfirmed": unconfirmed,
+        "forward_on_memory": on_memory,
+    }
+
+
+def _body_fits(label: str, body: str) -> bool:
+    try:
+        return label_matches(parse_target(label), body)
+    except GoalParseError:  # free text: the body's own name ("crate_1" is "crate 1")
+        return " ".join(body.replace("_", " ").lower().split()) == label
+
+
+def memory_metrics(objects: list[Remembered], bodies: dict[str, tuple[float, float]]) -> dict[str, Any]:
+    """The memory at the end against the ground truth (see the module docstring)."""
+    out: list[dict[str, Any]] = []
+    phantoms = 0
+    errors: list[float] = []
+    for o in objects:
+        fits = [
+            (math.hypot(o.x - x, o.y - y), name, x, y) for name, (x, y) in bodies.items() if _body_fits(o.label, name)
+        ]
+        err, name, tx, ty = min(fits) if fits else (None, None, None, None)
+        phantom = err is None or err > PHANTOM_M
+        phantoms += phantom
+        if err is not None and not phantom:
+            errors.append(err)
+        out.append({
+            "id": o.id, "label": o.label, "x": _r(o.x), "y": _r(o.y), "confidence": _r(o.confidence),
+            "body": name, "true_x": _r(tx), "true_y": _r(ty), "error_m": _r(err), "phantom": phantom,
+        })  # fmt: skip
+    return {
+        "objects": out,
+        "phantoms": phantoms,
+        "accurate": sum(1 for e in errors if e <= ACCURATE_M),
+        "max_error_m": _r(max(errors)) if errors else None,
+        "mean_error_m": _r(float(np.mean(errors))) if errors else None,
     }
 
 
@@ -237,6 +296,18 @@ def _rtf(status: list[dict[str, Any]]) -> tuple[float, float]:
         return 0.0, 0.0
     warm = next((i for i, t in enumerate(sims) if t >= 2.0), 0)
     return (rate(warm) or rate(0)), rate(0)
+
+
+def _memory_confirmed(rec: Recording, ep: Episode) -> list[tuple[float, bool]]:
+    """(sim t, the goal's object confirmed in the memory) for every /objects the recorder heard."""
+    target = goal_target(ep.goal)
+    if target is None or not rec.memory:
+        return []
+    commander = ep.params.get("commander", {})
+    conf = float(commander.get("memory_confirm_confidence", MissionParams.memory_confirm_confidence))
+    return [
+        (t, any(o.confidence >= conf and label_fits(target.label, o.label) for o in objs)) for t, objs in rec.memory
+    ]
 
 
 def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -373,8 +444,13 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
             ep.target,
         ),
         "vlm": vlm_latency(rec.vlm_status),
-        "tracker": tracker_metrics(rec.tracked, rec.cmds),
+        "tracker": tracker_metrics(rec.tracked, rec.cmds, _memory_confirmed(rec, ep)),
+        "memory": None,
     }
+    if rec.memory:
+        last = rec.poses[-1][1] if rec.poses else {}
+        bodies = {n: (last[n][0], last[n][1]) if n in last else (f.x, f.y) for n, f in ctx.shapes.items()}
+        m["memory"] = memory_metrics(rec.memory[-1][1], bodies)
     cmds = rec.cmds
     if ep.goal is None:  # the follow article's loop: `go2vlm demo`'s figures
         ball = np.array(centre)

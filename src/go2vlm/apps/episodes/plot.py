@@ -37,11 +37,25 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         ax.plot(robot[:, 0], robot[:, 1], color="tab:blue", lw=1.5, label="Go2")
         ax.plot(*robot[0], "s", color="tab:blue", ms=5)
         ax.plot(*robot[-1], ">", color="tab:blue", ms=6)
+    _remembered(ax, m)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
+
+
+def _remembered(ax: Any, m: dict[str, Any]) -> None:
+    """The object memory's objects at the end (x), each with a line to where it really is."""
+    objs = (m.get("memory") or {}).get("objects") or []
+    for k, o in enumerate(objs):
+        colour = "tab:red" if o["phantom"] else "black"
+        ax.plot(o["x"], o["y"], "x", color=colour, ms=7, mew=1.8, label="remembered" if k == 0 else None)
+        if o["true_x"] is not None:
+            ax.plot([o["x"], o["true_x"]], [o["y"], o["true_y"]], color=colour, lw=0.8)
+        err = "phantom" if o["phantom"] else f"{100 * o['error_m']:.0f} cm"
+        ax.annotate(f"{o['label']} {o['confidence']:.2f} ({err})", (o["x"], o["y"]), xytext=(4, -9),
+                    textcoords="offset points", fontsize=6, color=colour)  # fmt: skip
 
 
 def _rot(yaw: float) -> np.ndarray:

@@ -4,8 +4,8 @@ the sim time at which a message arrived).
 
 Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
 /detected_target, /commander/status, /safety/status (the e-stop), /camera/camera_info,
-/sim/detections, /vlm/detections, /vlm/status, /target/tracked and, for the video,
-/camera/image_raw (kept as small JPEGs).
+/sim/detections, /vlm/detections, /vlm/status, /target/tracked, /objects (the object memory) and,
+for the video, /camera/image_raw (kept as small JPEGs).
 """
 
 from __future__ import annotations
@@ -17,7 +17,25 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node
+from go2vlm.bus import Node
+from go2vlm.bus.topics import (
+    BEHAVIOR_CMD_VEL,
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    CLOCK,
+    CMD_VEL,
+    COMMANDER_STATUS,
+    DETECTED_TARGET,
+    JOINT_STATES,
+    OBJECTS,
+    SAFETY_STATUS,
+    SIM_DETECTIONS,
+    SIM_GROUND_TRUTH,
+    SIM_STATUS,
+    TARGET_TRACKED,
+    VLM_DETECTIONS,
+    VLM_STATUS,
+)
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import image_to_numpy
@@ -25,7 +43,8 @@ from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.msgs.vision_msgs import Detection2DArray, PixelBox, detection_boxes
+from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray, PixelBox, detection_boxes
+from go2vlm.world.objects_msg import Remembered, remembered
 
 __all__ = ["THUMB_WIDTH", "EpisodeRecorder", "Recording"]
 
@@ -54,6 +73,7 @@ class Recording:
     vlm_status: list[dict[str, Any]] = field(default_factory=list)
     # /target/tracked: sim t received, frame stamp, state name, grounding_age_s (NaN before any answer)
     tracked: list[tuple[float, float, str, float]] = field(default_factory=list)
+    memory: list[tuple[float, list[Remembered]]] = field(default_factory=list)  # sim t, /objects
     estop: list[tuple[float, bool, str]] = field(default_factory=list)  # sim t, the gate's e-stop and why, on change
 
 
@@ -70,22 +90,23 @@ class EpisodeRecorder(Node):
         self.wall_start = time.time()  # wall time: /sim/status carries the wall time it was sent at
         self.lock = threading.Lock()
         self.rec = Recording()
-        self.create_subscription(Clock, "/clock", self._on_clock, QOS_DEFAULT)
-        self.create_subscription(String, "/sim/status", self._on_sim_status, QOS_LATCHED)
-        self.create_subscription(TFMessage, "/sim/ground_truth", self._on_gt, QOS_DEFAULT)
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd, QOS_DEFAULT)
-        self.create_subscription(Twist, "/behavior/cmd_vel", self._on_behavior, QOS_DEFAULT)
-        self.create_subscription(PointStamped, "/detected_target", self._on_target, QOS_DEFAULT)
-        self.create_subscription(String, "/commander/status", self._on_commander, QOS_LATCHED)
-        self.create_subscription(String, "/safety/status", self._on_safety, QOS_LATCHED)
-        self.create_subscription(CameraInfo, "/camera/camera_info", self._on_info, QOS_DEFAULT)
-        self.create_subscription(Detection2DArray, "/sim/detections", self._on_truth, QOS_DEFAULT)
-        self.create_subscription(Detection2DArray, "/vlm/detections", self._on_answer, QOS_DEFAULT)
-        self.create_subscription(String, "/vlm/status", self._on_vlm_status, QOS_DEFAULT)
-        self.create_subscription(TrackedTarget, "/target/tracked", self._on_tracked, QOS_DEFAULT)
+        CLOCK.subscription(self, self._on_clock)
+        SIM_STATUS.subscription(self, self._on_sim_status)
+        SIM_GROUND_TRUTH.subscription(self, self._on_gt)
+        CMD_VEL.subscription(self, self._on_cmd)
+        BEHAVIOR_CMD_VEL.subscription(self, self._on_behavior)
+        DETECTED_TARGET.subscription(self, self._on_target)
+        COMMANDER_STATUS.subscription(self, self._on_commander)
+        SAFETY_STATUS.subscription(self, self._on_safety)
+        CAMERA_INFO.subscription(self, self._on_info)
+        SIM_DETECTIONS.subscription(self, self._on_truth)
+        VLM_DETECTIONS.subscription(self, self._on_answer)
+        VLM_STATUS.subscription(self, self._on_vlm_status)
+        TARGET_TRACKED.subscription(self, self._on_tracked)
+        OBJECTS.subscription(self, self._on_objects)
         if video:
-            self.create_subscription(JointState, "/joint_states", self._on_joints, QOS_DEFAULT)
-            self.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_SENSOR)
+            JOINT_STATES.subscription(self, self._on_joints)
+            CAMERA_IMAGE.subscription(self, self._on_image)
 
     @property
     def sim_time(self) -> float:
@@ -114,6 +135,7 @@ class EpisodeRecorder(Node):
                 list(r.answers),
                 list(r.vlm_status),
                 list(r.tracked),
+                list(r.memory),
                 list(r.estop),
             )
 
@@ -216,6 +238,11 @@ class EpisodeRecorder(Node):
         state = STATE_NAMES.get(int(msg.state), "unknown")
         with self.lock:
             self.rec.tracked.append((self.now(), msg.header.stamp.to_sec(), state, float(msg.grounding_age_s)))
+
+    def _on_objects(self, msg: Detection3DArray) -> None:
+        objs = [r for r in map(remembered, msg.detections) if r is not None]
+        with self.lock:
+            self.rec.memory.append((self.now(), objs))
 
     def _on_image(self, msg: Image) -> None:
         import cv2

@@ -16,6 +16,7 @@ about the host. A vlm node starts first and the rest of the graph only once its 
 that loading weights costs no sim time (the VLM article's start order, its section 6.3).
 
 Run folder (`RunOptions.out`), every file written atomically (temporary name, then rename):
+objects.json (what the object memory remembers at the end, a memory file: `go2vlm objects --file`),
 metrics.json first, then series.json (the time series behind the plot), plot.png, video.mp4 (after
 the run, from the recording; metrics.json is then rewritten with video_frames); with `bag`, bag/ (a
 rosbag2 MCAP bag of every topic, for `go2vlm play` and Foxglove). A first SIGINT or
@@ -111,7 +112,11 @@ def episode_entries(ep: Episode, opts: RunOptions) -> list[Any]:
     _, entries = load_launch(graph_name(ep))
     if opts.foxglove is not None:
         entries.append(LaunchEntry("view", "foxglove_view", dict(opts.foxglove)))
-    return with_overrides(entries, node_overrides(ep, opts.rtf, opts.fast), every={"use_sim_time": True})
+    overrides = node_overrides(ep, opts.rtf, opts.fast)
+    for e in entries:  # an object memory is of the episode's world (its memory files say so)
+        if e.kind == "object_memory":
+            overrides[e.name] = {"world": ep.world, **overrides.get(e.name, {})}
+    return with_overrides(entries, overrides, every={"use_sim_time": True})
 
 
 def build_graph(ep: Episode, opts: RunOptions) -> tuple[list[Node], Any]:
@@ -122,6 +127,24 @@ def build_graph(ep: Episode, opts: RunOptions) -> tuple[list[Node], Any]:
     nodes = make_nodes(entries, interface=opts.interface, domain_id=opts.domain_id)
     sim = next(n for n, e in zip(nodes, entries, strict=True) if e.kind == "sim")
     return nodes, sim
+
+
+def _save_memories(nodes: list[Node], out: Path, files: dict[str, str]) -> None:
+    """What each object memory of the graph remembers at the end, as a memory file in the run folder
+    (`go2vlm objects --file out/objects.json`)."""
+    if "go2vlm.world.object_memory_node" not in sys.modules:
+        return  # no object memory in this graph
+    from go2vlm.world.object_memory_node import ObjectMemoryNode
+
+    for n in nodes:
+        if isinstance(n, ObjectMemoryNode):
+            name = "objects.json" if n.node_name == n.name else f"objects-{n.node_name}.json"
+            try:
+                n.save(out / name)
+            except OSError as exc:
+                print(f"go2vlm: {name} not written: {exc}", file=sys.stderr)
+            else:
+                files["objects"] = str(out / name)
 
 
 def _start_models_first(nodes: list[Node], stop: ShutdownRequested, timeout_s: float) -> list[Node]:
@@ -239,6 +262,8 @@ def run_episode(
         finally:
             wall_s = time.monotonic() - wall0
             cpu = {k: v - threads0.get(k, 0.0) for k, v in cpu_by_thread().items()} if opts.cpu else {}
+            if out is not None:
+                _save_memories(nodes, out, result.files)
             for n in reversed(nodes):  # the sim (first) goes last; the recorders hear everything
                 n.shutdown()
             recorder.shutdown()
@@ -267,7 +292,7 @@ def run_episode(
         }
         if bagged is not None:
             metrics["bag"] = {"path": str(bagged.out), "messages": bagged.messages, "topics": len(bagged.topics)}
-        result = EpisodeResult(ep, metrics, series, out, {}, rec)
+        result = EpisodeResult(ep, metrics, series, out, result.files, rec)
         if bagged is not None:
             result.files["bag"] = str(bagged.out)
         if out is not None:

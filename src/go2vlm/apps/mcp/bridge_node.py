@@ -51,17 +51,29 @@ from typing import Any
 import numpy as np
 
 from go2vlm.apps.mcp.rules import CommanderState, Confirmations, MotionRules, Refused
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, RawSample, param
+from go2vlm.bus import QOS_LATCHED, Node, RawSample, param
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    COMMANDER_STATUS,
+    EMERGENCY_STOP,
+    ESTOP_RELEASE,
+    GOAL,
+    MCP_CONFIRM,
+    MCP_PENDING,
+    OBJECTS,
+    SAFETY_STATUS,
+    TRACKER_STATUS,
+    VLM_STATUS,
+    VLM_TEXT,
+)
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.vision_msgs import Detection3DArray
-from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOKEN, RELEASE_TOPIC, check_token
+from go2vlm.safety.estop import RELEASE_TOKEN, check_token
 
 __all__ = ["McpBridgeConfig", "McpBridgeNode"]
 
-PENDING_TOPIC = "/mcp/pending"
 GATE_SILENT_S = 12.0  # a gate silent this long has gone (it reports every status_period_s, at most 10 s)
-CONFIRM_TOPIC = "/mcp/confirm"
 
 
 @dataclass
@@ -71,7 +83,7 @@ class McpBridgeConfig:
     confirm: bool = param(False, help="each motion goal waits for a person's yes")
     confirm_timeout_s: float = param(60.0, help="no answer within this long is no", min=1.0, max=3600.0)
     describe_max_age_s: float = param(10.0, help="VLM text older than this is stale", min=0.5)
-    image_topic: str = param("/camera/image_raw", help="the head camera")
+    image_topic: str = param(CAMERA_IMAGE.name, help="the head camera")
     camera_linger_s: float = param(10.0, help="keep the camera subscription this long after use", min=0.5)
     release_token: str = param(RELEASE_TOKEN, help="the e-stop release token (ends the hold)")
 
@@ -111,17 +123,16 @@ class McpBridgeNode(Node):
         self._camera_wanted = 0.0
         self._estop_pub: Any = None
         self.last_event = ""  # the newest thing this server did on its own (deadman, unanswered goal)
-        self.pub_goal = self.create_publisher(String, "/goal", QOS_DEFAULT)
-        self.pub_pending = self.create_publisher(String, PENDING_TOPIC, QOS_LATCHED)
+        self.pub_goal = GOAL.publisher(self)
+        self.pub_pending = MCP_PENDING.publisher(self)
         self.pub_pending.publish(String(data="{}"))
-        for topic in ("/commander/status", "/target_tracker/status"):
-            self.create_subscription(String, topic, lambda m, t=topic: self._on_status(t, m), QOS_LATCHED)
-        self.create_subscription(String, "/safety/status", self._on_safety, QOS_LATCHED, with_sender=True)
-        self.create_subscription(String, "/vlm/status", lambda m: self._on_status("/vlm/status", m), QOS_DEFAULT)
-        self.create_subscription(String, "/vlm/detection", self._on_vlm_text, QOS_DEFAULT)
-        self.create_subscription(Detection3DArray, "/objects", self._on_objects, QOS_LATCHED)
-        self.create_subscription(String, RELEASE_TOPIC, self._on_release, QOS_DEFAULT)
-        self.create_subscription(String, CONFIRM_TOPIC, lambda m: self.answer(m.data, need_id=True), QOS_DEFAULT)
+        for topic in (COMMANDER_STATUS, TRACKER_STATUS, VLM_STATUS):
+            topic.subscription(self, lambda m, t=topic.name: self._on_status(t, m))
+        SAFETY_STATUS.subscription(self, self._on_safety, with_sender=True)
+        VLM_TEXT.subscription(self, self._on_vlm_text)
+        OBJECTS.subscription(self, self._on_objects)
+        ESTOP_RELEASE.subscription(self, self._on_release)
+        MCP_CONFIRM.subscription(self, lambda m: self.answer(m.data, need_id=True))
         self.create_timer(0.1, self._tick)
 
     # -- what the bus says ---------------------------------------------------------------------
@@ -136,9 +147,9 @@ class McpBridgeNode(Node):
         with self._cv:
             self._seq += 1
             self._status[topic] = _Seen(data, time.monotonic(), self._seq)
-            if topic == "/vlm/status" and data.get("mode") == "describe":
+            if topic == VLM_STATUS.name and data.get("mode") == "describe":
                 self._describing = time.monotonic()
-            if topic == "/commander/status":
+            if topic == COMMANDER_STATUS.name:
                 kind = data.get("kind")
                 self.rules.observe(
                     CommanderState(str(data.get("goal") or ""), kind if isinstance(kind, str) else None,
@@ -148,9 +159,9 @@ class McpBridgeNode(Node):
             self._cv.notify_all()
 
     def _on_safety(self, msg: String, sender: Any) -> None:
-        self._on_status("/safety/status", msg)
+        self._on_status(SAFETY_STATUS.name, msg)
         with self._cv:
-            seen = self._status.get("/safety/status")
+            seen = self._status.get(SAFETY_STATUS.name)
             if seen is not None and isinstance(seen.data.get("estop"), bool):
                 key = str(sender.guid) if sender is not None else "?"
                 self._gates[key] = (seen.data["estop"], seen.at)
@@ -210,7 +221,7 @@ class McpBridgeNode(Node):
             return {k: v[0] for k, v in self._gates.items() if now - v[1] <= GATE_SILENT_S}
 
     def grounding(self) -> str | None:
-        s = self.status_of("/target_tracker/status")
+        s = self.status_of(TRACKER_STATUS.name)
         g = s.get("grounding") if s else None
         return g if isinstance(g, str) else None
 
@@ -225,7 +236,7 @@ class McpBridgeNode(Node):
         age = time.monotonic() - item[1]
         if age > self.config.describe_max_age_s:
             return None
-        return item[0], age, self.status_of("/vlm/status", 5.0)
+        return item[0], age, self.status_of(VLM_STATUS.name, 5.0)
 
     def objects(self) -> tuple[Detection3DArray, float] | None:
         with self._cv:
@@ -238,7 +249,9 @@ class McpBridgeNode(Node):
         with self._cv:
             self._camera_wanted = time.monotonic()
             if self._camera is None:
-                self._camera = self.create_raw_subscription(Image, self.config.image_topic, self._on_frame, QOS_SENSOR)
+                self._camera = self.create_raw_subscription(
+                    CAMERA_IMAGE.type, self.config.image_topic, self._on_frame, CAMERA_IMAGE.reader_qos
+                )
             got = self._cv.wait_for(lambda: self._frame is not None, timeout_s)
             frame = self._frame
         if not got or frame is None:
@@ -292,7 +305,7 @@ class McpBridgeNode(Node):
         commander's goal is stopped too, so that nothing resumes after the release."""
         with self._cv:
             if self._estop_pub is None:
-                self._estop_pub = self.create_publisher(Bool, ESTOP_TOPIC, QOS_LATCHED)
+                self._estop_pub = EMERGENCY_STOP.publisher(self, qos=QOS_LATCHED)  # held, as `go2vlm estop` does
             self._estop_pub.publish(Bool(data=True))
             self.rules.forget()
         self.log.warning("EMERGENCY STOP requested by the MCP agent; release with `go2vlm estop --release`")
@@ -319,12 +332,12 @@ class McpBridgeNode(Node):
         self.pub_goal.publish(String(data=text))
 
         def answered() -> bool:
-            s = self._status.get("/commander/status")
+            s = self._status.get(COMMANDER_STATUS.name)
             return s is not None and s.seq > seq0 and s.data.get("goal") == text
 
         with self._cv:
             ok = self._cv.wait_for(answered, max(0.0, deadline - time.monotonic()))
-            status = dict(self._status["/commander/status"].data) if ok else None
+            status = dict(self._status[COMMANDER_STATUS.name].data) if ok else None
         if status is None:
             self.pub_goal.publish(String(data="stop"))  # it may arrive late: then it ends at once
             raise Refused(f"the commander did not answer {text!r} within {timeout:g} s; sent stop")

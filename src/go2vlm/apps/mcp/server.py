@@ -27,6 +27,7 @@ from pydantic import Field
 
 from go2vlm.apps.mcp.bridge_node import McpBridgeNode
 from go2vlm.apps.mcp.rules import Refused, object_label
+from go2vlm.bus.topics import COMMANDER_STATUS, SAFETY_STATUS
 
 __all__ = ["INSTRUCTIONS", "Session", "build_server", "is_loopback", "serve_http", "serve_stdio"]
 
@@ -113,9 +114,9 @@ def build_server(
         token_verifier=token_verifier,
         log_level="WARNING",
     )
-    motion = ToolAnnotations(readOnlyHint=False, destructiveHint=False, idempotentHint=False, openWorldHint=True)
-    reading = ToolAnnotations(readOnlyHint=True, openWorldHint=True)
-    stopping = ToolAnnotations(readOnlyHint=False, destructiveHint=False, idempotentHint=True, openWorldHint=True)
+    motion = ToolAnnotations(read_only_hint=False, destructive_hint=False, idempotent_hint=False, open_world_hint=True)
+    reading = ToolAnnotations(read_only_hint=True, open_world_hint=True)
+    stopping = ToolAnnotations(read_only_hint=False, destructive_hint=False, idempotent_hint=True, open_world_hint=True)
 
     def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
         """A refusal becomes a tool error that says why; the server carries on."""
@@ -217,8 +218,8 @@ def build_server(
         b.poll()
         left = b.deadman_left()
         return {
-            "commander": _commander_view(b.status_of("/commander/status")),
-            "safety": _safety_view(b.status_of("/safety/status")),
+            "commander": _commander_view(b.status_of(COMMANDER_STATUS.name)),
+            "safety": _safety_view(b.status_of(SAFETY_STATUS.name)),
             "mcp": {
                 "goal": b.our_goal(),
                 "deadman_left_s": None if left is None else round(left, 1),
@@ -398,6 +399,7 @@ def http_security(host: str, token: str | None) -> tuple[Any, Any, Any]:
     DNS-rebinding protection; elsewhere the token is required and checked on every request."""
     from mcp.server.auth.settings import AuthSettings
     from mcp.server.transport_security import TransportSecuritySettings
+    from pydantic import AnyHttpUrl
 
     security = None
     if not is_loopback(host):
@@ -411,7 +413,7 @@ def http_security(host: str, token: str | None) -> tuple[Any, Any, Any]:
         )
     if not token:
         return security, None, None
-    auth = AuthSettings(issuer_url="http://127.0.0.1", resource_server_url=None)  # a static token: no OAuth
+    auth = AuthSettings(issuer_url=AnyHttpUrl("http://127.0.0.1"), resource_server_url=None)  # a static token: no OAuth
     return security, auth, StaticToken(token)
 
 

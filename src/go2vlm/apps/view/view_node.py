@@ -38,33 +38,39 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 
-from go2vlm.bus import QOS_DEFAULT, Node, ParamError, Publisher, QosProfile, RawSample, Subscription, param
+from go2vlm.bus import Node, ParamError, Publisher, QosProfile, RawSample, Subscription, param
 from go2vlm.bus.domain import ros_topic_name
 from go2vlm.bus.graph import profile_of
+from go2vlm.bus.topics import (
+    CAMERA_INFO,
+    DETECTED_TARGET,
+    EMERGENCY_STOP,
+    ESTOP_RELEASE,
+    MCP_CONFIRM,
+    TELEOP_CMD_VEL,
+    TOPICS,
+    VLM_DETECTIONS,
+)
 from go2vlm.msgs import get_type
 from go2vlm.msgs.convert import from_dict
-from go2vlm.msgs.geometry_msgs import PointStamped, Twist
+from go2vlm.msgs.geometry_msgs import PointStamped
 from go2vlm.msgs.msgdef import msgdef, ros_type
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image
-from go2vlm.msgs.std_msgs import Bool, String
-from go2vlm.msgs.vision_msgs import Detection2DArray
+from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis, box_corners
 from go2vlm.robot_profile.go2 import SIM
-from go2vlm.safety.estop import ESTOP_TOPIC, RELEASE_TOPIC
+
+if TYPE_CHECKING:
+    from foxglove.websocket import ServerListener
 
 __all__ = ["CLIENT_TOPICS", "ViewConfig", "ViewNode"]
 
 # What a Foxglove client may publish: the safety gate's inputs and a person's yes to an MCP agent's
 # goal (`go2vlm mcp --confirm`), nothing else (never /cmd_vel).
-CLIENT_TOPICS: dict[str, type] = {
-    ESTOP_TOPIC: Bool,
-    RELEASE_TOPIC: String,
-    "/teleop/cmd_vel": Twist,
-    "/mcp/confirm": String,
-}
+CLIENT_TOPICS: dict[str, type] = {t.name: t.type for t in (EMERGENCY_STOP, ESTOP_RELEASE, TELEOP_CMD_VEL, MCP_CONFIRM)}
 ROBOT_TOPIC = "/view/robot"
 GO2_BOX = (SIM.footprint_length, SIM.footprint_width, 0.40)  # metres: the Go2 standing, as one box
 
@@ -75,9 +81,9 @@ class ViewConfig:
     port: int = param(8765, help="WebSocket port (0: any free port)", min=0, max=65535)
     jpeg_quality: int = param(80, help="JPEG quality of forwarded camera images", min=10, max=100)
     max_image_hz: float = param(10.0, help="images per second per camera topic, at most", min=0.1, max=60.0)
-    vlm_topic: str = param("/vlm/detections", help="vision_msgs/Detection2DArray to draw as image annotations")
-    target_topic: str = param("/detected_target", help="geometry_msgs/PointStamped (normalised) to draw")
-    camera_info_topic: str = param("/camera/camera_info", help="image size for target annotations")
+    vlm_topic: str = param(VLM_DETECTIONS.name, help="vision_msgs/Detection2DArray to draw as image annotations")
+    target_topic: str = param(DETECTED_TARGET.name, help="geometry_msgs/PointStamped (normalised) to draw")
+    camera_info_topic: str = param(CAMERA_INFO.name, help="image size for target annotations")
     base_frame: str = param("base_link", help="frame of the robot box in /view/robot")
     exclude: list[str] = param(list, help="topics never forwarded")
     allow_client_publish: bool = param(True, help="let clients publish the e-stop, the release and teleop")
@@ -119,13 +125,13 @@ class ViewNode(Node):
         self._channels: dict[str, Any] = {}  # foxglove topic -> channel
         self._feeds: dict[str, str] = {}  # foxglove topic -> bus topic
         self._requests: queue.Queue[tuple[str, int]] = queue.Queue()
-        self._approved: dict[tuple[int, int], tuple[str, type, str]] = {}
+        self._approved: dict[tuple[int, int], tuple[str, type[Any], str]] = {}
         self._image_size = (640, 480)
         self._approved_lock = threading.Lock()
         self.client_pubs: dict[str, Publisher[Any]] = {}
         if c.allow_client_publish:
-            for topic, cls in CLIENT_TOPICS.items():
-                self.client_pubs[topic] = self.create_publisher(cls, topic, QOS_DEFAULT)
+            for name in CLIENT_TOPICS:
+                self.client_pubs[name] = TOPICS[name].publisher(self)
         self._ann_vlm = ImageAnnotationsChannel(c.vlm_topic + "/annotations", context=self.ctx)
         self._ann_target = ImageAnnotationsChannel(c.target_topic + "/annotations", context=self.ctx)
         self._feeds[c.vlm_topic + "/annotations"] = c.vlm_topic
@@ -140,14 +146,15 @@ class ViewNode(Node):
                 port=c.port,
                 capabilities=caps,
                 supported_encodings=["cdr", "json"],
-                server_listener=_Listener(self),
+                # The SDK's Protocol has default bodies, meant to be inherited; foxglove is imported lazily.
+                server_listener=cast("ServerListener", _Listener(self)),
                 context=self.ctx,
             )
         except Exception as exc:  # port taken, address not local: a setting to change, said in one line
             self._pubs_reader.__del__()
             raise ParamError(f"cannot serve Foxglove on {c.host}:{c.port}: {exc}") from None
         self.port = self.server.port
-        self.create_subscription(CameraInfo, c.camera_info_topic, self._on_camera_info, QosProfile(True, True, 1))
+        CAMERA_INFO.subscription(self, self._on_camera_info, name=c.camera_info_topic)
         self.create_timer(c.discovery_period_s, self._discover)
         self.create_timer(0.05, self._apply_requests)
         self.create_timer(1.0, self._send_robot)
@@ -176,6 +183,7 @@ class ViewNode(Node):
                 fwd.publishers[ep.key] = profile_of(ep.qos)
 
     def _advertise(self, fwd: _Forward) -> None:
+        cls: type[Any]
         if fwd.cls is Image:
             name, cls = fwd.topic + "/compressed", CompressedImage
         else:
@@ -281,16 +289,14 @@ class ViewNode(Node):
         green = Color(r=0.1, g=1.0, b=0.3, a=1.0)
         boxes, texts = [], []
         for det in msg.detections:
-            b = det.bbox
-            x0, y0 = b.center.position.x - b.size_x / 2, b.center.position.y - b.size_y / 2
-            x1, y1 = x0 + b.size_x, y0 + b.size_y
+            x0, y0, x1, y1 = box_corners(det.bbox)
             corners = [Point2(x=x0, y=y0), Point2(x=x1, y=y0), Point2(x=x1, y=y1), Point2(x=x0, y=y1)]
             boxes.append(
                 PointsAnnotation(
                     timestamp=ts, type=PointsAnnotationType.LineLoop, points=corners, outline_color=green, thickness=3
                 )
             )
-            hyp = det.results[0].hypothesis if det.results else None
+            hyp = best_hypothesis(det.results)
             label = f"{hyp.class_id} {hyp.score:.2f}" if hyp else (det.id or "object")
             texts.append(
                 TextAnnotation(
@@ -385,7 +391,7 @@ class ViewNode(Node):
             return
         self.client_pubs[topic].publish(msg)
         self.count("client_published")
-        if topic == ESTOP_TOPIC and msg.data:
+        if topic == EMERGENCY_STOP.name and msg.data:
             self.log.warning("a Foxglove client engaged the e-stop")
 
     def _refuse(self, why: str, quiet: bool = False) -> None:

@@ -166,6 +166,7 @@ class TransformersBackend:
             raise BackendError(f"cannot read a model config from {s.model!r}: {exc}") from exc
         self.model_type = str(getattr(config, "model_type", ""))
         self.coords = CoordSystem(s.coords) if s.coords not in ("", "auto") else coord_system_for(self.model_type)
+        model_cls: type[Any]
         if self.model_type == "qwen2_5_vl":
             from transformers import Qwen2_5_VLForConditionalGeneration as model_cls
         else:

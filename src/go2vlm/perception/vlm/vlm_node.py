@@ -16,7 +16,7 @@ Topics
                                scene question (perception/vlm/prompts.py DECISION_PROMPT: stop /
                                continue / turn <= 30 deg / sit as JSON); untrusted text, the commander
                                maps it onto the whitelist of behavior/decisions.py
-              /vlm/status      std_msgs/String (JSON, every status_period_s): model, backend, mode,
+              /vlm/status      std_msgs/String (latched JSON, every status_period_s): model, backend, mode,
                                state, latency_ms of the last inference, result_age_ms, frames
                                received/dropped/processed, error and parse counters
 
@@ -51,7 +51,8 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, param
+from go2vlm.bus import Node, param
+from go2vlm.bus.topics import CAMERA_IMAGE, TARGET_QUERY, VLM_DECISION, VLM_DETECTIONS, VLM_STATUS, VLM_TEXT
 from go2vlm.errors import ConfigError
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import image_to_numpy
@@ -75,12 +76,7 @@ from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_p
 
 __all__ = ["VlmConfig", "VlmNode", "detections_msg", "image_to_rgb"]
 
-TOPIC_TEXT = "/vlm/detection"
-TOPIC_DETECTIONS = "/vlm/detections"
-TOPIC_DECISION = "/vlm/decision"
-TOPIC_QUERY = "/target/query"
 MAX_QUERY_CHARS = 200
-TOPIC_STATUS = "/vlm/status"
 MAX_ANSWER_CHARS = 8192
 
 
@@ -108,7 +104,7 @@ class VlmConfig:
     device: str = param("auto", help="auto, cpu, cuda or cuda:N")
     quantization: str = param("none", choices=("none", "nf4", "int8"), help="bitsandbytes, CUDA only")
     period_s: float = param(1.0, help="min time between inference starts", min=0.0, live=True)
-    image_topic: str = param("/camera/image_raw", help="sensor_msgs/Image input")
+    image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
     max_age_s: float = param(
         0.0, help="skip frames older than this (receive time) at pickup; 0: off", min=0.0, live=True
     )
@@ -198,13 +194,13 @@ class VlmNode(Node):
         self.last_source_stamp: float | None = None
         self.last_source_seq = 0
         self.last_detections = 0
-        self.pub_text = self.create_publisher(String, TOPIC_TEXT, QOS_DEFAULT)
-        self.pub_dets = self.create_publisher(Detection2DArray, TOPIC_DETECTIONS, QOS_DEFAULT)
-        self.pub_decision = self.create_publisher(String, TOPIC_DECISION, QOS_DEFAULT)
-        self.pub_status = self.create_publisher(String, TOPIC_STATUS, QOS_DEFAULT)
-        self.create_subscription(Image, cfg.image_topic, self.on_image, QOS_SENSOR)
+        self.pub_text = VLM_TEXT.publisher(self)
+        self.pub_dets = VLM_DETECTIONS.publisher(self)
+        self.pub_decision = VLM_DECISION.publisher(self)
+        self.pub_status = VLM_STATUS.publisher(self)
+        CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
         if cfg.mode == "detect":
-            self.create_subscription(String, TOPIC_QUERY, self.on_query, QOS_LATCHED)
+            TARGET_QUERY.subscription(self, self.on_query)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.log.info(
             f"{self.backend.name} backend, model {cfg.model}, mode {cfg.mode}, "

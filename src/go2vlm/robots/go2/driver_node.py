@@ -81,24 +81,27 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import (
-    QOS_DEFAULT,
-    QOS_IMAGE,
-    QOS_LATCHED,
-    QOS_SENSOR,
-    QOS_UNITREE_READER,
-    Endpoint,
-    discovery_info,
-    param,
+from go2vlm.bus import QOS_UNITREE_READER, Endpoint, discovery_info, param
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    CAMERA_IMAGE_COMPRESSED,
+    CAMERA_INFO,
+    GO2_COMMAND,
+    GO2_LOWSTATE,
+    GO2_STATUS,
+    IMU,
+    LIDAR_CLOUD,
+    LOWSTATE,
+    ODOM,
+    SCAN,
+    TF,
 )
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.msgs.base_state import base_state_messages
 from go2vlm.msgs.image import camera_info, numpy_to_image
-from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.pointcloud import scan_from_cloud
-from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu, LaserScan, PointCloud2
-from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.sensor_msgs import CompressedImage, PointCloud2
 from go2vlm.msgs.unitree import LowState, Request, SportModeState
 from go2vlm.robot_profile.go2 import GO2
 from go2vlm.robots.base import RobotEnd, RobotEndConfig
@@ -146,7 +149,7 @@ class Go2DriverConfig(RobotEndConfig):
         p.SPORT_STATE_TOPIC, help="the robot's state topic (ROS form of rt/sportmodestate; e.g. /lf/sportmodestate)"
     )
     lowstate_topic: str = param(
-        "/lowstate", help="the robot's low-level state (ROS form of rt/lowstate; e.g. /lf/lowstate); '' = none"
+        LOWSTATE.name, help="the robot's low-level state (ROS form of rt/lowstate; e.g. /lf/lowstate); '' = none"
     )
     lidar: bool = param(True, help="derive /scan from the robot's rt/utlidar/cloud (for the gate's collision guard)")
     stand_on_start: bool = param(False, help="send StandUp + BalanceStand once the robot is reachable")
@@ -173,8 +176,8 @@ class Go2DriverNode(RobotEnd):
     profile = GO2
     postures = p.POSTURES
     estop_postures = p.ESTOP_ALLOWED
-    posture_topic = p.POSTURE_TOPIC
-    status_topic = "/go2/status"
+    posture_topic = GO2_COMMAND
+    status_topic = GO2_STATUS
 
     def __init__(self, config: Go2DriverConfig | None = None, **kwargs: Any) -> None:
         cfg = config if config is not None else Go2DriverConfig()
@@ -219,17 +222,15 @@ class Go2DriverNode(RobotEnd):
         self.damps_sent = 0
         self.frames = 0
 
-        self.pub_odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
-        self.pub_imu = self.create_publisher(Imu, "/imu", QOS_DEFAULT)
-        self.pub_tf = self.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
+        self.pub_odom = ODOM.publisher(self)
+        self.pub_imu = IMU.publisher(self)
+        self.pub_tf = TF.publisher(self)
         if cfg.camera_rate_hz > 0:
             self.pub_jpeg = (  # the robot's own JPEGs: videohub over DDS; WebRTC has H.264 video instead
-                self.create_publisher(CompressedImage, "/camera/image_raw/compressed", QOS_IMAGE)
-                if self.video is not None
-                else None
+                CAMERA_IMAGE_COMPRESSED.publisher(self) if self.video is not None else None
             )
-            self.pub_image = self.create_publisher(Image, "/camera/image_raw", QOS_IMAGE) if cfg.publish_raw else None
-            self.pub_info = self.create_publisher(CameraInfo, "/camera/camera_info", QOS_LATCHED)
+            self.pub_image = CAMERA_IMAGE.publisher(self) if cfg.publish_raw else None
+            self.pub_info = CAMERA_INFO.publisher(self)
             if self.video is not None:  # over WebRTC the camera is a video track
                 self.create_timer(1.0 / cfg.camera_rate_hz, self._poll_camera)
 
@@ -243,14 +244,14 @@ class Go2DriverNode(RobotEnd):
             self.create_subscription(SportModeState, cfg.state_topic, self._on_state, QOS_UNITREE_READER)
         self._last_lowstate_pub = -math.inf
         if cfg.lowstate_topic:
-            self.pub_lowstate = self.create_publisher(LowState, self.profile.health_topic, QOS_SENSOR)
+            self.pub_lowstate = GO2_LOWSTATE.publisher(self, name=self.profile.health_topic)
             if dds:
-                self.create_subscription(LowState, cfg.lowstate_topic, self._on_lowstate, QOS_UNITREE_READER)
+                LOWSTATE.subscription(self, self._on_lowstate, name=cfg.lowstate_topic)
         if cfg.lidar:
             self._scan_spec, self._lidar_tfs = self.profile.scan_spec(), self.profile.lidar_transforms()
-            self.pub_scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
+            self.pub_scan = SCAN.publisher(self)
             if dds:
-                self.create_subscription(PointCloud2, self.profile.lidar.topic, self._on_cloud, QOS_SENSOR)
+                LIDAR_CLOUD.subscription(self, self._on_cloud, name=self.profile.lidar.topic)
         self.create_timer(1.0 / cfg.move_rate_hz, self._move_tick)
         self.create_timer(1.0, self.publish_status)
         if self.link is not None:

@@ -259,9 +259,8 @@ def result_from_response(request_api_id: int, response: Response) -> RpcResult:
 
 
 # -- posture commands (/go2/command, `go2vlm go2 ...`): the one vocabulary -------------------
-# Every robot end of a Go2 (the go2 driver, the sim) takes these words on POSTURE_TOPIC, and
-# `go2vlm go2` offers exactly these verbs.
-POSTURE_TOPIC = "/go2/command"
+# Every robot end of a Go2 (the go2 driver, the sim) takes these words on /go2/command
+# (bus/topics.py: GO2_COMMAND), and `go2vlm go2` offers exactly these verbs.
 # name -> sequence of sport API ids sent in order, each after the previous one answered.
 # "stand" = StandUp (joints locked upright) then BalanceStand (balancing, accepts Move).
 COMMANDS: dict[str, tuple[int, ...]] = {

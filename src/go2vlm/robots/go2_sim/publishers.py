@@ -12,19 +12,35 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from go2vlm.bus import QOS_DEFAULT, QOS_IMAGE, QOS_LATCHED, QOS_SENSOR, QOS_UNITREE_WRITER, Node
+from go2vlm.bus import Node
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    CAMERA_INFO,
+    CLOCK,
+    IMU,
+    JOINT_STATES,
+    LIDAR_CLOUD,
+    LOWSTATE,
+    ODOM,
+    SCAN,
+    SIM_DETECTIONS,
+    SIM_GROUND_TRUTH,
+    TF,
+    TF_STATIC,
+    WORLD_CAMERA_IMAGE,
+    WORLD_CAMERA_INFO,
+    Topic,
+)
 from go2vlm.geometry.camera import PinholeCamera, fovy_to_hfov
 from go2vlm.msgs.base_state import base_state_messages, transform_stamped
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import camera_info, numpy_to_image
-from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.pointcloud import scan_from_cloud, xyz_cloud
 from go2vlm.msgs.rosgraph_msgs import Clock
-from go2vlm.msgs.sensor_msgs import CameraInfo, Image, Imu, JointState, LaserScan, PointCloud2
+from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
 from go2vlm.msgs.std_msgs import Header
 from go2vlm.msgs.tf2_msgs import TFMessage
-from go2vlm.msgs.unitree import LowState
-from go2vlm.msgs.vision_msgs import Detection2DArray, detection_array
+from go2vlm.msgs.vision_msgs import detection_array
 from go2vlm.robot_profile import RobotProfile
 from go2vlm.robots.go2_sim.lowstate import Faults, low_state
 from go2vlm.sim import Go2Sim
@@ -56,37 +72,39 @@ class SimPublishers:
         self.sim = sim
         self.robot = robot
         self.cfg = cfg
-        self.odom = node.create_publisher(Odometry, "/odom", QOS_DEFAULT)
-        self.imu = node.create_publisher(Imu, "/imu", QOS_DEFAULT)
-        self.joints = node.create_publisher(JointState, "/joint_states", QOS_DEFAULT)
-        self.tf = node.create_publisher(TFMessage, "/tf", QOS_DEFAULT)
-        self.tf_static = node.create_publisher(TFMessage, "/tf_static", QOS_LATCHED)
-        self.clock = node.create_publisher(Clock, "/clock", QOS_DEFAULT)
-        self.gt = node.create_publisher(TFMessage, "/sim/ground_truth", QOS_DEFAULT)
-        self.lowstate = node.create_publisher(LowState, robot.health_topic, QOS_UNITREE_WRITER)
+        self.odom = ODOM.publisher(node)
+        self.imu = IMU.publisher(node)
+        self.joints = JOINT_STATES.publisher(node)
+        self.tf = TF.publisher(node)
+        self.tf_static = TF_STATIC.publisher(node)
+        self.clock = CLOCK.publisher(node)
+        self.gt = SIM_GROUND_TRUTH.publisher(node)
+        self.lowstate = LOWSTATE.publisher(node, name=robot.health_topic)
         self.thermal = MotorThermal()
         self.battery = Battery(cfg.battery_pct)
         self._health_t = sim.time
-        self.dets = node.create_publisher(Detection2DArray, "/sim/detections", QOS_DEFAULT) if cfg.detections else None
+        self.dets = SIM_DETECTIONS.publisher(node) if cfg.detections else None
         self.lidar = Lidar(sim.model, sim.model.body("base").id)
         self._scan_spec, self._lidar_tfs = robot.scan_spec(), robot.lidar_transforms()
-        self.cloud = node.create_publisher(PointCloud2, robot.lidar.topic, QOS_SENSOR)
-        self.scan = node.create_publisher(LaserScan, "/scan", QOS_SENSOR)
+        self.cloud = LIDAR_CLOUD.publisher(node, name=robot.lidar.topic)
+        self.scan = SCAN.publisher(node)
         self.cams: dict[str, tuple[Any, Any, CameraInfo]] = {}  # key -> (image pub, info pub, CameraInfo)
         if cfg.camera:
             w, h = cfg.camera_width, cfg.camera_height
-            self._camera("head", "/camera", robot.frames.camera, w, h, cfg.camera_fovy_deg)
+            self._camera("head", (CAMERA_IMAGE, CAMERA_INFO), robot.frames.camera, w, h, cfg.camera_fovy_deg)
         if world_camera:
             w, h = cfg.world_camera_width, cfg.world_camera_height
             fovy = float(sim.model.cam_fovy[sim.model.camera("world_camera").id])
-            self._camera("world", "/world_camera", WORLD_CAMERA_FRAME, w, h, fovy)
+            self._camera("world", (WORLD_CAMERA_IMAGE, WORLD_CAMERA_INFO), WORLD_CAMERA_FRAME, w, h, fovy)
 
-    def _camera(self, key: str, ns: str, frame: str, w: int, h: int, fovy_deg: float) -> None:
+    def _camera(
+        self, key: str, topics: tuple[Topic[Image], Topic[CameraInfo]], frame: str, w: int, h: int, fovy_deg: float
+    ) -> None:
         info = camera_info(PinholeCamera.from_hfov(w, h, fovy_to_hfov(fovy_deg, w, h)))
         info.header.frame_id = frame
         self.cams[key] = (
-            self.node.create_publisher(Image, f"{ns}/image_raw", QOS_IMAGE),
-            self.node.create_publisher(CameraInfo, f"{ns}/camera_info", QOS_LATCHED),
+            topics[0].publisher(self.node),
+            topics[1].publisher(self.node),
             info,
         )
 

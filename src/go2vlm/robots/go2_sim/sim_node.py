@@ -122,7 +122,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import QOS_DEFAULT, ParamError, param
+from go2vlm.bus import ParamError, param
+from go2vlm.bus.topics import GO2_COMMAND, SIM_PUSH, SIM_STATUS
 from go2vlm.msgs.geometry_msgs import Twist
 from go2vlm.robot_profile.go2 import SIM
 from go2vlm.robots.base import RobotEnd, RobotEndConfig
@@ -218,8 +219,8 @@ class SimNode(RobotEnd):
     profile = SIM
     postures = protocol.POSTURES
     estop_postures = protocol.ESTOP_ALLOWED
-    posture_topic = protocol.POSTURE_TOPIC
-    status_topic = "/sim/status"
+    posture_topic = GO2_COMMAND
+    status_topic = SIM_STATUS
 
     def __init__(self, config: SimNodeConfig | None = None, **kwargs: Any) -> None:
         cfg = config if config is not None else SimNodeConfig()
@@ -238,7 +239,7 @@ class SimNode(RobotEnd):
         self._started = False
         self.bridge: Any = None
         self.webrtc: Any = None  # the Go2's WebRTC service (robots/go2_sim/webrtc_server.py), with `webrtc`
-        self.create_subscription(Twist, "/sim/push", self._on_push, QOS_DEFAULT)
+        SIM_PUSH.subscription(self, self._on_push)
         if self.clock.sim:
             self.set_sim_time(self.sim.time)  # stamps from the start are sim time (0.0)
         model = self.sim.model

@@ -44,7 +44,8 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import QOS_IMAGE, QOS_SENSOR, QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
+from go2vlm.bus import QOS_UNITREE_READER, QOS_UNITREE_WRITER, Node
+from go2vlm.bus.topics import CAMERA_IMAGE, LIDAR_CLOUD, LOWSTATE
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.rotations import quat_to_mat
 from go2vlm.geometry.scan import to_base
@@ -131,9 +132,9 @@ class SimWebRtcServer:
         node.create_subscription(Response, p.response_topic(p.SPORT_SERVICE), self._on_response, QOS_UNITREE_READER)
         node.create_subscription(Request, p.request_topic(p.SPORT_SERVICE), self._on_dds_request, QOS_UNITREE_READER)
         node.create_subscription(SportModeState, p.SPORT_STATE_TOPIC, self._on_state, QOS_UNITREE_READER)
-        node.create_subscription(LowState, robot.health_topic, self._on_lowstate, QOS_UNITREE_READER)
-        node.create_subscription(PointCloud2, robot.lidar.topic, self._on_cloud, QOS_SENSOR)
-        node.create_subscription(Image, "/camera/image_raw", self._on_image, QOS_IMAGE)
+        LOWSTATE.subscription(node, self._on_lowstate, name=robot.health_topic)
+        LIDAR_CLOUD.subscription(node, self._on_cloud, name=robot.lidar.topic)
+        CAMERA_IMAGE.subscription(node, self._on_image)
 
         self._loop = asyncio.new_event_loop()
         self._frame_ready = asyncio.Event()

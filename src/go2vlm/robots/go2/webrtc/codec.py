@@ -346,7 +346,7 @@ def _fill(template: Any, value: Any, where: str) -> Any:
     if dataclasses.is_dataclass(template):
         if not isinstance(value, dict):
             raise ValueError(f"{where} is not an object")
-        out = type(template)()
+        out = type(template)()  # type: ignore[misc]  # an IDL struct: every field has a default
         for f in dataclasses.fields(template):
             if f.name in value:
                 setattr(out, f.name, _fill(getattr(out, f.name), value[f.name], f"{where}.{f.name}"))

@@ -78,7 +78,7 @@ def _restrict_fingerprints() -> None:
     from aiortc import rtcdtlstransport
     from cryptography.hazmat.primitives import hashes
 
-    rtcdtlstransport.X509_DIGEST_ALGORITHMS = {"sha-256": hashes.SHA256()}  # type: ignore[attr-defined]
+    rtcdtlstransport.X509_DIGEST_ALGORITHMS = {"sha-256": hashes.SHA256()}
 
 
 def discover(serial: str, timeout_s: float = 2.0) -> str | None:
@@ -300,7 +300,12 @@ class Go2Link:
         pc.addTransceiver("video", direction="recvonly")
         pc.addTransceiver("audio", direction="recvonly")
         channel.on("message", self._on_message)
-        channel.on("close", lambda: self._pc is pc and self._lost(f"{CLOSED_BY_ROBOT}: data channel closed"))
+
+        def closed() -> None:
+            if self._pc is pc:
+                self._lost(f"{CLOSED_BY_ROBOT}: data channel closed")
+
+        channel.on("close", closed)
 
         @pc.on("track")
         def on_track(track: Any) -> None:
@@ -411,9 +416,9 @@ class Go2Link:
                 self.log.throttled("error", 2.0, f"data-channel handler failed: {type(exc).__name__}: {exc}")
 
     def _on_response(self, msg: dict[str, Any]) -> None:
-        data = msg.get("data")
+        data: Any = msg.get("data")  # JSON from the robot, checked below
         try:
-            header = data["header"]  # type: ignore[index]
+            header = data["header"]
             rid = int(header["identity"]["id"])
             api = int(header["identity"]["api_id"])
             code = int(header["status"]["code"])

@@ -1,0 +1,167 @@
+"""`go2vlm objects`: what the robot remembers, where each thing is, and the memory kept between runs.
+
+    go2vlm objects                          the running object memory's objects (/objects, latched)
+    go2vlm objects --where "blue cylinder"  ask it: /object_memory/where_is
+    go2vlm objects --save home.json         it writes its memory to a file (on its machine)
+    go2vlm objects --load home.json         it loads a memory file, all or nothing
+    go2vlm objects --file runs/goal-.../objects.json [--where X]   a saved memory, no robot needed
+
+Like `ros2 topic echo /objects`, but readable: one line per object, the most confident first, with
+its label, place in the memory's frame (odom), confidence and age (seconds between its last sighting
+and the newest answer the memory has taken in).
+
+Exit codes: 0; 1 when no object memory answers within --timeout, or --where finds nothing; 2 for a
+memory file that is corrupt, of another world or frame, or of a newer version (one line, nothing
+loaded). Time here is wall time: a tool's deadlines are for the person at the terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import threading
+from pathlib import Path
+from typing import Any
+
+from go2vlm.cli.args import positive
+from go2vlm.errors import ConfigError, UsageError
+
+
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
+    p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
+    what = p.add_mutually_exclusive_group()
+    what.add_argument("--save", metavar="FILE", type=Path, help="the running memory writes itself to FILE")
+    what.add_argument("--load", metavar="FILE", type=Path, help="the running memory loads FILE (all or nothing)")
+    what.add_argument("--file", metavar="FILE", type=Path, help="read a saved memory file instead of a robot")
+    p.add_argument("--json", action="store_true", help="the objects as JSON")
+    p.add_argument("--timeout", type=positive, default=5.0, help="seconds to wait for the object memory")
+    p.set_defaults(func=cmd_objects)
+
+
+def _rows(objects: list[Any], newest: float) -> list[dict[str, Any]]:
+    rows = [
+        {"id": o.id, "label": o.label, "x": round(o.x, 3), "y": round(o.y, 3), "confidence": round(o.confidence, 3),
+         "age_s": round(max(0.0, newest - o.last_seen), 1)}
+        for o in objects
+    ]  # fmt: skip
+    return sorted(rows, key=lambda r: (-r["confidence"], r["id"]))
+
+
+def _print(rows: list[dict[str, Any]], as_json: bool, frame: str) -> None:
+    if as_json:
+        print(json.dumps(rows, ensure_ascii=False))
+        return
+    if not rows:
+        print("(nothing remembered)")
+        return
+    print(f"{'id':<22} {'label':<18} {'x':>7} {'y':>7}  {'confidence':>10}  {'age':>7}   ({frame})")
+    for r in rows:
+        print(f"{r['id']:<22} {r['label']:<18} {r['x']:>7.2f} {r['y']:>7.2f}  {r['confidence']:>10.2f}  "
+              f"{r['age_s']:>6.1f}s")  # fmt: skip
+
+
+def _from_file(args: argparse.Namespace) -> int:
+    from go2vlm.world.memory import ObjectMemory
+    from go2vlm.world.memory_file import MemoryFileError, header, loads
+
+    try:
+        text = args.file.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"cannot read {args.file}: {exc.strerror or exc}") from None
+    try:
+        objs = loads(text, None, None, 1_000_000)
+    except MemoryFileError as exc:
+        raise ConfigError(f"{args.file}: {exc}") from None
+    world, frame = header(text)
+    memory = ObjectMemory()
+    memory.load(objs)
+    newest = max((o.last_seen for o in objs), default=0.0)
+    if args.where is not None:
+        fits = memory.where_is(args.where)
+        if not fits:
+            print(f"{args.file} (world {world!r}) remembers no {args.where}")
+            return 1
+        o = fits[0]
+        print(f"{o.label} at ({o.x:.2f}, {o.y:.2f}) m in {frame}, +-{o.sigma:.2f} m, confidence {o.confidence:.2f}, "
+              f"seen {o.seen} times")  # fmt: skip
+        return 0
+    if not args.json:
+        print(f"{args.file}: world {world!r}, {len(objs)} object(s)")
+    _print(_rows(objs, newest), args.json, frame)
+    return 0
+
+
+def cmd_objects(args: argparse.Namespace) -> int:
+    if args.file is not None:
+        return _from_file(args)
+    from go2vlm.bus import Node, interrupt_on_signals
+    from go2vlm.bus.service import ServiceClient, ServiceError
+    from go2vlm.bus.topics import MEMORY_FILE_SERVICE, OBJECTS, WHERE_IS_SERVICE
+    from go2vlm.msgs.go2vlm_msgs import MemoryFile, WhereIs
+    from go2vlm.msgs.vision_msgs import Detection3DArray
+    from go2vlm.world.objects_msg import remembered
+
+    interrupt_on_signals()
+    if args.save is not None or args.load is not None:
+        if args.load is not None:
+            _check_local(args.load)
+        command, path = ("save", args.save) if args.save is not None else ("load", args.load)
+        with ServiceClient(MemoryFile, MEMORY_FILE_SERVICE) as client:
+            try:
+                req = MemoryFile.Request(command=command, path=str(path.expanduser().resolve()))
+                rep = client.call(req, args.timeout)
+            except ServiceError as exc:
+                raise RuntimeError(f"no object memory answers: {exc}") from None
+        if not rep.success:
+            raise ConfigError(rep.message)
+        print(rep.message)
+        return 0
+    if args.where is not None:
+        with ServiceClient(WhereIs, WHERE_IS_SERVICE) as where_client:
+            try:
+                answer = where_client.call(WhereIs.Request(label=args.where), args.timeout)
+            except ServiceError as exc:
+                raise RuntimeError(f"no object memory answers: {exc}") from None
+        if args.json:
+            rows = [r for r in map(remembered, answer.objects) if r is not None]
+            print(json.dumps([{"id": r.id, "label": r.label, "x": r.x, "y": r.y, "confidence": r.confidence}
+                              for r in rows], ensure_ascii=False))  # fmt: skip
+        else:
+            print(answer.message)
+        return 0 if answer.found else 1
+    got: list[Detection3DArray] = []
+    event = threading.Event()
+
+    def on_objects(msg: Detection3DArray) -> None:
+        got.append(msg)
+        event.set()
+
+    node = Node(node_name="_go2vlm_objects", parameter_services=False)
+    OBJECTS.subscription(node, on_objects)
+    node.start()
+    try:
+        if not event.wait(args.timeout):
+            waited = f"waited {args.timeout:g} s"
+            raise RuntimeError(f"no object memory publishes {OBJECTS.name} ({waited}): is one running?")
+    finally:
+        node.shutdown()
+    msg = got[-1]
+    objs = [r for r in map(remembered, msg.detections) if r is not None]
+    _print(_rows(objs, msg.header.stamp.to_sec()), args.json, msg.header.frame_id)
+    return 0
+
+
+def _check_local(path: Path) -> None:
+    """A file here that is no memory file is refused before the memory is asked (its world and frame
+    are the running memory's to check)."""
+    from go2vlm.world.memory_file import MemoryFileError, loads
+
+    if not path.exists():
+        return  # perhaps a path on the memory's machine: it says
+    try:
+        loads(path.read_bytes(), None, None, 1_000_000)
+    except MemoryFileError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    except OSError as exc:
+        raise UsageError(f"cannot read {path}: {exc.strerror or exc}") from None

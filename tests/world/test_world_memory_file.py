@@ -1,0 +1,55 @@
+"""A memory file is read all or nothing (world/memory_file.py)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from go2vlm.errors import ConfigError
+from go2vlm.world.memory import MemoryObject
+from go2vlm.world.memory_file import VERSION, MemoryFileError, dumps, loads
+
+OBJ = MemoryObject("blue_cylinder_1", "blue cylinder", -2.0, 0.0, 0.75, (0.0025, 0.0, 0.0025), (0.6, 0.6, 1.5),
+                   3.0, 12, 1, 2, 3.5, 40.25)  # fmt: skip
+
+
+def test_round_trip() -> None:
+    text = dumps([OBJ], "vision_test", "odom", 41.0)
+    assert loads(text, "vision_test", "odom", 64) == [OBJ]
+
+
+@pytest.mark.parametrize(
+    ("mutate", "says"),
+    [
+        (lambda d: "{not json", "not JSON"),
+        (lambda d: {**d, "format": "something"}, "format"),
+        (lambda d: {**d, "version": VERSION + 1}, "newer go2vlm"),
+        (lambda d: {**d, "world": "distractors"}, "world 'distractors'"),
+        (lambda d: {**d, "frame_id": "map"}, "frame 'map'"),
+        (lambda d: {**d, "objects": [d["objects"][0]] * 3}, "at most 2"),
+        (lambda d: {**d, "objects": [d["objects"][0], d["objects"][0]]}, "share an id"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "x": float("nan")}]}, "x = nan"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "cov": [1, 2, 1]}]}, "covariance"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "label": ""}]}, "label"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "seen": -1}]}, "seen"),
+        (lambda d: {**d, "objects": "all of them"}, "not a list"),
+    ],
+)
+def test_refused_with_one_line_and_nothing_loaded(mutate, says: str) -> None:
+    doc = json.loads(dumps([OBJ], "vision_test", "odom", 41.0))
+    bad = mutate(doc)
+    text = bad if isinstance(bad, str) else json.dumps(bad)
+    with pytest.raises(MemoryFileError) as e:
+        loads(text, "vision_test", "odom", 2)
+    assert says in str(e.value) and "\n" not in str(e.value)
+    assert isinstance(e.value, ConfigError)  # exit 2 in the CLI
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=300) | st.text(max_size=300))
+def test_garbage_is_refused_never_half_loaded(blob: bytes | str) -> None:
+    with pytest.raises(MemoryFileError):
+        loads(blob, "vision_test", "odom", 64)

@@ -1,0 +1,148 @@
+"""A grounded box lands in the world where the object is, at the pose of the frame it describes,
+however the robot has moved since (world/placement.py over world/poses.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+from worldutil import CAM, MOUNT, cylinder_box, cylinder_scan
+
+from go2vlm.perception.ranging import RangeEstimator
+from go2vlm.world.placement import PlacementError, check_box, place
+from go2vlm.world.poses import Pose2D, PoseHistory
+
+R, H = 0.3, 1.5  # the vision_test world's blue cylinder
+
+
+def ranger() -> RangeEstimator:
+    return RangeEstimator("cylinder", camera_height=MOUNT.height_m, default_sizes={"cylinder": R})
+
+
+poses = st.builds(Pose2D, st.floats(-5, 5), st.floats(-5, 5), st.floats(-math.pi, math.pi))
+
+
+def _object_in_view(pose: Pose2D, dist: float, bearing: float) -> tuple[float, float]:
+    cx, cy = pose.to_world(MOUNT.forward_m, MOUNT.left_m)
+    return cx + dist * math.cos(pose.yaw + bearing), cy + dist * math.sin(pose.yaw + bearing)
+
+
+@settings(max_examples=200, deadline=None)
+@given(pose=poses, dist=st.floats(1.0, 6.0), bearing=st.floats(-0.5, 0.5))
+def test_a_box_lands_on_the_object(pose: Pose2D, dist: float, bearing: float) -> None:
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    p = place("blue cylinder", box, 7.0, pose, CAM, MOUNT, ranger())
+    assert p.method == "bottom"
+    assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.01
+    assert p.size[0] == pytest.approx(2 * R, abs=0.05) and p.size[2] == pytest.approx(H, abs=0.05)
+
+
+@settings(max_examples=200, deadline=None)
+@given(pose=poses, dist=st.floats(1.0, 5.0), bearing=st.floats(-0.5, 0.5), turn=st.floats(-20, 20),
+       late=st.floats(0.05, 20.0), walk=st.floats(0.0, 0.5))  # fmt: skip
+def test_turning_after_the_frame_changes_nothing(
+    pose: Pose2D, dist: float, bearing: float, turn: float, late: float, walk: float
+) -> None:
+    """The robot turns by any angle (and walks) after the frame; the answer, placed at the pose of its
+    frame's stamp, lands in the same world place as one placed at once."""
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    history = PoseHistory(horizon_s=60.0)
+    t_frame = 100.0
+    history.add(t_frame - 1.0, pose.x, pose.y, pose.yaw)
+    history.add(t_frame, pose.x, pose.y, pose.yaw)
+    steps = 100
+    for k in range(1, steps + 1):  # then: turn by `turn` rad and walk, over `late` seconds
+        a = k / steps
+        yaw = pose.yaw + a * turn
+        history.add(t_frame + a * late, pose.x + a * walk * math.cos(yaw), pose.y + a * walk * math.sin(yaw), yaw)
+    now = place("blue cylinder", box, t_frame, pose, CAM, MOUNT, ranger())
+    later = place("blue cylinder", box, t_frame, history.at(t_frame), CAM, MOUNT, ranger())
+    assert (later.x, later.y) == pytest.approx((now.x, now.y), abs=1e-6)
+    assert math.hypot(later.x - obj[0], later.y - obj[1]) < 0.01
+
+
+@settings(max_examples=100, deadline=None)
+@given(pose=poses, dist=st.floats(1.0, 6.0), bearing=st.floats(-0.5, 0.5), bias=st.floats(0.6, 1.6))
+def test_the_lidar_ranges_where_it_covers_the_box(pose: Pose2D, dist: float, bearing: float, bias: float) -> None:
+    """A scan at the frame's stamp that covers the box's bearings ranges it (cm), even when the
+    monocular reading is off (the ranger told a wrong size, the box's bottom cut off)."""
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    scan = cylinder_scan(pose, obj, R)
+    p = place("blue cylinder", box, 1.0, pose, CAM, MOUNT, ranger(), scan)
+    assert p.method == "lidar"
+    assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.05
+    cut = (box[0], box[1], box[2], CAM.height - 1.0)  # bottom out of the picture: size ranging
+    wrong = RangeEstimator("cylinder", camera_height=MOUNT.height_m, default_sizes={"cylinder": R * bias})
+    q = place("blue cylinder", cut, 1.0, pose, CAM, MOUNT, wrong, scan)
+    if q.method == "lidar":
+        assert math.hypot(q.x - obj[0], q.y - obj[1]) < 0.05 + abs(bias - 1) * R
+
+
+def test_a_scan_return_outside_the_box_is_not_its_range() -> None:
+    pose = Pose2D(0, 0, 0)
+    obj = _object_in_view(pose, 3.0, 0.0)
+    box = cylinder_box(pose, obj, R, H)
+    assert box is not None
+    wall = np.array([[1.0, -2.0], [1.0, 2.0]])  # beside the box's bearings
+    p = place("blue cylinder", box, 1.0, pose, CAM, MOUNT, ranger(), wall)
+    assert p.method == "bottom"
+
+
+@pytest.mark.parametrize(
+    "box",
+    [
+        (math.nan, 1, 2, 3),
+        (1, 2, math.inf, 4),
+        (10, 10, 5, 20),
+        (0, 0, 5000, 5000),
+        (700, 10, 800, 50),
+        (1, 1, 1.5, 1.5),
+    ],
+)
+def test_bad_boxes_are_refused(box: tuple[float, float, float, float]) -> None:
+    with pytest.raises(PlacementError) as e:
+        check_box(box, CAM)
+    assert e.value.reason == "bad_box"
+
+
+def test_a_box_without_a_range_is_a_bearing_only_sighting() -> None:
+    """An object that fills the view (both sides cut) has no monocular range; no scan: bearing only."""
+    p = place("green box", (0, 100, 640, 479), 1.0, Pose2D(0, 0, 0), CAM, MOUNT, RangeEstimator("box"))
+    assert not p.ranged and p.method == "fills_view" and math.isnan(p.x)
+    assert p.span[0] < 0 < p.span[1]
+
+
+@settings(max_examples=100, deadline=None)
+@given(pose=poses, dist=st.floats(1.2, 4.0), bearing=st.floats(-0.5, 0.5), cut=st.floats(0.1, 0.45),
+       left=st.booleans())  # fmt: skip
+def test_a_round_object_cut_by_the_image_lands_on_it(
+    pose: Pose2D, dist: float, bearing: float, cut: float, left: bool
+) -> None:
+    """A cylinder more than half in view but cut by one side of the image: its centre is a half-angle
+    inside the uncut edge (a few cm); less than half in view, or a box, it places nothing."""
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    x1, y1, x2, y2 = box
+    shift = cut * (x2 - x1)  # the image's side moves this many pixels into the box
+    if left:  # the same camera, its image starting `shift` px inside the box's left edge
+        clipped = (0.0, y1, x2 - x1 - shift, y2)
+        cam = dataclasses.replace(CAM, cx=CAM.cx - x1 - shift)
+    else:  # ... or ending `shift` px inside its right edge
+        clipped = (x1, y1, x2 - shift, y2)
+        cam = dataclasses.replace(CAM, width=int(round(x2 - shift)))
+    p = place("blue cylinder", clipped, 1.0, pose, cam, MOUNT, ranger())
+    assert p.ranged, p
+    assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.06
+    q = place("green box", clipped, 1.0, pose, cam, MOUNT, RangeEstimator("box"))
+    assert not q.ranged and q.method == "cut"
