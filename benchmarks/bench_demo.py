@@ -3,6 +3,7 @@ and where the CPU goes, thread by thread.
 
     .venv/bin/python benchmarks/bench_demo.py                    # 60 s at rtf 1, then 20 s --fast
     .venv/bin/python benchmarks/bench_demo.py --duration 30 --no-fast --json out.json
+    .venv/bin/python benchmarks/bench_demo.py --world household --mode kinematic   # another world or physics
 
 Runs the demo in this process exactly as `go2vlm demo` does (sim + color_detector + follower +
 safety gate + the recorder, video on: it is rendered after the run, so it is not in the CPU per sim
@@ -50,14 +51,17 @@ def group(cpu: dict[str, float]) -> dict[str, float]:
     return out
 
 
-def run(duration: float, fast: bool, video: bool) -> dict[str, Any]:
+def run(duration: float, fast: bool, video: bool, world: str = "follow_ball", mode: str = "dynamic") -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
-        ep = Episode(world="follow_ball", duration_s=duration, mode="dynamic")
+        # the follow article's loop; in a world whose red ball stands still it walks to it and stays there
+        ep = Episode(world=world, duration_s=duration, mode=mode)
         m = run_episode(ep, RunOptions(fast=fast, out=Path(tmp), video=video, cpu=True)).metrics
     sim_s = max(m["duration_s"], 1e-9)
     groups = group(m["cpu_s_by_thread"])
     return {
         "mode": "fast" if fast else "rtf 1.0",
+        "world": world,
+        "physics": mode,
         "sim_s": m["duration_s"],
         "wall_s": m["wall_s"],
         "real_time_factor": m["real_time_factor"],
@@ -78,18 +82,21 @@ def main() -> int:
     ap.add_argument("--fast-duration", type=float, default=20.0, help="sim seconds of the --fast run")
     ap.add_argument("--no-fast", dest="fast", action="store_false", help="skip the --fast run")
     ap.add_argument("--no-video", dest="video", action="store_false", help="without the MP4 encoder")
+    ap.add_argument("--world", default="follow_ball", help="the world (the demo's: follow_ball)")
+    ap.add_argument("--mode", choices=("dynamic", "kinematic"), default="dynamic", help="the sim's physics")
     ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = ap.parse_args()
 
-    results = [run(args.duration, False, args.video)]
+    results = [run(args.duration, False, args.video, args.world, args.mode)]
     if args.fast:
-        results.append(run(args.fast_duration, True, args.video))
+        results.append(run(args.fast_duration, True, args.video, args.world, args.mode))
     info = {"cpus": os.cpu_count(), "machine": platform.machine(), "python": platform.python_version(),
             "MUJOCO_GL": os.environ.get("MUJOCO_GL")}  # fmt: skip
     for r in results:
         print(
-            f"\n{r['mode']}: {r['sim_s']:.1f} sim s in {r['wall_s']:.1f} wall s -> real-time factor "
-            f"{r['real_time_factor']:.2f}; ball in view {100 * r['target_visible_fraction']:.1f} %, "
+            f"\n{r['world']}, {r['physics']}, {r['mode']}: {r['sim_s']:.1f} sim s in {r['wall_s']:.1f} wall s "
+            f"-> real-time factor {r['real_time_factor']:.2f}; "
+            f"ball in view {100 * r['target_visible_fraction']:.1f} %, "
             f"fell={r['fell']}; CPU {r['cpu_cores_busy']:.2f} of {info['cpus']} cores "
             f"(machine load average {r['loadavg_1min_after']:.2f})"
         )

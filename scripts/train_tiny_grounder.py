@@ -1,8 +1,10 @@
 #!/usr/bin/env python
-"""Build the tiny grounding checkpoint shipped in tests/data/tiny_grounder (see docs/vlm.md).
+"""Build the tiny grounding checkpoints shipped in tests/data (see docs/vlm.md).
 
     nice -n 10 .venv/bin/python scripts/train_tiny_grounder.py --seed 0 --frames 6000 --steps 3000 \\
         --out tests/data/tiny_grounder
+    nice -n 10 .venv/bin/python scripts/train_tiny_grounder.py --dataset household ... \\
+        --out tests/data/tiny_grounder_household      # the exact command is in its go2vlm_grounder.json
 
 Runs this checkout's code (its src/ first on the path) whatever go2vlm the environment has installed.
 """

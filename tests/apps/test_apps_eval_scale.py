@@ -4,7 +4,7 @@ Fast: the world, its assets and licences, what the suites resolve to, bad input 
 its world, a mesh that does not load, an unknown --latency, a cluster nobody answers) refused with one
 line and exit 2 before any episode, the latency report. Slow: a local Ray cluster of two worker
 processes gives the same outcomes as `--workers 2`; a task whose worker is killed is retried once, then
-recorded as an error, and nothing is lost or duplicated."""
+recorded as an error, and nothing is lost or duplicated; SIGTERM stops a Ray run as it stops workers."""
 
 from __future__ import annotations
 
@@ -281,6 +281,29 @@ def test_a_killed_task_is_retried_once_then_recorded_as_an_error(tmp_path: Path,
             errors = read_jsonl(out / "errors.jsonl")
             assert [e["index"] for e in errors] == [0] and "died" in errors[0]["error"]
             assert "smoke/000" in stderr and "0/1 episodes" in stdout
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_ray_run_as_it_stops_workers(tmp_path: Path, ray_cluster: str) -> None:
+    """ray.init puts its own SIGTERM handler (sys.exit) in place of the eval's: the eval keeps its own, so
+    a terminated Ray run keeps what finished, writes its report, exits 143, and --resume finishes it."""
+    args = [*GO2VLM, "eval", "--no-progress", "--suite", "smoke", "--perception", "color", "--fast",
+            "--episodes", "3", "--ray", ray_cluster, "--out", str(tmp_path)]  # fmt: skip
+    proc = subprocess.Popen(args, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert wait_for(lambda: bool(_task_pids()), timeout=180), "no task ran"
+        proc.send_signal(signal.SIGTERM)
+        _, stderr = proc.communicate(timeout=180)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, stderr[-3000:]
+    assert "--resume" in stderr and (tmp_path / "summary.json").is_file()
+    done = {line["index"] for line in read_jsonl(tmp_path / "results.jsonl")}
+    assert len(done) < 3
+    resumed = subprocess.run([*args, "--resume"], env=_env(), capture_output=True, text=True, timeout=400)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert sorted(line["index"] for line in read_jsonl(tmp_path / "results.jsonl")) == [0, 1, 2]
 
 
 @pytest.mark.slow

@@ -158,19 +158,28 @@ def run(args: argparse.Namespace) -> int:
         return 2
     stop = ShutdownRequested()
     stop.install()
+    session = None
+    if base.ray is not None:  # one Ray for every run of the command, started when the first needs it
+        from go2vlm.apps.episodes.cluster import RaySession
+
+        session = RaySession(base.ray, base.workers, base.interface, base.log_level)
     code = 0
-    for opts, prep in zip(runs, prepared, strict=True):
-        code = max(code, _run_one(args, opts, prep, stop, run_eval))
-        if stop.event.is_set() or code == 2:
-            break
+    try:
+        for opts, prep in zip(runs, prepared, strict=True):
+            code = max(code, _run_one(args, opts, prep, stop, run_eval, session))
+            if stop.event.is_set() or code == 2:
+                break
+    finally:
+        if session is not None:
+            session.close()
     return code
 
 
-def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval: Any) -> int:
+def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval: Any, session: Any) -> int:
     from go2vlm.errors import UsageError
 
     try:
-        outcome = run_eval(opts, stop, prep)
+        outcome = run_eval(opts, stop, prep, session)
     except UsageError as exc:  # RobotLatched too
         print(f"go2vlm eval: {exc}", file=sys.stderr)
         return 2

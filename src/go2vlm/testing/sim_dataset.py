@@ -1,5 +1,17 @@
 """Head-camera frames of our MuJoCo worlds with ground-truth boxes, for grounding models and tests.
 
+What a grounder learns is a :class:`GroundingSpec`: its labels, the world bodies each label names,
+the worlds it sees and where the robot may stand in them. Two are defined (:data:`SPECS`):
+
+- ``primitives`` (:data:`PRIMITIVES`, the default): the coloured primitives of vision_test,
+  follow_ball and obstacles. ``red_sphere`` and ``red_ball`` are both "red ball"; ``green_box``
+  "green box"; ``blue_cylinder`` "blue cylinder" (tests/data/tiny_grounder).
+- ``household`` (:data:`HOUSEHOLD`): the household world's objects by category ("teddy bear",
+  "mug": both mugs, "box": all four boxes, ...) and the referring suite's phrases, each labelling its
+  referent's box alone ("second box from the left" is box_3, "ball under the table" the red ball):
+  what a box-per-phrase dataset can say of a relation (tests/data/tiny_grounder_household). Its
+  lighting is drawn per frame as the sim draws it per episode (the world's ``light_jitter``).
+
 A :class:`FrameRenderer` poses the kinematic Go2 anywhere in a world (position, yaw, a little
 pitch/roll as when walking), renders the head camera exactly as the sim node does (640x480,
 ``SimConfig.camera_fovy_deg``) and derives boxes from ``render_head_segmentation``: the pixels of
@@ -7,8 +19,7 @@ each named body's geoms, so partly occluded or border-cut objects get the box of
 
 :func:`sample_frames` draws seeded poses that put an object in view most of the time (near, so
 boxes are large and cut by the border; far, so they are small), plus free poses that often see
-nothing. Labels: ``red_sphere`` and ``red_ball`` are both "red ball"; ``green_box`` "green box";
-``blue_cylinder`` "blue cylinder". Boxes whose visible part is under :data:`MIN_BOX_SIDE_PX` on
+nothing. Boxes whose visible part is under :data:`MIN_BOX_SIDE_PX` on
 a side are *ambiguous*: neither target nor negative (a model may or may not report them).
 
 Also here, so training, evaluation and tests agree: the answer text a grounding model should
@@ -18,10 +29,12 @@ transformers processor's resize; the openai backend's resize + JPEG) and box IoU
 
 from __future__ import annotations
 
+import copy
 import io
 import json
 import math
-from collections.abc import Iterator, Sequence
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -30,11 +43,15 @@ import numpy as np
 __all__ = [
     "ALL_LABELS",
     "CAMERA_HW",
+    "HOUSEHOLD",
     "LABEL_BODIES",
     "MIN_BOX_SIDE_PX",
+    "PRIMITIVES",
+    "SPECS",
     "WORLDS",
     "Frame",
     "FrameRenderer",
+    "GroundingSpec",
     "answer_text",
     "box_iou",
     "match_boxes",
@@ -44,25 +61,104 @@ __all__ = [
     "to_resized",
 ]
 
-ALL_LABELS: tuple[str, ...] = ("red ball", "green box", "blue cylinder")
-LABEL_BODIES: dict[str, tuple[str, ...]] = {
-    "red ball": ("red_sphere", "red_ball"),
-    "green box": ("green_box",),
-    "blue cylinder": ("blue_cylinder",),
-}
-WORLDS: tuple[str, ...] = ("vision_test", "follow_ball", "obstacles")
 CAMERA_HW = (480, 640)  # the sim node's default head camera
 # Under this (camera pixels) a visible part is a few resized pixels: too small to demand a box for.
 MIN_BOX_SIDE_PX = 12
 
-# Where the robot may stand in each world (x_min, x_max, y_min, y_max): inside the obstacles walls,
-# around the objects elsewhere.
-_AREA = {
-    "vision_test": (-6.0, 6.0, -6.0, 6.0),
-    "follow_ball": (-3.5, 6.5, -3.0, 7.0),
-    "obstacles": (-4.6, 4.6, -4.6, 4.6),
+Area = tuple[float, float, float, float]  # x_min, x_max, y_min, y_max
+
+
+@dataclass(frozen=True)
+class GroundingSpec:
+    """What a grounder is trained on: labels and the bodies each names, worlds, where the robot stands."""
+
+    name: str
+    labels: tuple[str, ...]
+    label_bodies: Mapping[str, tuple[str, ...]]  # label -> the bodies it names (each its own box)
+    worlds: tuple[str, ...]
+    world_weights: tuple[float, ...]  # how often each world is drawn
+    areas: Mapping[str, tuple[Area, ...]]  # per world, the rooms the robot may stand in (one or more)
+    # primitives: some prompts (and the held-out evaluation) ask for every label at once; with dozens
+    # of labels a prompt asks for one, or a few
+    all_labels_prompts: bool = False
+    vocab_size: int = 640  # the tokenizer's, trained on the spec's prompts and answers
+
+    def bodies(self) -> tuple[str, ...]:
+        return tuple(sorted({b for bodies in self.label_bodies.values() for b in bodies}))
+
+
+PRIMITIVES = GroundingSpec(
+    name="primitives",
+    labels=("red ball", "green box", "blue cylinder"),
+    label_bodies={
+        "red ball": ("red_sphere", "red_ball"),
+        "green box": ("green_box",),
+        "blue cylinder": ("blue_cylinder",),
+    },
+    worlds=("vision_test", "follow_ball", "obstacles"),
+    world_weights=(0.35, 0.25, 0.40),
+    # inside the obstacles walls, around the objects elsewhere
+    areas={
+        "vision_test": ((-6.0, 6.0, -6.0, 6.0),),
+        "follow_ball": ((-3.5, 6.5, -3.0, 7.0),),
+        "obstacles": ((-4.6, 4.6, -4.6, 4.6),),
+    },
+    all_labels_prompts=True,
+)
+
+# The household world's objects by category, as people name them (sim/worlds/household.xml) ...
+_HOUSEHOLD_CATEGORIES: dict[str, tuple[str, ...]] = {
+    "teddy bear": ("teddy_bear",),
+    "duck": ("duck",),
+    "soccer ball": ("soccer_ball",),
+    "red ball": ("red_ball",),
+    "mug": ("red_mug", "blue_mug"),
+    "red mug": ("red_mug",),
+    "lego brick": ("red_lego_brick", "yellow_lego_brick"),
+    "red lego brick": ("red_lego_brick",),
+    "yellow lego brick": ("yellow_lego_brick",),
+    "box": ("box_1", "box_2", "box_3", "box_4"),
+    "toy chest": ("toy_chest",),
+    "cone": ("cone",),
+    "tray": ("tray",),
+    "sofa": ("sofa",),
+    "dining table": ("dining_table",),
+    "coffee table": ("coffee_table",),
+    "shelf": ("shelf",),
+    "counter": ("counter",),
+    "door": ("door",),
 }
-_WORLD_WEIGHTS = (0.35, 0.25, 0.40)
+# ... and the referring suite's phrases (apps/episodes/suites/referring.yaml), each naming its referent
+# alone, as the suite's `target` does. Left and right are the viewer's facing the row of boxes from the
+# room (they stand against the south wall); nearest and farthest are from the doorway.
+_HOUSEHOLD_PHRASES: dict[str, tuple[str, ...]] = {
+    "ball under the table": ("red_ball",),
+    "red object nearest the door": ("red_lego_brick",),
+    "red object farthest from the door": ("red_mug",),
+    "second box from the left": ("box_3",),
+    "second box from the right": ("box_2",),
+    "yellow object in the kitchen": ("yellow_lego_brick",),
+    "blue mug": ("blue_mug",),
+    "mug next to the dining table": ("blue_mug",),
+    "toy next to the sofa": ("teddy_bear",),
+    "ball nearest the door": ("soccer_ball",),
+    "red object in the living room": ("red_ball",),
+}
+HOUSEHOLD = GroundingSpec(
+    name="household",
+    labels=(*_HOUSEHOLD_CATEGORIES, *_HOUSEHOLD_PHRASES),
+    label_bodies={**_HOUSEHOLD_CATEGORIES, **_HOUSEHOLD_PHRASES},
+    worlds=("household",),
+    world_weights=(1.0,),
+    areas={"household": ((-5.75, -0.3, -3.2, 3.2), (0.3, 5.75, -3.2, 3.2))},  # the living room, the kitchen
+    vocab_size=960,
+)
+SPECS: dict[str, GroundingSpec] = {spec.name: spec for spec in (PRIMITIVES, HOUSEHOLD)}
+
+# The primitives' names, as before the specs (tests and the shipped tiny_grounder use them).
+ALL_LABELS: tuple[str, ...] = PRIMITIVES.labels
+LABEL_BODIES: Mapping[str, tuple[str, ...]] = PRIMITIVES.label_bodies
+WORLDS: tuple[str, ...] = PRIMITIVES.worlds
 
 Box4 = tuple[float, float, float, float]
 
@@ -158,30 +254,61 @@ def openai_view(rgb: np.ndarray, resized_hw: tuple[int, int], quality: int = 90)
 
 
 class FrameRenderer:
-    """One kinematic ``Go2Sim`` per world, posed by hand for each frame. Not thread-safe."""
+    """One kinematic ``Go2Sim`` per world of ``spec``, posed by hand for each frame. Not thread-safe."""
 
-    def __init__(self, worlds: Sequence[str] = WORLDS, camera_hw: tuple[int, int] = CAMERA_HW) -> None:
+    def __init__(
+        self,
+        worlds: Sequence[str] | None = None,
+        camera_hw: tuple[int, int] = CAMERA_HW,
+        spec: GroundingSpec = PRIMITIVES,
+    ) -> None:
         import go2vlm.sim  # noqa: F401 - selects the headless GL backend before mujoco loads
         from go2vlm.sim import Go2Sim, SimConfig
 
+        self.spec = spec
         self.camera_hw = camera_hw
         self.sims: dict[str, Any] = {}
         self._target_geoms: dict[str, dict[str, list[np.ndarray]]] = {}
         self._obstacles: dict[str, list[int]] = {}
-        for world in worlds:
+        self._lights: dict[str, tuple[ET.Element, float]] = {}
+        for world in spec.worlds if worlds is None else worlds:
             sim = Go2Sim(
                 SimConfig(world=world, mode="kinematic", camera_width=camera_hw[1], camera_height=camera_hw[0])
             )
             self.sims[world] = sim
             m = sim.model
             robot = set(sim.robot_geom_ids().tolist())
+            names = _body_names(m)
             # each target body's geoms: one box per body (two red balls in obstacles are two boxes)
             self._target_geoms[world] = {
-                label: [np.flatnonzero(m.geom_bodyid == m.body(b).id) for b in bodies if b in _body_names(m)]
-                for label, bodies in LABEL_BODIES.items()
+                label: [np.flatnonzero(m.geom_bodyid == m.body(b).id) for b in bodies if b in names]
+                for label, bodies in spec.label_bodies.items()
             }
             self._obstacles[world] = [g for g in range(m.ngeom) if g not in robot and m.geom_bodyid[g] != 0]
+            lights = _jitter_template(world)
+            if lights is not None:
+                self._lights[world] = lights
         self.stand_z = {w: float(s.data.qpos[2]) for w, s in self.sims.items()}
+
+    def jitters_light(self, world: str) -> bool:
+        return world in self._lights
+
+    def light(self, world: str, seed: int) -> None:
+        """Light ``world`` as the sim does for an episode of this seed (worlds with ``light_jitter`` only)."""
+        if world not in self._lights:
+            return
+        from go2vlm.sim.worlds import _jitter_lights
+
+        template, amount = self._lights[world]
+        root = copy.deepcopy(template)
+        _jitter_lights(root, amount, seed)
+        m = self.sims[world].model
+        for light in root.iter("light"):
+            m.light_diffuse[m.light(light.get("name")).id] = [float(v) for v in light.get("diffuse", "").split()]
+        head = root.find("visual/headlight")
+        if head is not None:
+            m.vis.headlight.ambient = [float(v) for v in head.get("ambient", "").split()]
+            m.vis.headlight.diffuse = [float(v) for v in head.get("diffuse", "").split()]
 
     def close(self) -> None:
         for sim in self.sims.values():
@@ -194,9 +321,9 @@ class FrameRenderer:
         self.close()
 
     def object_positions(self, world: str) -> dict[str, np.ndarray]:
-        """World positions of the target bodies present in ``world``."""
+        """World positions of the spec's bodies present in ``world``."""
         poses = self.sims[world].object_poses()
-        return {b: poses[b].position for bodies in LABEL_BODIES.values() for b in bodies if b in poses}
+        return {b: poses[b].position for b in self.spec.bodies() if b in poses}
 
     def place_ball(self, world: str, xy: tuple[float, float]) -> None:
         """Move the mocap red ball (follow_ball, obstacles) to ``xy`` on the floor."""
@@ -258,7 +385,7 @@ class FrameRenderer:
         rgb = sim.render_head(w, h)
         seg = sim.render_head_segmentation(w, h)
         frame = Frame(world=world, pose=(0.0, 0.0, 0.0), rgb=rgb, camera_hw=(h, w))
-        for label in ALL_LABELS:
+        for label in self.spec.labels:
             for geoms in self._target_geoms[world].get(label, []):
                 mask = np.isin(seg, geoms)
                 if not mask.any():
@@ -277,28 +404,58 @@ def _body_names(model: Any) -> set[str]:
     return {model.body(b).name for b in range(model.nbody)}
 
 
+def _jitter_template(world: str) -> tuple[ET.Element, float] | None:
+    """The world file's own lights (and headlight) and its ``light_jitter``; None for a world without."""
+    from go2vlm.sim.worlds import world_path
+
+    root = ET.parse(world_path(world)).getroot()
+    amount = next((float(el.get("data", "0")) for el in root.iter("numeric") if el.get("name") == "light_jitter"), 0.0)
+    if amount <= 0:
+        return None
+    template = ET.Element("mujoco")
+    visual = ET.SubElement(template, "visual")
+    head = root.find("visual/headlight")
+    if head is not None:
+        visual.append(copy.deepcopy(head))
+    for light in root.iter("light"):
+        template.append(copy.deepcopy(light))
+    return template, amount
+
+
 def _hfov(camera_hw: tuple[int, int], fovy_deg: float) -> float:
     return 2.0 * math.atan(math.tan(math.radians(fovy_deg) / 2.0) * camera_hw[1] / camera_hw[0])
+
+
+def _room(areas: Sequence[Area], x: float, y: float) -> Area | None:
+    return next((a for a in areas if a[0] <= x <= a[1] and a[2] <= y <= a[3]), None)
 
 
 def sample_frames(renderer: FrameRenderer, n: int, seed: int) -> Iterator[Frame]:
     """``n`` frames from seeded random poses over the renderer's worlds.
 
-    70 %: aimed at a random target object from 0.7-8 m (log-uniform), the object anywhere from
-    the image centre to just outside the border; 30 %: anywhere, any heading (often nothing in
-    view). The mocap red ball is moved too (on its path or anywhere in the area). A small body
-    pitch/roll stands in for the trot's rocking.
+    70 %: aimed at a random body of the spec from 0.7-8 m (log-uniform), the object anywhere from
+    the image centre to just outside the border, the robot in the object's room (where a world has
+    rooms); 30 %: anywhere, any heading (often nothing in view). The mocap red ball is moved too (on
+    its path or anywhere in the area). A small body pitch/roll stands in for the trot's rocking.
+    Worlds with ``light_jitter`` get each frame's lighting drawn as an episode's.
     """
+    spec = renderer.spec
     rng = np.random.default_rng(seed)
     worlds = list(renderer.sims)
-    weights = np.array([_WORLD_WEIGHTS[WORLDS.index(w)] if w in WORLDS else 1.0 for w in worlds])
+    weights = np.array([spec.world_weights[spec.worlds.index(w)] if w in spec.worlds else 1.0 for w in worlds])
     weights /= weights.sum()
     made = 0
     while made < n:
         world = worlds[int(rng.choice(len(worlds), p=weights))]
         sim = renderer.sims[world]
         hfov = _hfov(renderer.camera_hw, sim.config.camera_fovy_deg)
-        x0, x1, y0, y1 = _AREA.get(world, (-5.0, 5.0, -5.0, 5.0))
+        areas = spec.areas.get(world, ((-5.0, 5.0, -5.0, 5.0),))
+        # a world of several rooms: one by its floor area (no draw for one room: the primitives' stream)
+        if len(areas) == 1:
+            x0, x1, y0, y1 = areas[0]
+        else:
+            sizes = np.array([(a[1] - a[0]) * (a[3] - a[2]) for a in areas])
+            x0, x1, y0, y1 = areas[int(rng.choice(len(areas), p=sizes / sizes.sum()))]
         if sim.ball is not None:
             # on its path half the time (where the follow demo sees it), else anywhere in the area
             on_path = sim.ball.at(rng.uniform(0.0, sim.ball.length))
@@ -314,6 +471,8 @@ def sample_frames(renderer: FrameRenderer, n: int, seed: int) -> Iterator[Frame]
             x = float(obj[0] - dist * math.cos(approach))
             y = float(obj[1] - dist * math.sin(approach))
             yaw = approach + rng.uniform(-0.65, 0.65) * hfov
+            if len(areas) > 1:  # stand in the object's room (else: any room)
+                x0, x1, y0, y1 = _room(areas, float(obj[0]), float(obj[1])) or _room(areas, x, y) or (x0, x1, y0, y1)
         else:
             x, y, yaw = float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)), rng.uniform(-math.pi, math.pi)
         if not (x0 <= x <= x1 and y0 <= y <= y1):
@@ -325,6 +484,8 @@ def sample_frames(renderer: FrameRenderer, n: int, seed: int) -> Iterator[Frame]
         tail = base - 0.3 * np.array([math.cos(yaw), math.sin(yaw), 0.0])
         if min(renderer.clearance(world, p) for p in (base, nose, tail)) < 0.15:
             continue  # the robot would stand inside an object
+        if renderer.jitters_light(world):
+            renderer.light(world, int(rng.integers(2**31)))
         frame = renderer.render(world)
         frame.pose = (x, y, float(yaw))
         made += 1

@@ -6,6 +6,10 @@ CPU, on head-camera frames of the vision_test, follow_ball and obstacles worlds
 all three) and Qwen2.5-VL's own answer format, boxes in pixels of the resized image. Its
 held-out figures and the exact build command are in ``go2vlm_grounder.json`` next to the weights.
 
+The same build on the ``household`` dataset (``--dataset household``: the household world's
+categories and the referring suite's phrases, one label per prompt or a few) makes the household
+grounder, ``tests/data/tiny_grounder_household``.
+
 The shipped checkpoint lives in ``tests/data/tiny_grounder`` (:func:`grounder_checkpoint`).
 It sees every frame at :data:`GROUNDER_MAX_PIXELS` (168x224 for a 4:3 frame, 48 visual tokens):
 its processor config says so, and :func:`grounder_settings` sets the node's ``max_pixels`` to it
@@ -34,10 +38,12 @@ from typing import Any
 import numpy as np
 
 from go2vlm.testing.sim_dataset import (
-    ALL_LABELS,
     CAMERA_HW,
+    PRIMITIVES,
+    SPECS,
     Frame,
     FrameRenderer,
+    GroundingSpec,
     answer_text,
     match_boxes,
     openai_view,
@@ -53,8 +59,11 @@ __all__ = [
     "RESIZED_HW",
     "GroundingData",
     "build_untrained_grounder",
+    "eval_labels",
     "evaluate",
     "grounder_checkpoint",
+    "grounder_spec",
+    "household_grounder_checkpoint",
     "grounder_node_params",
     "grounder_settings",
     "label_sets",
@@ -71,17 +80,34 @@ META_FILE = "go2vlm_grounder.json"
 # Held-out frames come from seed + this: another random stream than any training seed nearby.
 EVAL_SEED_OFFSET = 1_000_003
 _SHIPPED = Path(__file__).resolve().parents[3] / "tests" / "data" / "tiny_grounder"
+_SHIPPED_HOUSEHOLD = _SHIPPED.with_name("tiny_grounder_household")
 
 
 def grounder_checkpoint() -> Path:
     """The shipped, trained checkpoint directory (``$GO2VLM_GROUNDER`` overrides it)."""
-    path = Path(os.environ.get("GO2VLM_GROUNDER") or _SHIPPED)
+    return _checked(_SHIPPED, "GO2VLM_GROUNDER")
+
+
+def household_grounder_checkpoint() -> Path:
+    """The shipped household grounder (``$GO2VLM_HOUSEHOLD_GROUNDER`` overrides it)."""
+    return _checked(_SHIPPED_HOUSEHOLD, "GO2VLM_HOUSEHOLD_GROUNDER")
+
+
+def grounder_spec(path: str | os.PathLike[str]) -> GroundingSpec:
+    """The dataset a checkpoint was trained on (``go2vlm_grounder.json``; older ones: the primitives)."""
+    meta = Path(path) / META_FILE
+    name = json.loads(meta.read_text()).get("dataset", PRIMITIVES.name) if meta.is_file() else PRIMITIVES.name
+    return SPECS[name]
+
+
+def _checked(shipped: Path, env_var: str) -> Path:
+    path = Path(os.environ.get(env_var) or shipped)
     missing = [f for f in ("config.json", "model.safetensors", "tokenizer.json", META_FILE) if not (path / f).is_file()]
     if missing:
         raise FileNotFoundError(
             f"no tiny grounder checkpoint at {path} (missing {', '.join(missing)}). It ships in a source checkout "
-            "as tests/data/tiny_grounder; rebuild it with the command in docs/vlm.md "
-            "(python scripts/train_tiny_grounder.py ...) or point $GO2VLM_GROUNDER at a copy."
+            f"as tests/data/{shipped.name}; rebuild it with the command in docs/vlm.md "
+            f"(python scripts/train_tiny_grounder.py ...) or point ${env_var} at a copy."
         )
     return path
 
@@ -110,29 +136,45 @@ def grounder_node_params() -> dict[str, Any]:
     return {"device": "cpu", "max_pixels": 0, "max_new_tokens": 160, "period_s": 0.0}
 
 
-def label_sets() -> list[tuple[str, ...]]:
-    """The label lists trained: each label alone (goal, follow), all three, and the pairs and orders."""
-    singles = [(lab,) for lab in ALL_LABELS]
-    pairs = list(itertools.permutations(ALL_LABELS, 2))
-    triples = list(itertools.permutations(ALL_LABELS, 3))
-    return singles + [ALL_LABELS] + pairs + [t for t in triples if t != ALL_LABELS]
+def label_sets(spec: GroundingSpec = PRIMITIVES) -> list[tuple[str, ...]]:
+    """The label lists trained, known ahead: each label alone (goal, follow); for the primitives also all
+    three, and the pairs and orders (a spec of many labels draws its few-label prompts as it goes)."""
+    singles = [(lab,) for lab in spec.labels]
+    if not spec.all_labels_prompts:
+        return singles
+    every = spec.labels
+    pairs = list(itertools.permutations(every, 2))
+    triples = list(itertools.permutations(every, 3))
+    return singles + [every] + pairs + [t for t in triples if t != every]
 
 
-def _sample_labels(rng: random.Random, frame: Frame) -> tuple[str, ...]:
+def _sample_labels(rng: random.Random, frame: Frame, spec: GroundingSpec = PRIMITIVES) -> tuple[str, ...]:
+    labels = spec.labels
     r = rng.random()
-    if r < 0.55:
-        seen = [lab for lab in ALL_LABELS if frame.visible(lab)]
+    single = 0.55 if spec.all_labels_prompts else 0.8
+    if r < single:
+        seen = [lab for lab in labels if frame.visible(lab)]
         if seen and rng.random() < 0.7:
             return (rng.choice(seen),)
-        return (rng.choice(ALL_LABELS),)
-    if r < 0.85:
-        return ALL_LABELS
+        return (rng.choice(labels),)
+    if spec.all_labels_prompts and r < 0.85:
+        return labels
     k = rng.choice((2, 3))
-    return tuple(rng.sample(ALL_LABELS, k))
+    return tuple(rng.sample(labels, k))
+
+
+def eval_labels(frame: Frame, spec: GroundingSpec, rng: random.Random, negatives: int = 3) -> list[str]:
+    """The labels asked about a held-out frame, one per prompt: every label for the primitives; for a spec
+    of many labels, those the frame shows and a few it does not (`negatives`, drawn from `rng`)."""
+    if spec.all_labels_prompts:
+        return list(spec.labels)
+    seen = [lab for lab in spec.labels if frame.visible(lab)]
+    absent = [lab for lab in spec.labels if frame.negative(lab)]
+    return seen + rng.sample(absent, min(negatives, len(absent)))
 
 
 # ------------------------------------------------------------------------------------ checkpoint
-def _tokenizer_corpus(seed: int) -> list[str]:
+def _tokenizer_corpus(seed: int, spec: GroundingSpec = PRIMITIVES) -> list[str]:
     """Chat scaffolding, every trained prompt and many answers: those strings become few tokens.
 
     Qwen's pre-tokenizer splits numbers into single digits, as in the real tokenizer, so each
@@ -142,14 +184,16 @@ def _tokenizer_corpus(seed: int) -> list[str]:
 
     rng = random.Random(seed)
     texts = ["system\nYou are a helpful assistant.\nuser\nassistant\n"] * 8
-    texts += [detect_prompt(labels) for labels in label_sets()] * 4
+    texts += [detect_prompt(labels) for labels in label_sets(spec)] * 4
+    if not spec.all_labels_prompts:
+        texts += [detect_prompt(rng.sample(spec.labels, rng.choice((2, 3)))) for _ in range(100)]
     texts += [detect_prompt(())] * 2
-    for _ in range(300):
+    for _ in range(300 if spec.all_labels_prompts else 600):
         items = []
         for _ in range(rng.randint(0, 3)):
             x1, y1 = rng.randint(0, 200), rng.randint(0, 150)
             box = [x1, y1, rng.randint(x1 + 1, 224), rng.randint(y1 + 1, 168)]
-            items.append({"bbox_2d": box, "label": rng.choice(ALL_LABELS)})
+            items.append({"bbox_2d": box, "label": rng.choice(spec.labels)})
         texts.append(json.dumps(items))
     texts += ["0 1 2 3 4 5 6 7 8 9"] * 8
     return texts + list(_TOKENIZER_CORPUS)
@@ -199,7 +243,9 @@ def _grounder_config(vocab_size: int, special_ids: dict[str, int]) -> Any:
     return config
 
 
-def build_untrained_grounder(out_dir: str | os.PathLike[str], *, seed: int = 0) -> Path:
+def build_untrained_grounder(
+    out_dir: str | os.PathLike[str], *, seed: int = 0, spec: GroundingSpec = PRIMITIVES
+) -> Path:
     """Write the random-init grounder (model, tokenizer, processor with its pixel budget) to ``out_dir``."""
     import torch
     from transformers import Qwen2_5_VLForConditionalGeneration
@@ -208,7 +254,7 @@ def build_untrained_grounder(out_dir: str | os.PathLike[str], *, seed: int = 0) 
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    tokenizer = _train_tokenizer(640, _tokenizer_corpus(seed))
+    tokenizer = _train_tokenizer(spec.vocab_size, _tokenizer_corpus(seed, spec))
     special_ids = {t: int(tokenizer.convert_tokens_to_ids(t)) for t in QWEN_SPECIAL_TOKENS}
     config = _grounder_config(len(tokenizer), special_ids)
     torch.manual_seed(seed)
@@ -228,7 +274,12 @@ class GroundingData:
 
 
 def render_dataset(
-    n: int, seed: int, *, progress: Callable[[int], None] | None = None, keep_rgb: bool = False
+    n: int,
+    seed: int,
+    *,
+    progress: Callable[[int], None] | None = None,
+    keep_rgb: bool = False,
+    spec: GroundingSpec = PRIMITIVES,
 ) -> GroundingData:
     """``n`` frames from :func:`sample_frames`, each reduced to 168x224 as one of the two backends
     would (the transformers processor's resize, or the openai backend's resize + JPEG)."""
@@ -236,13 +287,13 @@ def render_dataset(
     views = np.empty((n, *RESIZED_HW, 3), dtype=np.uint8)
     frames: list[Frame] = []
     stats: Counter[str] = Counter()
-    with FrameRenderer() as renderer:
+    with FrameRenderer(spec=spec) as renderer:
         for i, frame in enumerate(sample_frames(renderer, n, seed)):
             view = openai_view if rng.random() < 0.4 else processor_view
             views[i] = view(frame.rgb, RESIZED_HW)
             stats[frame.world] += 1
             stats[f"objects={sum(len(b) for b in frame.boxes.values())}"] += 1
-            for label in ALL_LABELS:
+            for label in spec.labels:
                 stats[label] += frame.visible(label)
             if not keep_rgb:
                 frame.rgb = np.empty((0, 0, 3), dtype=np.uint8)
@@ -267,22 +318,27 @@ def _flip(frame: Frame) -> Frame:
 class _Batcher:
     """Builds training batches: cached prompt ids, the answer's ids, loss on the answer only."""
 
-    def __init__(self, processor: Any, data: GroundingData, seed: int) -> None:
-        from go2vlm.perception.vlm.prompts import detect_prompt
-
+    def __init__(self, processor: Any, data: GroundingData, seed: int, spec: GroundingSpec = PRIMITIVES) -> None:
         self.processor = processor
         self.data = data
+        self.spec = spec
         self.rng = random.Random(seed)
         tok = processor.tokenizer
         self.pad_id = int(tok.convert_tokens_to_ids("<|endoftext|>"))
         self.end_id = int(tok.convert_tokens_to_ids("<|im_end|>"))
         self.image_id = int(tok.convert_tokens_to_ids("<|image_pad|>"))
-        n_visual = (RESIZED_HW[0] // 28) * (RESIZED_HW[1] // 28)
-        self.prompt_ids: dict[tuple[str, ...], list[int]] = {}
-        for labels in label_sets():
-            text = _chat_text(processor, detect_prompt(labels))
+        self._prompt_ids: dict[tuple[str, ...], list[int]] = {}
+
+    def prompt_ids(self, labels: tuple[str, ...]) -> list[int]:
+        """The prompt's ids with the image's visual tokens in place (computed once per label list)."""
+        if labels not in self._prompt_ids:
+            from go2vlm.perception.vlm.prompts import detect_prompt
+
+            n_visual = (RESIZED_HW[0] // 28) * (RESIZED_HW[1] // 28)
+            text = _chat_text(self.processor, detect_prompt(labels))
             text = text.replace("<|image_pad|>", "<|image_pad|>" * n_visual)
-            self.prompt_ids[labels] = tok(text, add_special_tokens=False)["input_ids"]
+            self._prompt_ids[labels] = self.processor.tokenizer(text, add_special_tokens=False)["input_ids"]
+        return self._prompt_ids[labels]
 
     def example(self, index: int, labels: tuple[str, ...], flip: bool) -> tuple[np.ndarray, list[int], list[int]]:
         frame = self.data.frames[index]
@@ -291,7 +347,7 @@ class _Batcher:
             frame, view = _flip(frame), view[:, ::-1]
         answer = answer_text(frame, labels, RESIZED_HW)
         answer_ids = self.processor.tokenizer(answer, add_special_tokens=False)["input_ids"] + [self.end_id]
-        return np.ascontiguousarray(view), self.prompt_ids[labels], answer_ids
+        return np.ascontiguousarray(view), self.prompt_ids(labels), answer_ids
 
     def batch(self, size: int) -> dict[str, Any]:
         import torch
@@ -299,7 +355,7 @@ class _Batcher:
         rows: list[tuple[np.ndarray, list[int], list[int]]] = []
         while len(rows) < size:
             i = self.rng.randrange(len(self.data.frames))
-            labels = _sample_labels(self.rng, self.data.frames[i])
+            labels = _sample_labels(self.rng, self.data.frames[i], self.spec)
             if any(lab in self.data.frames[i].ambiguous for lab in labels) and len(labels) == 1:
                 continue  # a speck: no right answer to teach
             rows.append(self.example(i, labels, self.rng.random() < 0.5))
@@ -342,6 +398,7 @@ def train_grounder(
     show_bar: bool = True,
     stop_after: int | None = None,
     max_minutes: float | None = None,
+    spec: GroundingSpec = PRIMITIVES,
 ) -> dict[str, Any]:
     """Train the checkpoint in ``ckpt_dir`` in place (AdamW, warm-up then cosine, loss on answers).
 
@@ -360,7 +417,7 @@ def train_grounder(
     processor = AutoProcessor.from_pretrained(ckpt)
     model = Qwen2_5_VLForConditionalGeneration.from_pretrained(ckpt, dtype=torch.float32)
     model.train()
-    batcher = _Batcher(processor, data, seed)
+    batcher = _Batcher(processor, data, seed, spec)
     decay = [p for n, p in model.named_parameters() if p.ndim >= 2 and "embed" not in n]
     no_decay = [p for n, p in model.named_parameters() if not (p.ndim >= 2 and "embed" not in n)]
     optim = torch.optim.AdamW(
@@ -403,7 +460,7 @@ def train_grounder(
             entry = {"step": done, "loss": round(ema, 4), "minutes": round((time.monotonic() - t0) / 60, 2)}
             if probe is not None and probe_every and (done % probe_every == 0 or done == last or out_of_time):
                 model.eval()
-                entry.update(_probe(model, processor, probe))
+                entry.update(_probe(model, processor, probe, spec))
                 model.train()
             history.append(entry)
             log(json.dumps(entry))
@@ -423,7 +480,7 @@ def train_grounder(
     }
 
 
-def _probe(model: Any, processor: Any, probe: GroundingData) -> dict[str, float]:
+def _probe(model: Any, processor: Any, probe: GroundingData, spec: GroundingSpec = PRIMITIVES) -> dict[str, float]:
     """Greedy single-label answers on the probe frames: IoU>=0.5 rate and parse failures (resized pixels)."""
     import torch
     from PIL import Image
@@ -432,9 +489,10 @@ def _probe(model: Any, processor: Any, probe: GroundingData) -> dict[str, float]
     from go2vlm.perception.vlm.prompts import detect_prompt
 
     hits = visible = fails = asked = 0
+    rng = random.Random(0)
     with torch.inference_mode():
         for frame, view in zip(probe.frames, probe.views, strict=True):
-            for label in ALL_LABELS:
+            for label in eval_labels(frame, spec, rng, negatives=1):
                 if label in frame.ambiguous:
                     continue
                 text = _chat_text(processor, detect_prompt([label]))
@@ -515,21 +573,29 @@ def evaluate(
     frames: Sequence[Frame],
     *,
     progress: Callable[[int], None] | None = None,
+    spec: GroundingSpec = PRIMITIVES,
+    seed: int = 0,
 ) -> dict[str, Any]:
     """Held-out figures through a loaded backend (the product's generate -> parse -> finalize path).
 
-    Two prompt kinds per frame: each label alone (as the goal and the follower ask) and all three
-    in one prompt. Per label and overall: IoU>=0.5 rate on frames where it is visible, mean IoU,
+    Prompt kinds per frame: each label alone (as the goal and the follower ask; for a spec of many
+    labels, those in view and three that are not, drawn from `seed`) and, for the primitives, all
+    three in one prompt. Per label and overall: IoU>=0.5 rate on frames where it is visible, mean IoU,
     false-positive rate on frames without it, answers whose JSON did not parse."""
     from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
     from go2vlm.perception.vlm.prompts import detect_prompt
 
+    rng = random.Random(seed)
+    asked = {id(frame): [(lab,) for lab in eval_labels(frame, spec, rng)] for frame in frames}
+    kinds: list[tuple[str, Callable[[Frame], list[tuple[str, ...]]]]] = [("single", lambda f: asked[id(f)])]
+    if spec.all_labels_prompts:
+        kinds.append(("all_three", lambda f: [spec.labels]))
     results: dict[str, Any] = {}
-    for kind, prompts in (("single", [(lab,) for lab in ALL_LABELS]), ("all_three", [ALL_LABELS])):
-        per_label = {lab: _Tally() for lab in ALL_LABELS}
+    for kind, prompts_of in kinds:
+        per_label = {lab: _Tally() for lab in spec.labels}
         answers = parse_fail = repaired = 0
         for frame in frames:
-            for labels in prompts:
+            for labels in prompts_of(frame):
                 gen = backend.generate(frame.rgb, detect_prompt(labels))
                 parsed = parse_grounding(gen.text, labels=list(labels))
                 answers += 1

@@ -2,6 +2,7 @@
 
     python -m go2vlm.testing.train_grounder --seed 0 --frames 6000 --steps 3000 --out tests/data/tiny_grounder
     python -m go2vlm.testing.train_grounder --eval-only --out tests/data/tiny_grounder   # figures again
+    python -m go2vlm.testing.train_grounder --dataset household ... --out tests/data/tiny_grounder_household
 
 The checkpoint is written to a temporary sibling of ``--out`` and moved into place at the end,
 with ``go2vlm_grounder.json``: the command, seed, library versions, training time and the
@@ -20,11 +21,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+from go2vlm.testing.sim_dataset import SPECS, GroundingSpec
+
 __all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="train_tiny_grounder", description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--dataset", choices=sorted(SPECS), default="primitives", help="what it learns (testing/sim_dataset.py)"
+    )
     p.add_argument("--seed", type=int, default=0, help="seeds weights, frames, batches (held-out: +1000003)")
     p.add_argument("--frames", type=int, default=6000, help="training frames rendered")
     p.add_argument("--steps", type=int, default=3000, help="optimiser steps")
@@ -60,21 +66,22 @@ def _versions() -> dict[str, str]:
     }
 
 
-def _evaluate(ckpt: Path, frames: int, seed: int) -> dict[str, Any]:
+def _evaluate(ckpt: Path, frames: int, seed: int, spec: GroundingSpec) -> dict[str, Any]:
     from tqdm import tqdm
 
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
     from go2vlm.testing.tiny_grounder import EVAL_SEED_OFFSET, evaluate, grounder_settings, render_dataset
 
     with tqdm(total=frames, desc="render held-out", unit="frame", file=sys.stderr) as bar:
-        held_out = render_dataset(frames, seed + EVAL_SEED_OFFSET, progress=bar.update, keep_rgb=True)
+        held_out = render_dataset(frames, seed + EVAL_SEED_OFFSET, progress=bar.update, keep_rgb=True, spec=spec)
     backend = TransformersBackend(grounder_settings(ckpt))
     backend.load()
     try:
-        with tqdm(total=frames * 4, desc="evaluate", unit="answer", file=sys.stderr) as bar:
+        with tqdm(desc="evaluate", unit="answer", file=sys.stderr) as bar:
             t0 = time.monotonic()
-            figures = evaluate(backend, held_out.frames, progress=bar.update)
-            figures["seconds_per_answer"] = round((time.monotonic() - t0) / (frames * 4), 3)
+            figures = evaluate(backend, held_out.frames, progress=bar.update, spec=spec, seed=seed)
+            answers = sum(kind["answers"] for kind in figures.values())
+            figures["seconds_per_answer"] = round((time.monotonic() - t0) / max(1, answers), 3)
     finally:
         backend.close()
     figures["frames"] = frames
@@ -86,15 +93,17 @@ def _evaluate(ckpt: Path, frames: int, seed: int) -> dict[str, Any]:
 def _print_table(figures: dict[str, Any]) -> None:
     _log(f"held-out evaluation: {figures['frames']} frames (seed {figures['seed']})")
     for kind, title in (("single", "one label per prompt"), ("all_three", "all three labels in one prompt")):
+        if kind not in figures:
+            continue
         res = figures[kind]
         _log(f"  {title}: {res['answers']} answers, JSON parse failures {res['parse_fail_rate']:.1%}")
-        _log(f"    {'label':<14} {'visible':>7} {'IoU>=0.5':>9} {'mean IoU':>9} {'negatives':>9} {'false pos':>9}")
+        _log(f"    {'label':<34} {'visible':>7} {'IoU>=0.5':>9} {'mean IoU':>9} {'negatives':>9} {'false pos':>9}")
         rows = [*res["labels"].items(), ("overall", res["overall"])]
         for label, s in rows:
             rate = "-" if s["iou50_rate"] is None else f"{s['iou50_rate']:.1%}"
             miou = "-" if s["mean_iou"] is None else f"{s['mean_iou']:.3f}"
             fp = "-" if s["false_positive_rate"] is None else f"{s['false_positive_rate']:.1%}"
-            _log(f"    {label:<14} {s['visible_frames']:>7} {rate:>9} {miou:>9} {s['negative_frames']:>9} {fp:>9}")
+            _log(f"    {label:<34} {s['visible_frames']:>7} {rate:>9} {miou:>9} {s['negative_frames']:>9} {fp:>9}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -106,11 +115,11 @@ def main(argv: list[str] | None = None) -> int:
     given = list(sys.argv[1:] if argv is None else argv)
     command = "python scripts/train_tiny_grounder.py " + shlex.join(given)
     if args.eval_only:
-        from go2vlm.testing.tiny_grounder import META_FILE
+        from go2vlm.testing.tiny_grounder import META_FILE, grounder_spec
 
-        figures = _evaluate(out, args.eval_frames, _read_meta(out / META_FILE).get("seed", args.seed))
-        _print_table(figures)
         meta = _read_meta(out / META_FILE)
+        figures = _evaluate(out, args.eval_frames, meta.get("seed", args.seed), grounder_spec(out))
+        _print_table(figures)
         meta["evaluation"] = figures
         (out / META_FILE).write_text(json.dumps(meta, indent=1) + "\n")
         return 0
@@ -133,14 +142,15 @@ def main(argv: list[str] | None = None) -> int:
     work = out.parent / f".{out.name}.building"
     shutil.rmtree(work, ignore_errors=True)
     t_start = time.monotonic()
-    build_untrained_grounder(work, seed=args.seed)
+    spec = SPECS[args.dataset]
+    build_untrained_grounder(work, seed=args.seed, spec=spec)
     with tqdm(total=args.frames, desc="render", unit="frame", file=sys.stderr) as bar:
-        data = render_dataset(args.frames, args.seed, progress=bar.update)
+        data = render_dataset(args.frames, args.seed, progress=bar.update, spec=spec)
     _log(f"training frames: {describe_stats(data.stats)}")
     probe = None
     if args.probe_every and args.probe_frames:
         # probe frames come from the held-out stream too (a different slice than the final evaluation's)
-        probe = render_dataset(args.probe_frames, args.seed + 2 * EVAL_SEED_OFFSET)
+        probe = render_dataset(args.probe_frames, args.seed + 2 * EVAL_SEED_OFFSET, spec=spec)
     render_min = (time.monotonic() - t_start) / 60
     trained = train_grounder(
         work,
@@ -154,6 +164,7 @@ def main(argv: list[str] | None = None) -> int:
         log=_log,
         stop_after=args.stop_after,
         max_minutes=args.max_minutes,
+        spec=spec,
     )
     if trained["steps_done"] < args.steps and args.stop_after is None:
         # the run that happened, repeatable on any machine: same schedule, same stop, no clock
@@ -162,10 +173,14 @@ def main(argv: list[str] | None = None) -> int:
             del given[i : i + 2]
         given += ["--stop-after", str(trained["steps_done"])]
         command = "python scripts/train_tiny_grounder.py " + shlex.join(given)
-    figures = _evaluate(work, args.eval_frames, args.seed)
+    figures = _evaluate(work, args.eval_frames, args.seed, spec)
     _print_table(figures)
+    many = f"{len(spec.labels)} labels of {', '.join(spec.worlds)}"
+    what = " / ".join(spec.labels) if len(spec.labels) <= 3 else many
     meta = {
-        "what": "tiny Qwen2.5-VL grounding red ball / green box / blue cylinder in go2vlm's MuJoCo worlds",
+        "what": f"tiny Qwen2.5-VL grounding {what} in go2vlm's MuJoCo worlds",
+        "dataset": spec.name,
+        "labels": {label: list(spec.label_bodies[label]) for label in spec.labels},
         "command": command,
         "seed": args.seed,
         "args": {k: str(v) if isinstance(v, Path) else v for k, v in vars(args).items()},

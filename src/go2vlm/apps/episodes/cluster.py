@@ -11,11 +11,26 @@ driver (this process) appends each result to results.jsonl as its task finishes.
 process dies (killed, out of memory, its node lost) is retried once by Ray (`max_retries=1`); if the
 retry dies too, or the episode raised, it is recorded as an error and the eval goes on. Ray is an
 optional extra: `pip install 'go2vlm[cluster]'`; nothing here imports it until --ray is given.
+
+What it costs against --workers on one machine (docs/benchmarks.md, "Episodes per hour"):
+- Ray starts its workers at niceness 15 (`worker_niceness`), below everything else on the machine;
+  on a shared host an episode then waits behind every other process, where a --workers worker (nice
+  0) does not. The local Ray this run starts gives its workers niceness 0, as the process pool's.
+  (A cluster's own `ray start` decides for its nodes: `RAY_worker_niceness=0 ray start ...`.)
+- Every episode is submitted at once and Ray runs as many as there are CPUs: a worker that finishes
+  one episode takes the next at once (the owner keeps its lease), instead of handing the lease back
+  and waiting for the driver to submit another.
+- One Ray serves every run of a command (`--latency 0,1,2.5,5`: four runs, one start-up).
+- Ray worker processes run task after task, and the first task in each pays the imports and GL
+  start-up once, as a pool worker's first episode does; a Ray worker gets OMP_NUM_THREADS=1 (Ray's
+  default for a one-CPU task), a pool worker its share of the cores (worker.worker_threads).
 """
 
 from __future__ import annotations
 
+import signal
 import socket
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -24,11 +39,13 @@ from go2vlm.apps.episodes.episode import Episode
 from go2vlm.bus import ShutdownRequested
 from go2vlm.errors import UsageError
 
-__all__ = ["RayEpisodes", "reachable"]
+__all__ = ["RayEpisodes", "RaySession", "reachable"]
 
 CONNECT_TIMEOUT_S = 5.0  # wall seconds to reach a cluster's head before it counts as unreachable
 OBJECT_STORE_BYTES = 128 * 2**20  # a local Ray: results are small JSON, not arrays
 POLL_S = 0.2
+# A local Ray's system config: its workers at the priority of --workers' (Ray's default niceness is 15).
+LOCAL_SYSTEM_CONFIG = {"worker_niceness": 0}
 
 _TASK_STATE: dict[str, Any] = {}  # per Ray worker process: its DDS domain, claimed once
 
@@ -56,8 +73,6 @@ def _episode_task(
 ) -> dict[str, Any]:
     """Runs in a Ray worker process: one episode on this process's own DDS domain (none of `exclude`,
     the domains where the robot is latched)."""
-    import threading
-
     from go2vlm.apps.episodes.worker import claim_eval_domain, run_worker_episode, setup_process
 
     if "domain" not in _TASK_STATE:
@@ -70,7 +85,6 @@ def _episode_task(
 class RayEpisodes:
     ray: Any  # the ray module
     task: Any  # the remote function
-    in_flight: int  # tasks submitted at once
     interface: str
     log_level: str
     started_here: bool  # a local Ray this run started (and stops)
@@ -87,17 +101,25 @@ class RayEpisodes:
             if why is not None:
                 raise ClusterError(f"cannot reach the Ray cluster at {address}: {why}")
         kwargs: dict[str, Any] = {"log_to_driver": False, "include_dashboard": False}
+        on_sigterm = signal.getsignal(signal.SIGTERM)  # ray.init puts its own (sys.exit) in place of the eval's
         try:
             if address == "local":
-                ray.init(num_cpus=workers, object_store_memory=OBJECT_STORE_BYTES, **kwargs)
+                ray.init(
+                    num_cpus=workers,
+                    object_store_memory=OBJECT_STORE_BYTES,
+                    _system_config=LOCAL_SYSTEM_CONFIG,
+                    **kwargs,
+                )
             else:
                 ray.init(address=address, **kwargs)
         except (ConnectionError, RuntimeError, ValueError, TimeoutError) as exc:
             where = "a local Ray" if address == "local" else f"the Ray cluster at {address}"
             raise ClusterError(f"cannot start {where}: {str(exc).splitlines()[0]}") from None
-        cpus = int(ray.cluster_resources().get("CPU", 1))
+        finally:
+            if on_sigterm is not None and threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGTERM, on_sigterm)
         task = ray.remote(num_cpus=1, max_retries=1, retry_exceptions=False)(_episode_task)
-        return RayEpisodes(ray, task, workers if address == "local" else cpus, interface, log_level, address == "local")
+        return RayEpisodes(ray, task, interface, log_level, address == "local")
 
     def run(
         self,
@@ -109,20 +131,20 @@ class RayEpisodes:
         exclude: tuple[int, ...] = (),
     ) -> bool:
         """Every episode of `todo` as a task; `finished` / `failed` as each ends; no task claims a domain of
-        `exclude`. True if interrupted."""
+        `exclude`. True if interrupted.
+
+        All are submitted at once: Ray runs as many at a time as the cluster has CPUs (--workers on a
+        local Ray), and a worker that finishes one goes straight on to the next."""
         ray = self.ray
-        queue = list(todo)
         pending: dict[Any, tuple[int, Episode]] = {}
+        for k, ep in todo:
+            pending[self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level, exclude)] = (k, ep)
         interrupted = False
-        while queue or pending:
+        while pending:
             if stop.event.is_set():
                 for ref in pending:
                     ray.cancel(ref, force=True)  # a running episode ends unrecorded; --resume runs it again
                 return True
-            while queue and len(pending) < self.in_flight:
-                k, ep = queue.pop(0)
-                ref = self.task.remote(k, ep.to_dict(), run, self.interface, self.log_level, exclude)
-                pending[ref] = (k, ep)
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=POLL_S)
             for ref in ready:
                 k, ep = pending.pop(ref)
@@ -140,6 +162,24 @@ class RayEpisodes:
     def close(self) -> None:
         if self.started_here or self.ray.is_initialized():
             self.ray.shutdown()
+
+
+class RaySession:
+    """One Ray for every run of a command, connected when the first run has episodes to give it."""
+
+    def __init__(self, address: str, workers: int, interface: str, log_level: str) -> None:
+        self.args = (address, workers, interface, log_level)
+        self._episodes: RayEpisodes | None = None
+
+    def episodes(self) -> RayEpisodes:
+        if self._episodes is None:
+            self._episodes = RayEpisodes.connect(*self.args)  # ClusterError if it cannot
+        return self._episodes
+
+    def close(self) -> None:
+        if self._episodes is not None:
+            self._episodes.close()
+            self._episodes = None
 
 
 def _why(exc: Exception) -> str:

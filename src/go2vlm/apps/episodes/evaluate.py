@@ -52,7 +52,7 @@ from typing import Any
 from go2vlm.apps.episodes.episode import Episode, graph_name, latency_timeout, node_overrides, vlm_node_params
 from go2vlm.apps.episodes.outputs import append_jsonl, read_jsonl, write_json
 from go2vlm.apps.episodes.suites import Suite, load_suite
-from go2vlm.apps.episodes.worker import EVAL_DOMAINS, worker_init, worker_run
+from go2vlm.apps.episodes.worker import EVAL_DOMAINS, worker_init, worker_run, worker_threads
 from go2vlm.bus import ShutdownRequested
 from go2vlm.errors import UsageError
 
@@ -158,6 +158,7 @@ def _machine() -> dict[str, Any]:
         "cores": os.cpu_count(),
         "memory_gb": mem_gb,
         "mujoco_gl": os.environ.get("MUJOCO_GL"),
+        "omp_num_threads": os.environ.get("OMP_NUM_THREADS"),  # None: each worker its share of the cores
     }
 
 
@@ -291,8 +292,13 @@ def prepare(opts: EvalOptions) -> _Prepared:
     return _Prepared(suite, seed, params, episodes, run_config(suite, opts, seed, params), exclude)
 
 
-def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | None = None) -> EvalOutcome:
-    """Run the suite's episodes that the folder does not hold yet; rewrite the report."""
+def run_eval(
+    opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | None = None, ray_session: Any = None
+) -> EvalOutcome:
+    """Run the suite's episodes that the folder does not hold yet; rewrite the report.
+
+    `ray_session` (cluster.RaySession): a Ray shared by the command's runs, left running; without it a
+    run with `opts.ray` connects (or starts) its own and closes it at the end."""
     from go2vlm.apps.episodes.report import write_report
 
     prep = prepared or prepare(opts)
@@ -334,10 +340,13 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | N
         "episodes_dir": str(out / "episodes"),
     }
     cluster = None
+    own_session = None
     if opts.ray is not None and todo and not stop.event.is_set():
-        from go2vlm.apps.episodes.cluster import RayEpisodes
+        if ray_session is None:
+            from go2vlm.apps.episodes.cluster import RaySession
 
-        cluster = RayEpisodes.connect(opts.ray, opts.workers, opts.interface, opts.log_level)  # EvalError if not
+            ray_session = own_session = RaySession(opts.ray, opts.workers, opts.interface, opts.log_level)
+        cluster = ray_session.episodes()  # a UsageError if it cannot
     write_json(out / "runs" / f"{run_id}.json", config)
     errors: list[str] = []
     done = 0
@@ -376,7 +385,8 @@ def run_eval(opts: EvalOptions, stop: ShutdownRequested, prepared: _Prepared | N
                 try:
                     interrupted = cluster.run(todo, run, stop, finished, failed, prep.exclude)
                 finally:
-                    cluster.close()
+                    if own_session is not None:
+                        own_session.close()
             else:
                 interrupted = _run_pool(todo, run, opts, stop, finished, failed, prep.exclude)
         interrupted = interrupted or stop.event.is_set()
@@ -406,7 +416,7 @@ def _run_pool(
         max_workers=min(opts.workers, len(todo)),
         mp_context=ctx,
         initializer=worker_init,
-        initargs=(stop_ev, opts.interface, opts.domain_id, opts.log_level, exclude),
+        initargs=(stop_ev, opts.interface, opts.domain_id, opts.log_level, exclude, worker_threads(opts.workers)),
     ) as pool:
         futs: dict[Future[dict[str, Any]], tuple[int, Episode]] = {
             pool.submit(worker_run, k, ep.to_dict(), run): (k, ep) for k, ep in todo

@@ -19,7 +19,15 @@ from typing import Any
 from go2vlm.apps.episodes.episode import Episode
 from go2vlm.bus import ShutdownRequested
 
-__all__ = ["EVAL_DOMAINS", "claim_eval_domain", "run_worker_episode", "setup_process", "worker_init", "worker_run"]
+__all__ = [
+    "EVAL_DOMAINS",
+    "claim_eval_domain",
+    "run_worker_episode",
+    "setup_process",
+    "worker_init",
+    "worker_run",
+    "worker_threads",
+]
 
 EVAL_DOMAINS = (102, 232)  # claimed per worker; test sessions claim 1..101, a robot speaks on 0
 
@@ -41,14 +49,25 @@ def claim_eval_domain(interface: str, exclude: Collection[int] = ()) -> int:
     return claim_free_domain(*EVAL_DOMAINS, interface, exclude=exclude)
 
 
+def worker_threads(workers: int) -> int:
+    """OpenMP threads per worker process: its share of the cores. A local model's torch (imported by the
+    vlm node, after this) would otherwise start one thread per core in every worker, and threads that
+    outnumber the cores spin at OpenMP's barriers waiting for each other (training the tiny grounder took
+    20x longer per step with 2 threads than with 1 on the loaded 2-core machine). Ray gives a one-CPU
+    task one thread for the same reason."""
+    return max(1, (os.cpu_count() or 1) // max(1, workers))
+
+
 def worker_init(
-    stop_event: Any, interface: str, domain_id: int | None, log_level: str, exclude: tuple[int, ...]
+    stop_event: Any, interface: str, domain_id: int | None, log_level: str, exclude: tuple[int, ...], threads: int
 ) -> None:
-    """A worker process's initializer: `domain_id` when given (one worker), else a free eval domain."""
+    """A worker process's initializer: `domain_id` when given (one worker), else a free eval domain;
+    `threads` OpenMP threads (worker_threads) unless the user set OMP_NUM_THREADS."""
     # The parent hears Ctrl-C and SIGTERM and tells the workers through `stop_event`; a terminal's
     # Ctrl-C also reaches the workers (one process group), and must not kill an episode half-written.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    os.environ.setdefault("OMP_NUM_THREADS", str(threads))  # the user's own setting wins
     setup_process(interface, log_level)
     domain = claim_eval_domain(interface, exclude) if domain_id is None else domain_id
     _WORKER.update(stop=stop_event, domain=domain, interface=interface)
