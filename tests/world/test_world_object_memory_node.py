@@ -105,12 +105,20 @@ def test_a_flood_of_answers_cannot_grow_it() -> None:
         assert wait_for(lambda: robot.answers.matched >= 1 and robot.info.matched >= 1, 10)
         robot.info.publish(camera_info(CAM))
         assert wait_for(robot.ready, 10)
-        for k in range(400):
-            h = robot.header("camera_optical_frame", robot.now() - 0.05)
-            x1, y1 = rng.uniform(0, 600), rng.uniform(100, 400)
-            robot.answers.publish(Detection2DArray(header=h, detections=[
-                det(f"thing {k}", x1, y1, x1 + 30, y1 + 60, h)]))  # fmt: skip
+        sent = 0
+
+        def flood() -> bool:
+            """20 new things at a time (keep-last 10: not all arrive), until the memory has refused 10."""
+            nonlocal sent
+            for _ in range(20):
+                h = robot.header("camera_optical_frame", robot.now() - 0.05)
+                x1, y1 = rng.uniform(0, 600), rng.uniform(100, 400)
+                robot.answers.publish(Detection2DArray(header=h, detections=[
+                    det(f"thing {sent}", x1, y1, x1 + 30, y1 + 60, h)]))  # fmt: skip
+                sent += 1
             assert len(robot.memory()) <= 8
-        # (keep-last 10: not all 400 arrive) Full, the memory refuses new things rather than grow.
-        assert wait_for(lambda: robot.refused("memory_full") >= 10, 20)
+            return robot.refused("memory_full") >= 10
+
+        # Full, the memory refuses new things rather than grow.
+        assert wait_for(flood, 60, 0.05), (sent, robot.last_status())
         assert robot.last_status()["objects"] == 8 and len(robot.memory()) <= 8
