@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar
 
 from go2vlm.bus import qos
 from go2vlm.bus.qos import QosProfile
@@ -39,9 +39,25 @@ from go2vlm.msgs.visualization_msgs import MarkerArray
 
 if TYPE_CHECKING:
     from go2vlm.bus.endpoints import Publisher, Subscription
-    from go2vlm.bus.node import Node
 
 M = TypeVar("M")
+T = TypeVar("T")
+
+
+class EndpointHost(Protocol):
+    """What a topic needs of a node (bus.Node is one; node.py imports this table, so not the class)."""
+
+    def create_publisher(self, msg_type: type[T], topic: str, qos: QosProfile = ...) -> Publisher[T]: ...
+
+    def create_subscription(
+        self,
+        msg_type: type[T],
+        topic: str,
+        callback: Callable[..., object],
+        qos: QosProfile = ...,
+        *,
+        with_sender: bool = False,
+    ) -> Subscription[T]: ...
 
 
 @dataclass(frozen=True)
@@ -57,13 +73,13 @@ class Topic(Generic[M]):
     def reader_qos(self) -> QosProfile:
         return self.reader or self.qos
 
-    def publisher(self, node: Node, *, name: str = "", qos: QosProfile | None = None) -> Publisher[M]:
+    def publisher(self, node: EndpointHost, *, name: str = "", qos: QosProfile | None = None) -> Publisher[M]:
         """A writer on `name` (default: the table's name; a remappable parameter passes its value)."""
         return node.create_publisher(self.type, name or self.name, qos or self.qos)
 
     def subscription(
         self,
-        node: Node,
+        node: EndpointHost,
         callback: Callable[..., object],
         *,
         name: str = "",

@@ -139,7 +139,7 @@ def grounder_node_params() -> dict[str, Any]:
 def label_sets(spec: GroundingSpec = PRIMITIVES) -> list[tuple[str, ...]]:
     """The label lists trained, known ahead: each label alone (goal, follow); for the primitives also all
     three, and the pairs and orders (a spec of many labels draws its few-label prompts as it goes)."""
-    singles = [(lab,) for lab in spec.labels]
+    singles: list[tuple[str, ...]] = [(lab,) for lab in spec.labels]
     if not spec.all_labels_prompts:
         return singles
     every = spec.labels
@@ -586,7 +586,9 @@ def evaluate(
     from go2vlm.perception.vlm.prompts import detect_prompt
 
     rng = random.Random(seed)
-    asked = {id(frame): [(lab,) for lab in eval_labels(frame, spec, rng)] for frame in frames}
+    asked: dict[int, list[tuple[str, ...]]] = {
+        id(frame): [(lab,) for lab in eval_labels(frame, spec, rng)] for frame in frames
+    }
     kinds: list[tuple[str, Callable[[Frame], list[tuple[str, ...]]]]] = [("single", lambda f: asked[id(f)])]
     if spec.all_labels_prompts:
         kinds.append(("all_three", lambda f: [spec.labels]))
