@@ -70,7 +70,6 @@ events = st.tuples(
 ).map(lambda t: [t[0], *t[1]])
 params = st.builds(
     MissionParams,
-    follow_control=st.sampled_from(["follower", "self"]),
     max_linear=st.one_of(st.floats(0.05, 1.0), st.just(0.0)),
     max_angular=st.floats(0.0, 2.0),
     lost_timeout_s=st.floats(0.1, 2.0),
@@ -126,7 +125,7 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
         if state in TERMINAL:
             if t_terminal is None:
                 t_terminal = now
-            assert out.vx == 0.0 and out.wz == 0.0 and not out.follow_target and out.query == ""
+            assert out.vx == 0.0 and out.wz == 0.0 and out.query == ""
             if out.publish_cmd:
                 event("terminal zero burst")
         else:
@@ -136,7 +135,7 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
         # Motion toward a target (forward speed, or the follower's target) only while the tracker
         # confirms it: its newest report for the goal's object says tracking and is fresh.
         confirmed = newest is not None and newest[1] and now - newest[0] < p.lost_timeout_s
-        if out.vx > 0.0 or out.follow_target:
+        if out.vx > 0.0:
             assert confirmed, (out, newest, now)
             assert out.query == m.label != ""
             event("moved toward a confirmed target")
@@ -186,21 +185,43 @@ def test_go_to_approaches_a_confirmed_target_and_stops_at_the_distance() -> None
     assert m.step(1.6 + ZERO_BURST_S + 0.01).publish_cmd is False  # then quiet
 
 
-def test_follow_relays_only_a_confirmed_target_and_decisions_gate_it() -> None:
+def test_follow_drives_only_a_confirmed_target_and_decisions_gate_it() -> None:
     m = Mission(MissionParams(decision_hold_s=1.0))
     m.set_goal("follow the red ball", 0.0)
-    assert m.step(0.0).state == "waiting" and not m.step(0.0).follow_target
-    _seen(m, 0.1, label="red ball")
+    out = m.step(0.0)
+    assert out.state == "waiting" and out.vx == out.wz == 0.0 and out.query == "red ball"
+    _seen(m, 0.1, label="red ball", x=0.2, d=3.0)
     out = m.step(0.1)
-    assert out.state == "tracking" and out.follow_target and not out.publish_cmd
+    # The approach law with the mission's gains: towards the offset, forward while 3.3 m > 1.2 m away.
+    assert out.state == "tracking" and out.publish_cmd and out.vx > 0.0 and out.wz < 0.0
+    assert out.wz == max(-m.params.max_angular, -m.params.kp_angular * 0.2)
     m.decide('{"action": "stop"}', 0.2)
     out = m.step(0.2)
-    assert out.state == "holding" and not out.follow_target and out.publish_cmd and out.vx == out.wz == 0.0
+    assert out.state == "holding" and out.publish_cmd and out.vx == out.wz == 0.0
     m.decide('{"action": "continue"}', 0.3)
-    _seen(m, 0.3, label="red ball")
-    assert m.step(0.3).follow_target
+    _seen(m, 0.3, label="red ball", x=0.0, d=3.0)
+    assert m.step(0.3).vx > 0.0
     m.decide('{"action": "forward"}', 0.4)  # outside the schema: counted, ignored
-    assert m.counters["decisions_rejected.unknown_action"] == 1 and m.step(0.4).follow_target
+    assert m.counters["decisions_rejected.unknown_action"] == 1 and m.step(0.4).vx > 0.0
+    _seen(m, 0.5, label="red ball", x=0.0, d=0.8)  # 0.8 + 0.327 from the base: within 1.2 + 0.05
+    out = m.step(0.5)
+    assert out.state == "tracking" and out.vx == out.wz == 0.0  # close enough: it waits there, never ends
+
+
+def test_a_follow_searches_after_a_loss_and_then_waits_for_it() -> None:
+    p = MissionParams(search_timeout_s=2.0)
+    m = Mission(p)
+    m.set_goal("follow the red ball", 0.0)
+    for k in range(100):  # never seen: it waits, still
+        out = m.step(0.05 * k)
+        assert out.state == "waiting" and out.vx == out.wz == 0.0
+    _seen(m, 5.0, label="red ball", x=0.5, d=2.0)
+    assert m.step(5.0).state == "tracking"
+    assert m.step(5.0 + p.lost_timeout_s).state == "lost"
+    out = m.step(5.0 + 2 * p.lost_timeout_s)
+    assert out.state == "searching" and out.wz < 0.0  # towards where it was (right)
+    out = m.step(5.0 + 2 * p.lost_timeout_s + p.search_timeout_s + 0.1)
+    assert out.state == "lost" and out.vx == out.wz == 0.0 and m.active  # a follow never ends by itself
 
 
 def test_an_ungroundable_object_rejects_the_goal_and_bad_goals_move_nothing() -> None:

@@ -145,7 +145,6 @@ ev = st.one_of(
 )
 params = st.builds(
     MissionParams,
-    follow_control=st.sampled_from(["follower", "self"]),
     max_linear=st.floats(0.0, 1.0),
     max_angular=st.floats(0.0, 2.0),
     lost_timeout_s=st.floats(0.1, 2.0),

@@ -33,15 +33,14 @@ step = st.tuples(seen, st.booleans(), st.one_of(st.floats(0.0, 0.3), st.floats(0
 @settings(max_examples=200)
 @given(
     goal=st.sampled_from(GOALS),
-    follow_control=st.sampled_from(["follower", "self"]),
     wall=pts,
     steps=st.lists(step, min_size=1, max_size=40),
 )
 def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
-    goal: str, follow_control: str, wall: np.ndarray, steps: list[tuple[tuple[bool, float, float | None, float],
+    goal: str, wall: np.ndarray, steps: list[tuple[tuple[bool, float, float | None, float],
                                                                        bool, float, float]],
 ) -> None:  # fmt: skip
-    p = MissionParams(follow_control=follow_control)
+    p = MissionParams()
     ctx = Context(p, goal=parse_goal(goal))
     a, now, yaw = Approach(), 0.0, 0.0
     kind = ctx.goal.kind if ctx.goal is not None else ""
@@ -72,7 +71,7 @@ def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
         if kind == "follow":
             assert cmd.state in ("tracking", "detouring")
         if not ctx.confirmed(now):  # a detour that hides the target
-            assert kind != "look_for" and not (kind == "follow" and follow_control == "follower")
+            assert kind != "look_for"
             assert cmd.state == "detouring" and ctx.last_seen is not None
             assert now - ctx.last_seen <= p.detour_memory_s and scan
             assert cmd.vx == 0.0 or ctx.avoider.detour_t == now  # walks only round a blocked way

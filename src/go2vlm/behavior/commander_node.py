@@ -2,8 +2,11 @@
 
 "follow the red ball", "go to the blue cylinder", "look for the green box", "stop", "sit", "stand",
 "turn left 20 degrees" (and Chinese: 跟着红球, 走到蓝色圆柱, 找一下绿色盒子, 停下, 坐下, 站起来; see behavior/goals.py).
-A thin node over the pure Mission core (behavior/mission.py has the rules); it does not look at
-images: the target_tracker grounds, tracks and ranges, the vlm node answers decisions.
+A thin node over the pure Mission core (behavior/mission.py has the rules, behavior/strategies/ the
+ways to the goal); it does not look at images: the target_tracker grounds, tracks and ranges, the
+vlm node answers decisions. It drives every goal itself, follow included, with one control law
+(behavior/control.py) and one set of gains (kp_angular, kp_linear, max_linear, max_angular); the
+follower node is the follow article's standalone demo, not part of this graph.
 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
@@ -23,15 +26,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
-              /behavior/cmd_vel   geometry_msgs/Twist   go to / look for / search (and follow with
-                                  follow_control=self) at control_rate_hz; zeros for 0.5 s after a goal
-                                  ends, then quiet; lowest priority in the safety gate
-                                  (/teleop > /follower > /behavior)
-              /detected_target    geometry_msgs/PointStamped  follow goals with follow_control=follower,
-                                  while the target is confirmed and no decision holds: the tracked box
-                                  in the colour detector's convention (geometry/target.py: x, y in -1..1
-                                  from the centre, z = half the box's larger side / (w/2)), stamped with
-                                  the source frame's header; the follower drives
+              /behavior/cmd_vel   geometry_msgs/Twist   follow / go to / look for / search at
+                                  control_rate_hz; zeros for 0.5 s after a goal ends, then quiet;
+                                  lowest priority in the safety gate (/teleop > /follower > /behavior)
               /go2/command        std_msgs/String       "sit" / "stand" (the Go2 driver / sim acts)
               /commander/status   std_msgs/String       latched JSON: goal, kind, target, state, reason,
                                   seen, x, distance_m, range_method, tracker, cmd, decision, counters,
@@ -40,7 +37,7 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   on every change and every status_period_s
 
 Goals and states
-  follow    tracking | waiting | lost | searching(self mode only)   never ends by itself
+  follow    waiting -> tracking (keeps follow_distance_m) | lost | searching   never ends by itself
   go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface);
             detouring while the local planner (behavior/planner.py) steers round an obstacle on /scan
   look for  searching -> aligning -> found (target centred), or not_found after search_timeout_s
@@ -63,12 +60,11 @@ look (hold still until an answer about a frame taken at this heading has come ba
 search_step_deg at search_step_rate). The memory never commands a velocity: every
 command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
 
-Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow (follow_control=self)
-steer round what lies between the robot and the target, planner_margin_m each side of the footprint.
-A detour that takes the target out of the camera's view carries on towards its last confirmed place
-(from /odom) for up to detour_memory_s, and only while the direct way is blocked. Without a scan the
-approach is straight; the safety gate's collision guard stops it short of anything either way. Follow
-with follow_control=follower is the article's follower: the gate's guard is what keeps it off walls.
+Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow steer round what lies
+between the robot and the target, planner_margin_m each side of the footprint. A detour that takes
+the target out of the camera's view carries on towards its last confirmed place (from /odom) for up
+to detour_memory_s, and only while the direct way is blocked. Without a scan the approach is
+straight; the safety gate's collision guard stops it short of anything either way.
 
 Decisions (/vlm/decision): stop | continue | turn (|angle| <= max_turn_deg <= 30) | sit; anything else
 is ignored, logged and counted (decisions_rejected). The text never becomes a velocity: stop holds
@@ -80,23 +76,22 @@ decision_hold_s, turns, the zero burst) is in the node's clock: sim time with us
 
 Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
 search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
-settings; goal (use /goal), follow_control, the topics, scan_timeout_s and the rates are read-only.
+settings; goal (use /goal), the topics, scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
+from go2vlm.behavior.mission import Intent, Mission, MissionParams
+from go2vlm.behavior.sighting import sighting_of
 from go2vlm.bus import Node, core_params, param
 from go2vlm.bus.topics import (
     BEHAVIOR_CMD_VEL,
     COMMANDER_STATUS,
-    DETECTED_TARGET,
     GO2_COMMAND,
     GOAL,
     OBJECTS,
@@ -108,19 +103,17 @@ from go2vlm.bus.topics import (
 )
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.geometry.target import circle_target
-from go2vlm.msgs.geometry_msgs import Point, PointStamped, Twist, Vector3
-from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
+from go2vlm.msgs.geometry_msgs import Twist, Vector3
+from go2vlm.msgs.go2vlm_msgs import TrackedTarget
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
-from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import Detection3DArray
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.objects_msg import remembered
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
-MAX_IMAGE_SIDE = 100_000  # a TrackedTarget claiming a bigger image is garbage
 _MP = MissionParams()
 
 
@@ -129,15 +122,11 @@ class CommanderConfig:
     """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
 
     goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
-    follow_control: str = param(
-        _MP.follow_control, choices=("follower", "self"),
-        help="follow: /detected_target for the follower, or own control",
-    )  # fmt: skip
     stop_distance_m: float = param(
         _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
     )
     follow_distance_m: float = param(
-        _MP.follow_distance_m, help="follow_control=self: keep this distance", min=0.3, max=5.0, live=True
+        _MP.follow_distance_m, help="follow: keep this far (base -> surface)", min=0.3, max=5.0, live=True
     )
     distance_tolerance_m: float = param(
         _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
@@ -150,7 +139,7 @@ class CommanderConfig:
         _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
     )
     kp_angular: float = param(
-        _MP.kp_angular, help="P gain from horizontal offset x to angular.z", min=0.0, max=10.0, live=True
+        _MP.kp_angular, help="P gain from horizontal offset x to angular.z (every goal)", min=0.0, max=10.0, live=True
     )
     search_yaw_rate: float = param(
         _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
@@ -228,34 +217,6 @@ class CommanderConfig:
         )
 
 
-def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
-    """A TrackedTarget -> a Sighting (a bad one says `lost`), and what was wrong with it, if anything."""
-    hfov = float(msg.hfov_rad)  # the Mission takes only a plausible one
-    state = STATE_NAMES.get(int(msg.state))
-    if state is None:
-        return Sighting(t, msg.label, "lost", hfov=hfov), f"unknown state {msg.state}"
-    if state != "tracking":
-        return Sighting(t, msg.label, state, hfov=hfov), None
-    b, w, h = msg.bbox, int(msg.image_width), int(msg.image_height)
-    vals = (b.center.position.x, b.center.position.y, b.size_x, b.size_y)
-    if not all(math.isfinite(v) for v in vals) or b.size_x <= 0 or b.size_y <= 0:
-        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad box {vals}"
-    if not (0 < w <= MAX_IMAGE_SIDE and 0 < h <= MAX_IMAGE_SIDE):
-        return Sighting(t, msg.label, "lost", hfov=hfov), f"a tracking report with a bad image size {w}x{h}"
-    x, _, _ = _target(msg)
-    d = msg.distance_m
-    distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
-    bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov), None
-
-
-def _target(msg: TrackedTarget) -> tuple[float, float, float]:
-    """The tracked box in the /detected_target convention (geometry/target.py)."""
-    b = msg.bbox
-    r = max(b.size_x, b.size_y) / 2.0
-    return circle_target(b.center.position.x, b.center.position.y, r, int(msg.image_width), int(msg.image_height))
-
-
 class CommanderNode(Node):
     """The ``commander`` node; its contract (topics, goals, parameters) is the module docstring."""
 
@@ -267,7 +228,6 @@ class CommanderNode(Node):
         cfg: CommanderConfig = self.config
         self.mission = Mission(cfg.mission_params())
         self.pub_query = TARGET_QUERY.publisher(self)
-        self.pub_target = DETECTED_TARGET.publisher(self)
         self.pub_cmd = BEHAVIOR_CMD_VEL.publisher(self)
         self.pub_go2 = GO2_COMMAND.publisher(self)
         self.pub_status = COMMANDER_STATUS.publisher(self)
@@ -279,7 +239,6 @@ class CommanderNode(Node):
         OBJECTS.subscription(self, self.on_objects, name=cfg.objects_topic)
         self._odom_frame = ""
         self._query: str | None = None
-        self._tracked: TrackedTarget | None = None  # the newest report for the goal's object, not yet relayed
         self._last_key: tuple[str, str] | None = None
         self.create_timer(1.0 / cfg.control_rate_hz, self.tick)
         self.create_timer(cfg.status_period_s, self.publish_status)
@@ -287,7 +246,6 @@ class CommanderNode(Node):
             self.set_goal(cfg.goal)
         else:
             self.tick()
-        self.log.info(f"follow_control={cfg.follow_control}")
 
     # -- inputs ------------------------------------------------------------------------------
 
@@ -314,8 +272,6 @@ class CommanderNode(Node):
             self.log.throttled("error", 5.0, f"ignoring a bad /target/tracked ({n} so far): {bad}", key="tracked")
         was_active = self.mission.active
         self.mission.observe(sighting)
-        if sighting.tracked and sighting.label == self.mission.label:
-            self._tracked = msg
         if was_active and not self.mission.active:
             self.tick()  # rejected: stop now
 
@@ -373,9 +329,6 @@ class CommanderNode(Node):
             self.pub_go2.publish(String(data=posture))
         if intent.publish_cmd:
             self.pub_cmd.publish(Twist(linear=Vector3(x=float(intent.vx)), angular=Vector3(z=float(intent.wz))))
-        if intent.follow_target and self._tracked is not None:
-            self._relay(self._tracked)
-        self._tracked = None  # each report is relayed at most once
         if (intent.state, intent.reason) != self._last_key:
             self._last_state_log(intent)
             self.publish_status()
@@ -383,11 +336,6 @@ class CommanderNode(Node):
     def _last_state_log(self, intent: Intent) -> None:
         if self._last_key is not None and intent.state != self._last_key[0]:
             self.log.info(f"{self._last_key[0]} -> {intent.state}: {intent.reason}")
-
-    def _relay(self, msg: TrackedTarget) -> None:
-        x, y, z = _target(msg)
-        header = Header(stamp=msg.header.stamp, frame_id=msg.header.frame_id)
-        self.pub_target.publish(PointStamped(header=header, point=Point(x=x, y=y, z=z)))
 
     # -- status --------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:

@@ -1,11 +1,15 @@
 """The behaviours' control laws, pure: how a target's place becomes a velocity. Which law runs, and
-when, is decided elsewhere (the follower node; the commander's Mission, behavior/mission.py, with its
-local planner, behavior/planner.py), as Nav2 keeps the planner and the controller apart.
+when, is decided elsewhere (the follower node; the commander's Mission, behavior/mission.py, and its
+strategies, with the local planner, behavior/planner.py), as Nav2 keeps the planner and the
+controller apart. Each behaviour has one law and one set of gains:
 
-- `follow_command`: the article's follower (behavior/follower_node.py, section 5.3): turn towards the
-  normalised offset x, walk while aligned, slower as the target grows.
-- `approach_command`: go to, and follow with follow_control=self: turn first, then walk, and stop
-  `stop_distance` from the object's surface. The distance comes from the target_tracker's monocular
+- `follow_command`: the article's follower (behavior/follower_node.py, section 5.3), the follow
+  article's standalone demo (colour detector -> /detected_target -> follower): turn towards the
+  normalised offset x, walk while aligned, slower as the target grows. Its gains are the follower
+  node's (kp_angular 0.8).
+- `approach_command`: the commander's goals, follow, go to and look for's walk: turn first, then
+  walk, and stop `stop_distance` from the object's surface (follow: `follow_distance_m`). Its gains
+  are the commander's (MissionParams: kp_angular 1.5). The distance comes from the target_tracker's monocular
   ranging (perception/ranging.py: camera -> the object's near surface) plus the camera's forward
   offset from the base (the commander's `camera_forward_m`).
 - `align_command`: look for: turn in place until the target is centred.

@@ -1,6 +1,12 @@
 """follower: turns towards the detected target and walks up to it (the follow article's
 follower.py, section 5.3).
 
+The follow article's standalone demo node: it runs in the article's graphs (follow_sim,
+follow_test_pattern, follow_go2*: color_detector -> /detected_target -> follower), never in a goal
+graph. A language goal "follow the red ball" is the commander's (behavior/commander_node.py), with
+its own law and gains (behavior/control.py approach_command, kp_angular 1.5); this node's law and
+gains (kp_angular 0.8, the article's) are for the article's demo only.
+
 Topics
   subscribes  /detected_target     geometry_msgs/PointStamped: x = horizontal offset -1..1, z = size
   publishes   /follower/cmd_vel    geometry_msgs/Twist at rate_hz (20 Hz); the safety gate turns it

@@ -25,19 +25,24 @@ Rules
   tracks exactly that.
 - The target is *confirmed* while the newest sighting for the goal's object says `tracking` and is
   younger than `lost_timeout_s`. Only a confirmed target is approached or followed: no forward
-  speed and no /detected_target otherwise. A sighting for another label is ignored; a sighting that
+  speed otherwise. A sighting for another label is ignored; a sighting that
   says lost ends the confirmation at once. A tracker that cannot ground the object (`ungroundable`)
   rejects the goal.
-- Not confirmed after having been: zero (`lost`) for `lost_timeout_s`, then go to / look for (and
-  follow with follow_control=self) search if `search_on_loss`: turn in place at `search_yaw_rate`
-  towards where it was last seen, until found or `search_timeout_s` -> `not_found`.
+- Follow, go to and look for share one control law and one set of gains (behavior/control.py's
+  approach_command / align_command with these params: kp_angular, kp_linear, max_linear,
+  max_angular); follow keeps `follow_distance_m` and never ends by itself: `waiting` (still) until
+  the target is first confirmed.
+- Not confirmed after having been: zero (`lost`) until 2 x `lost_timeout_s` after the last
+  confirmed report, then search if `search_on_loss`: turn in place at `search_yaw_rate` towards
+  where it was last seen, until found or `search_timeout_s` -> `not_found` (follow: `lost`, still,
+  until the target comes back).
 - Decisions (behavior/decisions.py, the whitelist: stop | continue | turn |angle| <= max_turn_deg |
   sit; anything else is counted and ignored) act only on a running motion goal: stop holds still for
   `decision_hold_s`, continue ends the hold, turn turns in place at `decision_turn_rate` for
   |angle| / rate seconds, sit sends "sit" and ends the goal. Text never becomes a velocity.
 - Terminal states (idle, stopped, rejected, done, reached, found, not_found, sat) output zero: a
   burst of zeros for ZERO_BURST_S, then /behavior/cmd_vel goes quiet.
-- Obstacles (`avoid_obstacles`, behavior/planner.py): go to and follow (self) steer round what the
+- Obstacles (`avoid_obstacles`, behavior/planner.py): go to and follow steer round what the
   newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
   the target (`detouring`). With the pose (`observe_pose`, odometry, fresh for `pose_timeout_s`) the
   target's last confirmed place is kept in the odometry frame; a detour that takes the target out of
@@ -100,7 +105,6 @@ class Intent:
     vx: float = 0.0
     wz: float = 0.0
     publish_cmd: bool = False  # send (vx, wz) on /behavior/cmd_vel
-    follow_target: bool = False  # relay the confirmed target on /detected_target (follow, follower mode)
     postures: tuple[str, ...] = ()  # "sit" / "stand" for /go2/command, issued since the last step
     query: str = ""  # what the target_tracker should track
     state: str = "idle"
@@ -218,7 +222,7 @@ class Mission:
         elif goal.kind == "turn":  # the whitelisted turn of a VLM decision, asked for as a goal
             self.decisions.start_turn(goal.angle_deg, ctx.params, now)
             self._enter("turning", f"turning {goal.angle_deg:+g} deg in place", now)
-        elif goal.kind == "follow" and ctx.params.follow_control == "follower":
+        elif goal.kind == "follow":
             self._enter("waiting", f"waiting for the {self.label} to come into view", now)
         else:
             self._enter("searching", f"looking for the {self.label}", now)
@@ -284,19 +288,19 @@ class Mission:
         self.planner_note = ""
         goal = self.ctx.goal
         if goal is None or not self.active:
-            vx, wz, publish, follow = 0.0, 0.0, now < self._zero_until, False
+            vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
             cmd = self._control(now)
             if cmd.state in TERMINAL or (cmd.state, cmd.reason) != (self.state, self.reason):
                 self._enter(cmd.state, cmd.reason, now)
             self.planner_note = cmd.note
-            vx, wz, publish, follow = cmd.vx, cmd.wz, cmd.publish, cmd.follow
+            vx, wz, publish = cmd.vx, cmd.wz, True
         p = self.params
         vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
         if publish:
             self.cmd = (vx, wz)
-        return Intent(vx, wz, publish, follow, postures, self.label if self.active else "", self.state, self.reason)
+        return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)
 
     def _control(self, now: float) -> Command:
         """Ask the strategies, in order (the module docstring's rules): a VLM decision or a turn goal
@@ -315,14 +319,6 @@ class Mission:
             for search in self.searches:
                 search.pause(now, "seen")
             ctx.look.forget()
-        if goal.kind == "follow" and p.follow_control == "follower":
-            if seen:
-                return Command(0.0, 0.0, "tracking", "target in view: /detected_target for the follower",
-                               publish=False, follow=True)  # fmt: skip
-            if ctx.last_seen is not None:
-                return Command(0.0, 0.0, "lost", "target not in view: the follower stops on its own timeout",
-                               publish=False)  # fmt: skip
-            return Command(0.0, 0.0, "waiting", "target not in view yet", publish=False)
         cmd = self.approach.step(ctx, now)
         if cmd is None:
             cmd = self.remembered.step(ctx, now)
@@ -332,15 +328,20 @@ class Mission:
         if cmd is not None:
             self.basis = cmd.basis or self.basis
             return cmd
+        if ctx.last_seen is None and goal.kind == "follow":
+            return Command.still("waiting", "target not in view yet")
         if ctx.last_seen is not None and (now - ctx.last_seen < 2 * p.lost_timeout_s or not p.search_on_loss):
             return Command.still("lost", "target not in view: stopped")
         return self.search(now)
 
     def search(self, now: float) -> Command:
         """The search hook: ask the chain (`searches`, in order) what next; the first that has
-        something to do answers. None left: not_found."""
+        something to do answers. None left: not_found (a follow never ends by itself: it waits)."""
         for strategy in self.searches:
             cmd = strategy.step(self.ctx, now)
             if cmd is not None:
                 return cmd
-        return Command.still("not_found", f"no {self.label} in view after {self.params.search_timeout_s:g} s")
+        after = f"no {self.label} in view after {self.params.search_timeout_s:g} s"
+        if self.ctx.goal is not None and self.ctx.goal.kind == "follow":
+            return Command.still("lost", f"{after} of searching: waiting for it to come back")
+        return Command.still("not_found", after)

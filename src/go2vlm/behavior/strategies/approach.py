@@ -1,7 +1,7 @@
 """Approach a target the tracker confirms: go to (turn, then walk, stop `stop_distance_m` from its
-surface: `reached`), look for (turn until it is centred: `found`), follow with follow_control=self
-(keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
-(`detouring`). Out of view during a detour (go to, follow self) it carries on round the obstacle
+surface: `reached`), look for (turn until it is centred: `found`), follow (keep
+`follow_distance_m`); the local planner steers round what the fresh scan shows in the way
+(`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
 towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
 blocked; a free way turns back towards it. The laws are behavior/control.py's. Pure."""
 
@@ -57,9 +57,9 @@ class Approach:
     def detour_unseen(ctx: Context, now: float) -> Command | None:
         """Out of view during a detour: on round the obstacle while the direct way stays blocked; a
         free way turns back towards where it was. None: the detour is over (no detour, look for,
-        follower mode, the track too old, no pose or no scan)."""
+        the track too old, no pose or no scan)."""
         p, goal, last = ctx.params, ctx.goal, ctx.last_seen
-        if goal is None or goal.kind == "look_for" or (goal.kind == "follow" and p.follow_control == "follower"):
+        if goal is None or goal.kind == "look_for":
             return None
         detour_t = ctx.avoider.detour_t
         if last is None or detour_t is None or detour_t < last - p.lost_timeout_s:

@@ -1,4 +1,4 @@
-"""What every strategy shares: a target_tracker report (`Sighting`), what a strategy asks for
+"""What every strategy shares: what a strategy asks for
 (`Command`), the context the mission keeps for them (`Context`: the goal, the newest observations and
 the target's track), and the two protocols, `Strategy` and `SearchStrategy`. Pure: no I/O; every
 method takes the time it is about."""
@@ -15,6 +15,7 @@ import numpy as np
 from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.goals import Goal
 from go2vlm.behavior.planner import Steer
+from go2vlm.behavior.sighting import Sighting
 from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
@@ -22,24 +23,6 @@ from go2vlm.behavior.strategies.params import MissionParams
 from go2vlm.world.objects_msg import Remembered
 
 __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
-
-
-@dataclass(frozen=True)
-class Sighting:
-    """One target_tracker report (a TrackedTarget), as it arrived."""
-
-    t: float  # arrival time on the node's clock
-    label: str  # what the tracker tracks
-    state: str  # idle | searching | tracking | lost | ungroundable
-    x: float = math.nan  # box centre, -1..1 from the image centre (geometry/target.py); NaN without a box
-    distance: float | None = None  # camera -> near surface (m)
-    range_method: str = "none"
-    bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
-    hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
-
-    @property
-    def tracked(self) -> bool:
-        return self.state == "tracking" and math.isfinite(self.x) and abs(self.x) <= 2.0
 
 
 @dataclass(frozen=True)
@@ -52,8 +35,6 @@ class Command:
     wz: float
     state: str
     reason: str
-    publish: bool = True  # send (vx, wz) on /behavior/cmd_vel
-    follow: bool = False  # relay the confirmed target on /detected_target (follow, follower mode)
     note: str = ""  # what the local planner did ("" = nothing)
     basis: str = ""  # what the motion is based on when not the tracker's confirmation: "memory"
 

@@ -14,14 +14,13 @@ __all__ = ["MissionParams"]
 
 @dataclass(frozen=True)
 class MissionParams:
-    follow_control: str = "follower"  # follower: /detected_target for the follower; self: own control
     stop_distance_m: float = 0.8  # go to: base -> surface
-    follow_distance_m: float = 1.2  # follow_control=self
+    follow_distance_m: float = 1.2  # follow: keep this far (base -> surface)
     distance_tolerance_m: float = 0.05
     max_linear: float = 0.4
     max_angular: float = 0.8
     kp_linear: float = 0.8
-    kp_angular: float = 1.5
+    kp_angular: float = 1.5  # follow, go to, look for: one gain (the follower node's own is the article's demo's)
     search_yaw_rate: float = 0.5
     search_timeout_s: float = 30.0
     search_on_loss: bool = True
@@ -47,8 +46,6 @@ class MissionParams:
     look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
 
     def __post_init__(self) -> None:
-        if self.follow_control not in ("follower", "self"):
-            raise ValueError(f"follow_control {self.follow_control!r} is not follower or self")
         if not 0.0 <= self.max_turn_deg <= 30.0:
             raise ValueError(f"max_turn_deg {self.max_turn_deg} must be within 0..30")
         if not 0.0 < self.memory_min_confidence <= self.memory_confirm_confidence <= 1.0:
