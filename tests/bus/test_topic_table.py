@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from go2vlm.bus import qos as q
-from go2vlm.bus.topics import TOPICS, Topic
+from go2vlm.bus.topics import GO2_LOWSTATE, LIDAR_CLOUD, LOWSTATE, TOPICS, Topic
 from go2vlm.launch.launcher import available, load_launch
 from go2vlm.msgs import ros_name
 
@@ -82,8 +82,9 @@ def test_every_ros_topic_in_the_doc_is_in_the_table() -> None:
 
 
 def test_topics_are_declared_once() -> None:
-    """Only bus/topics.py spells a topic of the table in code: nodes, the CLI, the launch code and
-    the robot profile take the name from it (docstrings, help texts and log lines may name them)."""
+    """Only bus/topics.py spells a topic of the table in code: nodes, the CLI and the launch code take
+    the name from it (docstrings, help texts and log lines may name them); the robot's own topics
+    only robot_profile/go2.py spells, and the table takes them from there."""
     spelled: list[str] = []
     for path in sorted(SRC.rglob("*.py")):
         if path.name == "topics.py" and path.parent.name == "bus":
@@ -112,7 +113,11 @@ def test_topics_are_declared_once() -> None:
             ):
                 spelled.append(f"{path.relative_to(ROOT)}:{node.lineno}: {node.value}")
     allowed = {"src/go2vlm/apps/episodes/plot.py"}  # an axis label
-    spelled = [s for s in spelled if s.split(":")[0] not in allowed]
+    # The robot's own topics are robot facts: its profile names them, the table takes them from there.
+    robot_own = {("src/go2vlm/robot_profile/go2.py", t.name) for t in (LOWSTATE, GO2_LOWSTATE, LIDAR_CLOUD)}
+    spelled = [
+        s for s in spelled if s.split(":")[0] not in allowed and (s.split(":")[0], s.split(": ")[1]) not in robot_own
+    ]
     assert not spelled, "topics spelled by hand (use go2vlm.bus.topics):\n" + "\n".join(spelled)
 
 
@@ -147,7 +152,6 @@ def test_the_table_is_sound() -> None:
 def test_a_gate_reads_the_health_topic_of_the_robot_it_commands(name: str) -> None:
     """With a go2 driver in the graph the gate's robot is the go2 (health on /go2/lowstate, the
     driver's relay); without one, its robot's own health topic; both from the table."""
-    from go2vlm.bus.topics import GO2_LOWSTATE
     from go2vlm.robot_profile import DEFAULT_ROBOT, profile
 
     _, entries = load_launch(name)
@@ -161,3 +165,17 @@ def test_a_gate_reads_the_health_topic_of_the_robot_it_commands(name: str) -> No
             assert health == GO2_LOWSTATE.name, (
                 f"{name}: the driver relays {GO2_LOWSTATE.name}, the gate reads {health}"
             )
+
+
+def test_the_robots_own_topics_are_its_profiles_and_the_profile_floor_imports_only_geometry() -> None:
+    """robot_profile/ imports nothing above geometry/ (a fresh interpreter: what importing it loads);
+    the table takes the robot's own topic names from it."""
+    import subprocess
+    import sys
+
+    from go2vlm.robot_profile import GO2, SIM
+
+    code = "import sys, go2vlm.robot_profile; print(' '.join(m for m in sys.modules if m.startswith('go2vlm.')))"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert loaded and all(m.startswith(("go2vlm.robot_profile", "go2vlm.geometry")) for m in loaded), loaded
+    assert (GO2.health_topic, SIM.health_topic, GO2.lidar.topic) == (GO2_LOWSTATE.name, LOWSTATE.name, LIDAR_CLOUD.name)

@@ -36,6 +36,7 @@ from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.unitree import LowState
 from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray
 from go2vlm.msgs.visualization_msgs import MarkerArray
+from go2vlm.robot_profile import go2
 
 if TYPE_CHECKING:
     from go2vlm.bus.endpoints import Publisher, Subscription
@@ -140,10 +141,11 @@ SAFETY_HEARTBEAT = Topic("/safety/heartbeat", String, qos.QOS_LATCHED, qos.QOS_H
 # The robot ends.
 GO2_COMMAND = Topic("/go2/command", String, qos.QOS_DEFAULT)
 # The Go2's rt/lowstate in ROS form, as the robot and the sim publish it; the go2 driver relays it
-# as /go2/lowstate (each robot profile's `health_topic` names the one its gate reads).
-LOWSTATE = Topic("/lowstate", LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
-GO2_LOWSTATE = Topic("/go2/lowstate", LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
-LIDAR_CLOUD = Topic("/utlidar/cloud", PointCloud2, qos.QOS_SENSOR)
+# as /go2/lowstate (each robot profile's `health_topic` names the one its gate reads). The names are
+# the robot's facts (robot_profile/go2.py); their types and QoS are this table's.
+LOWSTATE = Topic(go2.LOWSTATE_TOPIC, LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
+GO2_LOWSTATE = Topic(go2.DRIVER_LOWSTATE_TOPIC, LowState, qos.QOS_UNITREE_WRITER, qos.QOS_UNITREE_READER)
+LIDAR_CLOUD = Topic(go2.LIDAR_TOPIC, PointCloud2, qos.QOS_SENSOR)
 SCAN = Topic("/scan", LaserScan, qos.QOS_SENSOR)
 ODOM = Topic("/odom", Odometry, qos.QOS_DEFAULT)
 IMU = Topic("/imu", Imu, qos.QOS_DEFAULT)
