@@ -23,7 +23,7 @@ answers = st.one_of(
 )
 
 
-@settings(max_examples=300)
+@settings(max_examples=150)
 @given(
     evs=st.lists(st.tuples(answers, st.floats(0.0, 2.0)), min_size=1, max_size=30),
     rate=st.floats(0.05, 1.0),
