@@ -57,17 +57,17 @@ def _ci(ci: tuple[float, float] | None) -> list[float] | None:
     return None if ci is None else [round(ci[0], 4), round(ci[1], 4)]
 
 
-def suite_label(run: dict[str, Any]) -> str:
+def suite_label(suite: str, odom_drift: float | None) -> str:
     """The suite's name, with the odometry drift of a drift run (`go2vlm eval --drift`): a row of its own."""
-    drift = run.get("odom_drift")
-    return run["suite"] if not drift else f"{run['suite']} (odometry drift {drift:g})"
+    return suite if not odom_drift else f"{suite} (odometry drift {odom_drift:g})"
 
 
 def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
     """(suite with its drift, variant, model, added answer latency; -1: no latency axis)."""
     run = line["config"]
     lat = run.get("answer_latency_s")
-    return suite_label(run), run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
+    suite = suite_label(run["suite"], run.get("odom_drift"))
+    return suite, run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
 
 
 def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
