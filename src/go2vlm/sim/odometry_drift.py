@@ -8,13 +8,15 @@ taken in the robot's own frame, is replayed from the estimated pose with
 - a scale error `scale` on the distance (a stride misjudged by a fixed fraction),
 - a heading bias `heading_deg_per_m` (degrees of yaw gained per metre walked: the error that
   bends a straight walk and grows the position error with the square of the distance),
+- a turn scale error `turn_scale` (a fraction of every turn misjudged, as a gyro's scale error does:
+  what keeps a closed loop from closing),
 - random walks on the position (`walk_m_per_sqrt_m`) and the heading (`yaw_walk_deg_per_sqrt_m`)
   whose variance grows in proportion to the distance (so the same walk sampled at 25 or 50 Hz drifts
   alike).
 
-Standing or turning on the spot adds nothing: drift accrues with distance walked. `gain` scales
-all four (0: the truth, exactly; 1: the size below). Each sign and every random step are drawn from
-the seed: one seed, one drift, whatever else runs.
+Standing adds nothing; turning on the spot turns the estimate by the turn scale too, without moving
+it. `gain` scales every term (0: the truth, exactly; 1: the size below). Each sign and every random
+step are drawn from the seed: one seed, one drift, whatever else runs.
 
 The size (`GO2_LEG_ODOMETRY`, gain 1): the Unitree Go2's proprioceptive odometry closes a ~120 m
 horizontal loop with 2.21 m of error, 1.8 % of the distance, with a research estimator
@@ -22,9 +24,11 @@ horizontal loop with 2.21 m of error, 1.8 % of the distance, with a research est
 arXiv:2602.17393, 2026, on a Go2 EDU); users of the Go2's own odometry report more
 (github.com/dfl-rlab/dddmr_navigation issue 75: "very inaccurate and drifts heavily";
 github.com/andy-zhuo-02/go2_ros2_toolbox issue 25: the heading drifts, the position less). We take
-a 1.5 % scale error and 0.03 deg/m of heading bias: on a 100 m straight walk 1.5 m along the path
-and about 2.6 m across it (0.03 deg/m x 100 m^2 / 2), about 3 % of the distance in all, between the
-research figure and what the Go2's own estimate is reported to do.
+a 1.5 % scale error, 0.03 deg/m of heading bias and a 2 % turn scale error, with random walks of
+1 cm and 0.1 deg after 1 m: a 100 m walk of two 15 x 10 m laps then ends 2.3 m from where the
+odometry says (median of 200 seeds: 2.3 %, near the published loop figure, 1.8 %) with 16 deg of
+heading error, a 100 m straight walk 3.1 m (1.5 m along, ~2.6 m across from the heading bias)
+with 3 deg (benchmarks/bench_odom_drift.py, docs/sim.md).
 """
 
 from __future__ import annotations
@@ -47,6 +51,7 @@ class DriftSpec:
     heading_deg_per_m: float = 0.03  # yaw bias per metre walked
     walk_m_per_sqrt_m: float = 0.01  # position random walk: sigma after 1 m
     yaw_walk_deg_per_sqrt_m: float = 0.1  # heading random walk: sigma after 1 m
+    turn_scale: float = 0.02  # fraction of each turn misjudged (a gyro's scale error)
 
 
 GO2_LEG_ODOMETRY = DriftSpec()
@@ -65,9 +70,10 @@ class OdometryDrift:
             raise ValueError(f"odometry drift gain must be finite and >= 0, got {gain}")
         self.gain = gain
         self._rng = np.random.default_rng([int(seed) % 2**32, 4171])
-        signs = self._rng.choice((-1.0, 1.0), size=2)
+        signs = self._rng.choice((-1.0, 1.0), size=3)
         self.scale = gain * spec.scale * float(signs[0])
         self.heading_rad_per_m = gain * math.radians(spec.heading_deg_per_m) * float(signs[1])
+        self.turn_scale = gain * spec.turn_scale * float(signs[2])
         self._walk = gain * spec.walk_m_per_sqrt_m
         self._yaw_walk = gain * math.radians(spec.yaw_walk_deg_per_sqrt_m)
         self._true: tuple[float, float, float] | None = None
@@ -100,7 +106,7 @@ class OdometryDrift:
         ey += se * fwd + ce * left
         eyaw += self.heading_rad_per_m * d + self._yaw_walk * n[2]
         self.distance_m += d
-        eyaw = _wrap(eyaw + turn)
+        eyaw = _wrap(eyaw + (1.0 + self.turn_scale) * turn)
         self._true, self._est = (x, y, _wrap(yaw)), (ex, ey, eyaw)
         return self._est
 

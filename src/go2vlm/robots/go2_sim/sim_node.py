@@ -199,7 +199,8 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
     odom_drift: float = param(
         0.0,
         help="leg-odometry drift of /odom, /tf and rt/sportmodestate: 0 = the truth, 1 = a Go2's size "
-        "(1.5 % of the distance, 0.03 deg/m of heading; sim/odometry_drift.py), drawn from `seed`",
+        "(1.5 % of the distance, 0.03 deg/m and 2 % of each turn in heading; sim/odometry_drift.py), "
+        "drawn from `seed`",
         min=0.0,
         max=10.0,
     )
