@@ -81,10 +81,6 @@ class OdometryDrift:
         self.distance_m = 0.0  # true distance walked so far
         self._last: RobotState | None = None
 
-    @property
-    def enabled(self) -> bool:
-        return self.gain > 0
-
     def update(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
         """The estimate at this true pose (the truth itself at gain 0)."""
         if self.gain == 0:
