@@ -49,6 +49,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     add_foxglove_args(p)
     p.add_argument("--world", default=None, help="world (default follow_ball; with --goal, picked from the goal)")
     p.add_argument(
+        "--spawn",
+        default=None,
+        metavar="ROOM|X,Y,YAW",
+        help="where the robot starts: a room of the world (e.g. kitchen: household, apartment; the world's "
+        "spawn_<room> pose) or a pose x,y,yaw in metres and radians (default: the world's own spawn)",
+    )
+    p.add_argument(
         "--goal",
         default=None,
         help="run a language goal instead, e.g. 'go to the blue cylinder', 'look for the green box', '跟着红球'",
@@ -80,7 +87,14 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
 def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes import Episode, RunOptions
-    from go2vlm.apps.episodes.demo import default_out_dir, demo_world, goal_summary, run_with_progress, summary
+    from go2vlm.apps.episodes.demo import (
+        default_out_dir,
+        demo_spawn,
+        demo_world,
+        goal_summary,
+        run_with_progress,
+        summary,
+    )
     from go2vlm.apps.episodes.episode import FOLLOW_BALL_GOAL, vlm_node_params
     from go2vlm.apps.episodes.latch import stopped_line
     from go2vlm.behavior.goals import GoalParseError, parse_goal
@@ -102,9 +116,16 @@ def run(args: argparse.Namespace) -> int:
         except GoalParseError as exc:
             print(f"go2vlm demo: {exc}", file=sys.stderr)
             return 2
+    world = args.world or demo_world(goal)
+    try:
+        spawn = None if args.spawn is None else demo_spawn(world, args.spawn)
+    except ValueError as exc:
+        print(f"go2vlm demo: {exc}", file=sys.stderr)
+        return 2
     try:
         ep = Episode(
-            world=args.world or demo_world(goal),
+            world=world,
+            spawn=spawn,
             goal=goal,
             perception=args.perception,
             mode=args.mode,

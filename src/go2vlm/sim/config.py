@@ -20,7 +20,8 @@ __all__ = ["SimConfig"]
 class SimConfig:
     world: str = param(
         "follow_ball",
-        help="world name (vision_test, follow_ball, obstacles, distractors, household, empty, wall) or an .xml path",
+        help="world name (vision_test, follow_ball, obstacles, distractors, household, apartment, empty, wall) "
+        "or an .xml path",
     )
     mode: str = param(
         "dynamic", help="physics: dynamic (torque-controlled trot) or kinematic", choices=("dynamic", "kinematic")

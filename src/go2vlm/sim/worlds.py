@@ -1,7 +1,9 @@
 """World files (``worlds/<name>.xml``) and insertion of the Go2 into them.
 
 A world is a plain MJCF file.  Optional ``<custom>`` entries carry metadata:
-``go2_spawn`` (x y yaw), ``ball_path_type`` (text, "ellipse" or
+``go2_spawn`` (x y yaw), ``rooms`` (text, "name x0 y0 x1 y1; ...": each room's floor inside its
+walls, what suites and their tests call a room), ``spawn_<room>`` (x y yaw: a clear pose in that
+room, `go2vlm demo --spawn ROOM`), ``ball_path_type`` (text, "ellipse" or
 "figure8"), ``ball_path`` (cx cy rx ry start_angle), ``ball_radius`` and
 ``light_jitter`` (a fraction: every light's intensity and tint, and the headlight's,
 vary by up to it, drawn from the sim's seed, so that each episode sees other lighting).
@@ -28,12 +30,40 @@ WORLDS_DIR = Path(__file__).with_name("worlds")
 
 
 @dataclass(frozen=True)
+class Room:
+    """A room's floor inside its walls: a rectangle of the world frame."""
+
+    name: str
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    def contains(self, x: float, y: float) -> bool:
+        return self.x0 <= x <= self.x1 and self.y0 <= y <= self.y1
+
+
+@dataclass(frozen=True)
 class WorldInfo:
     name: str
     spawn: tuple[float, float, float]  # x, y, yaw
     ball_path_type: str | None
     ball_path: tuple[float, ...] | None
     ball_radius: float
+    rooms: tuple[Room, ...] = ()
+    room_spawns: tuple[tuple[str, tuple[float, float, float]], ...] = ()  # (room, (x, y, yaw))
+
+    def room_of(self, x: float, y: float) -> str | None:
+        """The room this floor point is in (None: in none of them: a wall, a doorway, outside)."""
+        return next((r.name for r in self.rooms if r.contains(x, y)), None)
+
+    def room_spawn(self, room: str) -> tuple[float, float, float]:
+        """The world's spawn pose in `room`; ValueError naming the rooms that have one."""
+        spawns = dict(self.room_spawns)
+        if room not in spawns:
+            have = ", ".join(spawns) or "none"
+            raise ValueError(f"world {self.name!r} has no spawn in a room {room!r} (rooms with one: {have})")
+        return spawns[room]
 
 
 def available_worlds() -> list[str]:
@@ -85,6 +115,34 @@ def _jitter_lights(root: ET.Element, amount: float, seed: int) -> None:
         vary(head, "diffuse", "0.4 0.4 0.4")
 
 
+def _rooms(meta: dict[str, str], file: Path) -> tuple[Room, ...]:
+    out = []
+    for part in filter(None, (p.strip() for p in meta.get("rooms", "").split(";"))):
+        words = part.split()
+        try:
+            name, x0, y0, x1, y1 = words[0], *(float(v) for v in words[1:])
+        except ValueError:
+            raise ValueError(f"{file}: a room is 'name x0 y0 x1 y1', got {part!r}") from None
+        if not (x0 < x1 and y0 < y1):
+            raise ValueError(f"{file}: room {name!r} is empty ({x0} {y0} {x1} {y1})")
+        out.append(Room(name, x0, y0, x1, y1))
+    return tuple(out)
+
+
+def _room_spawns(meta: dict[str, str]) -> tuple[tuple[str, tuple[float, float, float]], ...]:
+    out = []
+    for key, data in meta.items():
+        if key.startswith("spawn_"):
+            x, y, yaw = (float(v) for v in data.split())
+            out.append((key.removeprefix("spawn_"), (x, y, yaw)))
+    return tuple(out)
+
+
+def world_info(name: str) -> WorldInfo:
+    """A world's metadata (its spawn, rooms, room spawns, ball path) without building its model."""
+    return build_world_xml(name)[1]
+
+
 def build_world_xml(
     name: str,
     spawn: tuple[float, float, float] | None = None,
@@ -113,6 +171,8 @@ def build_world_xml(
         ball_path_type=meta.get("ball_path_type"),
         ball_path=path,
         ball_radius=float(meta.get("ball_radius", "0.2")),
+        rooms=_rooms(meta, file),
+        room_spawns=_room_spawns(meta),
     )
 
     # Everything here (robot ranges, world eulers) is in radians. Files a world names (textures)

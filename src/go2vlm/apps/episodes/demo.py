@@ -2,6 +2,9 @@
 
     go2vlm demo                                   the follow article's loop: the Go2 follows the red ball
     go2vlm demo --goal "go to the blue cylinder"  a language goal through the commander
+    go2vlm demo --world household --spawn kitchen --goal "go to the duck"
+                                                  the robot starts in a room of the world (its
+                                                  `spawn_<room>` pose) or at --spawn x,y,yaw
     go2vlm demo --perception vlm --model PATH_OR_HUB_ID [--base-url URL] [--goal TEXT]
                                                   the same, grounded by a Qwen2.5-VL (local or served);
                                                   without --goal: "follow the red ball" through the tracker
@@ -12,6 +15,7 @@ run folder as `go2vlm eval`.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from pathlib import Path
@@ -24,6 +28,7 @@ from go2vlm.bus import ShutdownRequested
 
 __all__ = [
     "default_out_dir",
+    "demo_spawn",
     "demo_world",
     "goal_episode",
     "goal_summary",
@@ -47,6 +52,24 @@ def demo_world(goal: str | None) -> str:
     if g.kind == "follow" and g.target is not None and g.target.shape in (None, "ball"):
         return "follow_ball"
     return "vision_test"
+
+
+def demo_spawn(world: str, text: str) -> tuple[float, float, float]:
+    """`--spawn`: a room of the world ("kitchen": its `spawn_kitchen` pose, sim/worlds.py) or a pose
+    "x,y,yaw" (metres, radians). ValueError naming the world's rooms otherwise."""
+    parts = text.replace(",", " ").split()
+    if len(parts) == 3:
+        try:
+            x, y, yaw = (float(v) for v in parts)
+        except ValueError:
+            pass
+        else:
+            if all(math.isfinite(v) for v in (x, y, yaw)):
+                return x, y, yaw
+            raise ValueError(f"--spawn {text!r}: x, y and yaw must be finite numbers")
+    from go2vlm.sim.worlds import world_info
+
+    return world_info(world).room_spawn(text.strip())
 
 
 def default_out_dir(goal: str | None) -> Path:

@@ -3,18 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
 from go2vlm.geometry.footprint import Footprint
 
-__all__ = ["write_plot"]
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+__all__ = ["OccupancyGridDict", "draw_occupancy", "write_plot"]
 
 
 def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint]) -> None:
     import matplotlib.patches as mp
 
+    draw_occupancy(ax, m.get("map"))
     for name, sh in shapes.items():
         colour = "tab:orange" if name == m.get("target_body") else "0.6"
         if sh.kind == "circle":
@@ -117,3 +121,29 @@ def write_plot(m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+class OccupancyGridDict(TypedDict):
+    """nav_msgs/OccupancyGrid's layout as the metrics carry it (see `draw_occupancy`)."""
+
+    origin: list[float]
+    resolution: float
+    width: int
+    height: int
+    data: list[int]
+
+
+def draw_occupancy(ax: Axes, grid: OccupancyGridDict | None) -> None:
+    """The hook for the robot's map under the top view (issue 30): `metrics["map"]` in
+    nav_msgs/OccupancyGrid's layout, {"origin": [x, y], "resolution": metres a cell, "width": cells,
+    "height": cells, "data": row-major from the origin, -1 unknown, 0 free .. 100 occupied}, in the
+    world frame (the map's odom frame is the world's at the start). Unknown cells are left clear,
+    free light, occupied dark. Nothing without a map."""
+    if not grid:
+        return
+    w, h, res = int(grid["width"]), int(grid["height"]), float(grid["resolution"])
+    cells = np.asarray(grid["data"], dtype=float).reshape(h, w)
+    shade = np.ma.masked_less(cells, 0)  # unknown: not drawn
+    x0, y0 = (float(v) for v in grid["origin"][:2])
+    ax.imshow(shade, origin="lower", extent=(x0, x0 + w * res, y0, y0 + h * res), cmap="Greys", vmin=-30,
+              vmax=100, alpha=0.6, interpolation="nearest", zorder=0)  # fmt: skip

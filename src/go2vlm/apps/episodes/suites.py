@@ -1,7 +1,8 @@
 """Suites: YAML files of tasks that expand into seeded episodes.
 
 A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
-obstacles, household, referring) or a path to a file of your own (copy a packaged one and edit it):
+obstacles, household, household_cross, referring, rooms) or a path to a file of your own (copy a
+packaged one and edit it):
 
     name: goals
     description: go to and look for each object of the VLM article's world from seeded random spawns
@@ -23,6 +24,9 @@ obstacles, household, referring) or a path to a file of your own (copy a package
         params: {commander: {search_timeout_s: 20}}   # node name -> parameters
         target: red_ball    # the body the goal refers to (needed when its words do not name one body:
                             # "the ball under the table"); left out, the body whose name fits the goal
+
+Top-level keys starting with `x-` are left alone: a place for YAML anchors the tasks refer to
+(`x-rooms: {kitchen: &kitchen {x: ..., y: ...}}`, then `spawn: *kitchen`).
 
 A suite is checked before any episode runs: every world must load (its meshes too), and every goal's
 object must be a body of its world (`target`, or the one its words name).
@@ -178,7 +182,7 @@ def load_suite(name: str) -> Suite:
         raise SuiteError(f"{p}: not valid YAML: {exc}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("tasks"), list) or not doc["tasks"]:
         raise SuiteError(f"{p}: expected a mapping with a non-empty `tasks:` list")
-    unknown = set(doc) - _SUITE_KEYS
+    unknown = {k for k in doc if not str(k).startswith("x-")} - _SUITE_KEYS  # x-...: anchors the tasks name
     if unknown:
         raise SuiteError(f"{p}: unknown key(s) {sorted(unknown)}; allowed: {', '.join(sorted(_SUITE_KEYS))}")
     defaults = doc.get("defaults") or {}
