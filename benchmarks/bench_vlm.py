@@ -125,7 +125,7 @@ def free_memory() -> None:
 
 
 def resolve_model(args: argparse.Namespace) -> str:
-    from go2vlm.perception.vlm import tiny
+    from go2vlm.testing import tiny_qwen as tiny
 
     if args.model:
         return args.model
@@ -151,7 +151,8 @@ def resolve_model(args: argparse.Namespace) -> str:
 
 
 def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any:
-    from go2vlm.perception.vlm.backend import BackendSettings, make_backend
+    from go2vlm.perception.vlm.backend import BackendSettings
+    from go2vlm.perception.vlm.factory import make_backend
 
     s = BackendSettings(
         model=model,
@@ -431,15 +432,17 @@ def main(argv: list[str] | None = None) -> int:
         help="freshness: comma list of per-inference padding to replay a bigger model (seed: 2500 for the 3B)",
     )
     p.add_argument("--queue-depth", type=int, default=10, help="seed design's subscription depth")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: a random private one)")
-    p.add_argument("--out", default=None, help="write all results as JSON here")
+    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: $ROS_DOMAIN_ID, else a random private one)")
+    p.add_argument("--out", "--json", dest="out", default=None, help="write all results as JSON here")
     args = p.parse_args(argv)
     args.sizes = [parse_size(s) for s in args.sizes.split(",") if s]
     args.max_pixels = [int(x) for x in args.max_pixels.split(",") if x]
     args.prompt = args.prompt or detect_prompt(())
     sections = set(args.sections.split(","))
     # A private domain on loopback: never talk to a robot while benchmarking.
-    os.environ["ROS_DOMAIN_ID"] = str(args.domain if args.domain is not None else random.randint(100, 200))
+    if args.domain is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain)
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(100, 200)))
     os.environ.setdefault("GO2VLM_IFACE", "lo")
 
     model = resolve_model(args)
