@@ -162,6 +162,7 @@ def main() -> int:
     def emit(row: dict[str, object]) -> None:
         rows.append(row)
         print(json.dumps(row), flush=True)
+
     if args.role == "pub":
         role_pub(args)
         return 0

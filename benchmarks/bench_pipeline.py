@@ -139,7 +139,12 @@ def bench_latency(flips: int, period_s: float, out: dict[str, object]) -> None:
                 print(f"latency   stamp -> {label:18s} no samples")
                 out[f"latency {label}"] = {"n": 0}
                 continue
-            out[f"latency {label}"] = {"median_ms": statistics.median(xs), "p95_ms": _pct(xs, 0.95), "max_ms": max(xs), "n": len(xs)}
+            out[f"latency {label}"] = {
+                "median_ms": statistics.median(xs),
+                "p95_ms": _pct(xs, 0.95),
+                "max_ms": max(xs),
+                "n": len(xs),
+            }
             print(
                 f"latency   stamp -> {label:18s} median {statistics.median(xs):6.1f} ms  p95 {_pct(xs, 0.95):6.1f} ms"
                 f"  max {max(xs):6.1f} ms  (n={len(xs)})"

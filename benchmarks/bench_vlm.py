@@ -432,7 +432,9 @@ def main(argv: list[str] | None = None) -> int:
         help="freshness: comma list of per-inference padding to replay a bigger model (seed: 2500 for the 3B)",
     )
     p.add_argument("--queue-depth", type=int, default=10, help="seed design's subscription depth")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: $ROS_DOMAIN_ID, else a random private one)")
+    p.add_argument(
+        "--domain", type=int, default=None, help="DDS domain (default: $ROS_DOMAIN_ID, else a random private one)"
+    )
     p.add_argument("--out", "--json", dest="out", default=None, help="write all results as JSON here")
     args = p.parse_args(argv)
     args.sizes = [parse_size(s) for s in args.sizes.split(",") if s]
