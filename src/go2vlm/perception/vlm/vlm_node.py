@@ -83,7 +83,11 @@ MAX_ANSWER_CHARS = 8192
 @dataclass
 class VlmConfig:
     model: str = param("", help="local checkpoint dir or hub id (openai: the served model name)")
-    backend: str = param("transformers", choices=("transformers", "openai"))
+    backend: str = param(
+        "transformers",
+        choices=("transformers", "openai", "standin"),
+        help="standin: no model, a launch-bound eager decode's timing (benchmarks; perception/vlm/standin_backend.py)",
+    )
     prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)", live=True)
     mode: str = param(
         "describe",
@@ -103,6 +107,16 @@ class VlmConfig:
     dtype: str = param("auto", choices=("auto", "fp16", "bf16", "fp32"))
     device: str = param("auto", help="auto, cpu, cuda or cuda:N")
     quantization: str = param("none", choices=("none", "nf4", "int8"), help="bitsandbytes, CUDA only")
+    compile: str = param(
+        "auto",
+        choices=("auto", "on", "off"),
+        help="transformers: static KV cache + compiled decode, warmed up at load (auto: CUDA bf16/fp16, no bitsandbytes)",
+    )
+    inference_process: str = param(
+        "auto",
+        choices=("auto", "on", "off"),
+        help="run the model in a process of its own, so that bus work cannot slow it (auto: transformers, standin)",
+    )
     period_s: float = param(1.0, help="min time between inference starts", min=0.0, live=True)
     image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
     max_age_s: float = param(
@@ -138,6 +152,8 @@ class VlmConfig:
             dtype=self.dtype,
             device=self.device,
             quantization=self.quantization,
+            compile=self.compile,
+            process=self.inference_process,
             max_pixels=self.max_pixels,
             min_pixels=self.min_pixels,
             max_new_tokens=self.max_new_tokens,

@@ -1,0 +1,182 @@
+"""Inference in a process of its own: the node's bus work can no longer slow the model.
+
+Eager decode is launch-bound: its token loop is Python, and in one process every other thread (the
+image callbacks, and where a launch graph runs every node in one process, the sim's physics and
+rendering, the tracker, the commander, the gate) competes with it for the interpreter. On an H100
+the vlm node aged its results 2.34 s at 1.24 s of inference (issue 33). Here the backend runs in a
+child process (multiprocessing, spawn) with an interpreter of its own; the node's worker hands it
+the newest frame through shared memory (one block, grown when a frame is larger) and the prompt
+through a pipe, and waits for the answer without holding the interpreter.
+
+The child builds the backend the settings name (`process` off there), loads it and answers until it
+is closed or its parent goes. Errors come back as the same exceptions (out of memory, backend
+error); a child that dies is reported as a BackendError and started again (and its model loaded
+again) by the next frame.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import signal
+import time
+from dataclasses import replace
+from multiprocessing.connection import Connection
+from multiprocessing.shared_memory import SharedMemory
+from typing import Any
+
+import numpy as np
+
+from go2vlm.errors import ConfigError
+from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory
+
+__all__ = ["InferenceProcess", "wants_process"]
+
+_POLL_S = 0.2  # how often a waiting parent looks whether the child is still alive
+_ERRORS: dict[str, type[Exception]] = {"oom": VlmOutOfMemory, "backend": BackendError, "config": ConfigError}
+
+
+def wants_process(settings: BackendSettings) -> bool:
+    """`process` auto: a model that computes in this interpreter (transformers, standin) gets its own
+    process; openai's HTTP wait does not hold the interpreter."""
+    if settings.process == "on":
+        return True
+    if settings.process == "off":
+        return False
+    if settings.process not in ("", "auto"):
+        raise BackendError(f"process={settings.process!r}: use auto, on or off")
+    return settings.backend in ("transformers", "standin")
+
+
+def _error_reply(exc: BaseException) -> tuple[str, str, str]:
+    kind = next((k for k, t in _ERRORS.items() if isinstance(exc, t)), "other")
+    return ("error", kind, f"{type(exc).__name__}: {exc}" if kind == "other" else str(exc))
+
+
+def _child(settings: BackendSettings, conn: Connection) -> None:
+    """The child's loop: load, then one reply per request, until close or the parent goes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the group: the parent closes us
+    from go2vlm.perception.vlm.factory import make_backend
+
+    try:
+        backend = make_backend(settings)
+        backend.load()
+    except BaseException as exc:  # noqa: BLE001 - every failure goes back to the node, which reports it
+        conn.send(_error_reply(exc))
+        return
+    conn.send(
+        ("ready", backend.description, getattr(backend, "settings", settings), getattr(backend, "load_report", {}))
+    )
+    blocks: dict[str, SharedMemory] = {}
+    try:
+        while True:
+            try:
+                req = conn.recv()
+            except (EOFError, OSError):
+                return  # the parent is gone
+            if req[0] == "close":
+                return
+            _, name, shape, dtype, prompt = req
+            try:
+                if name not in blocks:
+                    for old in blocks.values():
+                        old.close()
+                    blocks = {name: SharedMemory(name=name)}
+                rgb = np.ndarray(shape, dtype=dtype, buffer=blocks[name].buf)
+                conn.send(("ok", backend.generate(rgb, prompt)))
+            except BaseException as exc:  # noqa: BLE001
+                conn.send(_error_reply(exc))
+    finally:
+        for b in blocks.values():
+            b.close()
+        backend.close()
+
+
+class InferenceProcess:
+    """A Backend whose model runs in a child process (see the module docstring)."""
+
+    def __init__(self, settings: BackendSettings) -> None:
+        self.settings = settings
+        self.name = settings.backend
+        self.description = f"{settings.backend}:{settings.model} (own process)"
+        self.load_report: dict[str, float] = {}
+        self._proc: Any = None
+        self._conn: Connection | None = None
+        self._shm: SharedMemory | None = None
+
+    # -- lifecycle -------------------------------------------------------------------------------
+    def load(self) -> None:
+        ctx = mp.get_context("spawn")  # never fork a process with DDS threads running
+        parent, child = ctx.Pipe()
+        t0 = time.perf_counter()
+        self._proc = ctx.Process(
+            target=_child, args=(replace(self.settings, process="off"), child), name="vlm-inference", daemon=True
+        )
+        self._proc.start()
+        child.close()
+        self._conn = parent
+        reply = self._reply("loading the model")
+        _, description, settings, report = reply
+        # The child resolved what the checkpoint decides (max_pixels=0: its processor's limits).
+        self.settings = replace(settings, process=self.settings.process)
+        self.description = f"{description} (own process)"
+        self.load_report = {**report, "process_start_s": round(time.perf_counter() - t0, 2)}
+
+    def close(self) -> None:
+        conn, proc, self._conn, self._proc = self._conn, self._proc, None, None
+        if conn is not None:
+            try:
+                conn.send(("close",))
+            except (OSError, ValueError):
+                pass
+            conn.close()
+        if proc is not None:
+            proc.join(10.0)
+            if proc.is_alive():
+                proc.terminate()
+                proc.join(5.0)
+        if self._shm is not None:
+            self._shm.close()
+            self._shm.unlink()
+            self._shm = None
+
+    # -- inference -------------------------------------------------------------------------------
+    def generate(self, rgb: np.ndarray, prompt: str) -> Generation:
+        if self._conn is None or self._proc is None or not self._proc.is_alive():
+            self.close()
+            self.load()  # started again after a crash (a model error is a reply, not a crash)
+        assert self._conn is not None
+        frame = np.ascontiguousarray(rgb)
+        shm = self._block(frame.nbytes)
+        np.ndarray(frame.shape, dtype=frame.dtype, buffer=shm.buf)[...] = frame
+        self._conn.send(("gen", shm.name, frame.shape, frame.dtype.str, prompt))
+        _, gen = self._reply("inference")
+        return gen  # type: ignore[no-any-return]
+
+    def _block(self, nbytes: int) -> SharedMemory:
+        """The shared block frames go through: one, replaced by a larger one when a frame needs it."""
+        if self._shm is None or self._shm.size < nbytes:
+            if self._shm is not None:
+                self._shm.close()
+                self._shm.unlink()
+            self._shm = SharedMemory(create=True, size=max(nbytes, 1))
+        return self._shm
+
+    def _reply(self, what: str) -> tuple[Any, ...]:
+        """The child's answer; its exceptions raised here. Waits without holding the interpreter."""
+        assert self._conn is not None and self._proc is not None
+        while not self._conn.poll(_POLL_S):
+            if not self._proc.is_alive():
+                code = self._proc.exitcode
+                self.close()
+                raise BackendError(f"the inference process ended during {what} (exit code {code})")
+        try:
+            reply: tuple[Any, ...] = self._conn.recv()
+        except (EOFError, OSError) as exc:
+            self.close()
+            raise BackendError(f"the inference process ended during {what}") from exc
+        if reply[0] == "error":
+            _, kind, text = reply
+            if what == "loading the model":
+                self.close()
+            raise _ERRORS.get(kind, BackendError)(text)
+        return reply
