@@ -4,9 +4,11 @@ Eager decode is launch-bound: its token loop is Python, and in one process every
 image callbacks, and where a launch graph runs every node in one process, the sim's physics and
 rendering, the tracker, the commander, the gate) competes with it for the interpreter. On an H100
 the vlm node aged its results 2.34 s at 1.24 s of inference (issue 33). Here the backend runs in a
-child process (multiprocessing, spawn) with an interpreter of its own; the node's worker hands it
-the newest frame through shared memory (one block, grown when a frame is larger) and the prompt
-through a pipe, and waits for the answer without holding the interpreter.
+child process (`python -m go2vlm.perception.vlm.process_backend`, a fresh interpreter: never a fork
+of a process with DDS threads, and no re-run of the parent's main script as multiprocessing's spawn
+does) with an interpreter of its own; the node's worker hands it the newest frame through shared
+memory (one block, grown when a frame is larger) and the prompt over a socket pair
+(multiprocessing's Connection), and waits for the answer without holding the interpreter.
 
 The child builds the backend the settings name (`process` off there), loads it and answers until it
 is closed or its parent goes. Errors come back as the same exceptions (out of memory, backend
@@ -16,8 +18,11 @@ again) by the next frame.
 
 from __future__ import annotations
 
-import multiprocessing as mp
+import os
 import signal
+import socket
+import subprocess
+import sys
 import time
 from dataclasses import replace
 from multiprocessing.connection import Connection
@@ -52,12 +57,23 @@ def _error_reply(exc: BaseException) -> tuple[str, str, str]:
     return ("error", kind, f"{type(exc).__name__}: {exc}" if kind == "other" else str(exc))
 
 
-def _child(settings: BackendSettings, conn: Connection) -> None:
-    """The child's loop: load, then one reply per request, until close or the parent goes."""
+def _attach(name: str) -> SharedMemory:
+    """The parent's block, without this process's resource tracker unlinking it when we exit
+    (Python < 3.13 tracks attached blocks too; the parent owns and unlinks it)."""
+    from multiprocessing import resource_tracker
+
+    shm = SharedMemory(name=name)
+    resource_tracker.unregister(shm._name, "shared_memory")  # type: ignore[attr-defined]
+    return shm
+
+
+def _child(conn: Connection) -> None:
+    """The child's loop: settings in, load, then one reply per request, until close or the parent goes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the group: the parent closes us
     from go2vlm.perception.vlm.factory import make_backend
 
     try:
+        settings = conn.recv()
         backend = make_backend(settings)
         backend.load()
     except BaseException as exc:  # noqa: BLE001 - every failure goes back to the node, which reports it
@@ -80,7 +96,7 @@ def _child(settings: BackendSettings, conn: Connection) -> None:
                 if name not in blocks:
                     for old in blocks.values():
                         old.close()
-                    blocks = {name: SharedMemory(name=name)}
+                    blocks = {name: _attach(name)}
                 rgb = np.ndarray(shape, dtype=dtype, buffer=blocks[name].buf)
                 conn.send(("ok", backend.generate(rgb, prompt)))
             except BaseException as exc:  # noqa: BLE001
@@ -99,21 +115,21 @@ class InferenceProcess:
         self.name = settings.backend
         self.description = f"{settings.backend}:{settings.model} (own process)"
         self.load_report: dict[str, float] = {}
-        self._proc: Any = None
+        self._proc: subprocess.Popen[bytes] | None = None
         self._conn: Connection | None = None
         self._shm: SharedMemory | None = None
 
     # -- lifecycle -------------------------------------------------------------------------------
     def load(self) -> None:
-        ctx = mp.get_context("spawn")  # never fork a process with DDS threads running
-        parent, child = ctx.Pipe()
         t0 = time.perf_counter()
-        self._proc = ctx.Process(
-            target=_child, args=(replace(self.settings, process="off"), child), name="vlm-inference", daemon=True
-        )
-        self._proc.start()
-        child.close()
-        self._conn = parent
+        ours, theirs = socket.socketpair()
+        # The child imports what this process imports: the same sys.path (a test's src/ first, ...).
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+        cmd = [sys.executable, "-m", __name__, str(theirs.fileno())]
+        self._proc = subprocess.Popen(cmd, pass_fds=[theirs.fileno()], env=env)
+        theirs.close()
+        self._conn = Connection(ours.detach())
+        self._conn.send(replace(self.settings, process="off"))
         reply = self._reply("loading the model")
         _, description, settings, report = reply
         # The child resolved what the checkpoint decides (max_pixels=0: its processor's limits).
@@ -130,10 +146,11 @@ class InferenceProcess:
                 pass
             conn.close()
         if proc is not None:
-            proc.join(10.0)
-            if proc.is_alive():
-                proc.terminate()
-                proc.join(5.0)
+            try:
+                proc.wait(10.0)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5.0)
         if self._shm is not None:
             self._shm.close()
             self._shm.unlink()
@@ -141,7 +158,7 @@ class InferenceProcess:
 
     # -- inference -------------------------------------------------------------------------------
     def generate(self, rgb: np.ndarray, prompt: str) -> Generation:
-        if self._conn is None or self._proc is None or not self._proc.is_alive():
+        if self._conn is None or self._proc is None or self._proc.poll() is not None:
             self.close()
             self.load()  # started again after a crash (a model error is a reply, not a crash)
         assert self._conn is not None
@@ -165,8 +182,8 @@ class InferenceProcess:
         """The child's answer; its exceptions raised here. Waits without holding the interpreter."""
         assert self._conn is not None and self._proc is not None
         while not self._conn.poll(_POLL_S):
-            if not self._proc.is_alive():
-                code = self._proc.exitcode
+            if self._proc.poll() is not None:
+                code = self._proc.returncode
                 self.close()
                 raise BackendError(f"the inference process ended during {what} (exit code {code})")
         try:
@@ -180,3 +197,7 @@ class InferenceProcess:
                 self.close()
             raise _ERRORS.get(kind, BackendError)(text)
         return reply
+
+
+if __name__ == "__main__":
+    _child(Connection(int(sys.argv[1])))

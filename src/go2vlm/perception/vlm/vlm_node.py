@@ -110,7 +110,7 @@ class VlmConfig:
     compile: str = param(
         "auto",
         choices=("auto", "on", "off"),
-        help="transformers: static KV cache + compiled decode, warmed up at load (auto: CUDA bf16/fp16, no bitsandbytes)",
+        help="transformers: static KV cache + compiled decode, warmed up at load (auto: CUDA bf16/fp16, no bnb)",
     )
     inference_process: str = param(
         "auto",
@@ -210,6 +210,7 @@ class VlmNode(Node):
         self.last_source_stamp: float | None = None
         self.last_source_seq = 0
         self.last_detections = 0
+        self.load_report: dict[str, float] = {}  # the backend's: load_s, compile_warmup_s, process_start_s
         self.pub_text = VLM_TEXT.publisher(self)
         self.pub_dets = VLM_DETECTIONS.publisher(self)
         self.pub_decision = VLM_DECISION.publisher(self)
@@ -276,7 +277,11 @@ class VlmNode(Node):
             self.state = "ready"
         limits = getattr(self.backend, "settings", None)
         pixels = f", pixels {limits.min_pixels}..{limits.max_pixels}" if limits is not None else ""
-        self.log.info(f"model ready: {self.backend.description}{pixels}")
+        report = dict(getattr(self.backend, "load_report", {}))
+        with self._stats:
+            self.load_report = report
+        took = ", ".join(f"{k} {v:g}" for k, v in report.items())
+        self.log.info(f"model ready: {self.backend.description}{pixels}" + (f" ({took})" if took else ""))
         next_start = 0.0
         while not self._halt.is_set():
             if self.clock.monotonic() < next_start:
@@ -379,6 +384,7 @@ class VlmNode(Node):
                 "mode": cfg.mode,
                 "query": self.query,
                 "state": self.state,
+                "load": dict(self.load_report),
                 "last_error": self.last_error,
                 "latency_ms": dict(self.last_latency_ms),
                 "result_age_ms": self.last_result_age_ms,
