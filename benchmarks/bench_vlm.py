@@ -160,6 +160,8 @@ def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any
         dtype=args.dtype,
         device=args.device,
         quantization=quantization,
+        compile=args.compile,
+        process="off",  # the backend itself, in this process: its own time, and sizes can change its settings
         max_pixels=args.latency_max_pixels,
         max_new_tokens=args.new_tokens or 96,
         min_new_tokens=args.new_tokens or 0,
@@ -213,6 +215,8 @@ def bench_latency(args: argparse.Namespace, backend: Any, quant: str, load_s: fl
     decode_tps = gen.new_tokens / (statistics.fmean(per["decode"]) / 1e3) if per["decode"] and gen.new_tokens else 0
     return {
         "quantization": quant,
+        "compiled": bool(getattr(backend, "compiled", False)),
+        "load_report": dict(getattr(backend, "load_report", {})),
         "backend": backend.description,
         "image": f"{h}x{w}",
         "resized": f"{gen.resized_hw[0]}x{gen.resized_hw[1]}",
@@ -414,6 +418,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--device", default="auto")
     p.add_argument("--dtype", default="auto", choices=("auto", "fp16", "bf16", "fp32"))
     p.add_argument("--quantization", default="none", help="comma list of none,nf4,int8 (compared in turn)")
+    p.add_argument(
+        "--compile",
+        default="auto",
+        choices=("auto", "on", "off"),
+        help="static cache + compiled decode (auto: CUDA 16-bit)",
+    )
     p.add_argument("--new-tokens", type=int, default=0, help="generate exactly N tokens (0: up to 96, stop at eos)")
     p.add_argument("--prompt", default=None, help="default: the detect-mode grounding prompt")
     p.add_argument("--sections", default="latency,sizes,freshness")

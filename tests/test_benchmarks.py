@@ -60,6 +60,11 @@ SMALLEST: dict[str, Smallest] = {
         ("--frames", "1", "--sizes", "240x320", "--max-pixels", "50176", "--size-frames", "1")
         + ("--duration", "1", "--new-tokens", "4", "--json", "{json}"),
     ),
+    "bench_vlm_node": Smallest(
+        # the stand-in model, the vlm node with a camera in this process (no sim), both designs
+        ("--graph", "camera", "--duration", "1", "--frames", "1", "--tokens", "2", "--prefill-ms", "1")
+        + ("--json", "{json}"),
+    ),
     "bench_vlm_latency": Smallest(
         ("--latencies", "0.1", "--follow-s", "2", "--goto", "1", "--fast", "--json", "{json}"),
         slow="a follow and a go-to episode in the sim",
