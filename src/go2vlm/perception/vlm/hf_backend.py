@@ -262,7 +262,7 @@ class TransformersBackend:
         ip = self.processor.image_processor
         return int(getattr(ip, "patch_size", 14)), int(getattr(ip, "merge_size", 2))
 
-    def _compile_kwargs(self) -> dict[str, Any]:
+    def _compile_kwargs(self) -> dict[str, object]:
         """generate()'s arguments for the compiled decode: a static cache of one length for every frame."""
         if not self.compiled:
             return {}
@@ -272,7 +272,8 @@ class TransformersBackend:
             config = CompileConfig()  # transformers' default: inductor, reduce-overhead (CUDA graphs)
         else:
             config = CompileConfig(mode="default")  # no CUDA graphs on the CPU
-            config._compile_all_devices = True  # transformers compiles only on accelerators unless told
+            # transformers compiles only on accelerators unless told (a private flag, typed None there)
+            config._compile_all_devices = True  # type: ignore[assignment]
         return {"cache_implementation": "static", "max_cache_len": self.cache_len, "compile_config": config}
 
     def _warm_up(self) -> None:

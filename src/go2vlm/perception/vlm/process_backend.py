@@ -27,7 +27,6 @@ import time
 from dataclasses import replace
 from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
-from typing import Any
 
 import numpy as np
 
@@ -130,8 +129,8 @@ class InferenceProcess:
         theirs.close()
         self._conn = Connection(ours.detach())
         self._conn.send(replace(self.settings, process="off"))
-        reply = self._reply("loading the model")
-        _, description, settings, report = reply
+        _, description, settings, report = self._reply("loading the model")
+        assert isinstance(settings, BackendSettings) and isinstance(report, dict)
         # The child resolved what the checkpoint decides (max_pixels=0: its processor's limits).
         self.settings = replace(settings, process=self.settings.process)
         self.description = f"{description} (own process)"
@@ -166,8 +165,9 @@ class InferenceProcess:
         shm = self._block(frame.nbytes)
         np.ndarray(frame.shape, dtype=frame.dtype, buffer=shm.buf)[...] = frame
         self._conn.send(("gen", shm.name, frame.shape, frame.dtype.str, prompt))
-        _, gen = self._reply("inference")
-        return gen  # type: ignore[no-any-return]
+        gen = self._reply("inference")[1]
+        assert isinstance(gen, Generation)
+        return gen
 
     def _block(self, nbytes: int) -> SharedMemory:
         """The shared block frames go through: one, replaced by a larger one when a frame needs it."""
@@ -178,7 +178,7 @@ class InferenceProcess:
             self._shm = SharedMemory(create=True, size=max(nbytes, 1))
         return self._shm
 
-    def _reply(self, what: str) -> tuple[Any, ...]:
+    def _reply(self, what: str) -> tuple[object, ...]:
         """The child's answer; its exceptions raised here. Waits without holding the interpreter."""
         assert self._conn is not None and self._proc is not None
         while not self._conn.poll(_POLL_S):
@@ -187,7 +187,7 @@ class InferenceProcess:
                 self.close()
                 raise BackendError(f"the inference process ended during {what} (exit code {code})")
         try:
-            reply: tuple[Any, ...] = self._conn.recv()
+            reply: tuple[object, ...] = self._conn.recv()
         except (EOFError, OSError) as exc:
             self.close()
             raise BackendError(f"the inference process ended during {what}") from exc
@@ -195,7 +195,7 @@ class InferenceProcess:
             _, kind, text = reply
             if what == "loading the model":
                 self.close()
-            raise _ERRORS.get(kind, BackendError)(text)
+            raise _ERRORS.get(str(kind), BackendError)(str(text))
         return reply
 
 
