@@ -1,14 +1,13 @@
-"""The backend a node asks for by name; each imports its heavy dependencies (torch, openai) only
-when it is chosen. A model that computes in the interpreter (transformers, standin) runs in a process
-of its own unless `process=off` (process_backend.py)."""
+"""The backend a node asks for by name. A model that computes in the interpreter (transformers,
+standin) runs in a process of its own unless `process=off` (:mod:`.process_backend`); the others,
+and every backend inside that process, are built in the process that asks (:mod:`.inprocess`)."""
 
 from __future__ import annotations
 
 from go2vlm.perception.vlm.backend import Backend, BackendSettings
+from go2vlm.perception.vlm.inprocess import BACKENDS, make_in_process
 
 __all__ = ["BACKENDS", "make_backend"]
-
-BACKENDS = ("transformers", "openai", "standin")
 
 
 def make_backend(settings: BackendSettings) -> Backend:
@@ -23,14 +22,4 @@ def make_backend(settings: BackendSettings) -> Backend:
 
             check_model_ref(settings.model)
         return InferenceProcess(settings)
-    if settings.backend == "transformers":
-        from go2vlm.perception.vlm.hf_backend import TransformersBackend
-
-        return TransformersBackend(settings)
-    if settings.backend == "standin":
-        from go2vlm.perception.vlm.standin_backend import StandinBackend
-
-        return StandinBackend(settings)
-    from go2vlm.perception.vlm.openai_backend import OpenAIBackend
-
-    return OpenAIBackend(settings)
+    return make_in_process(settings)

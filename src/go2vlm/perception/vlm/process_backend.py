@@ -69,11 +69,11 @@ def _attach(name: str) -> SharedMemory:
 def _child(conn: Connection) -> None:
     """The child's loop: settings in, load, then one reply per request, until close or the parent goes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the group: the parent closes us
-    from go2vlm.perception.vlm.factory import make_backend
+    from go2vlm.perception.vlm.inprocess import make_in_process
 
     try:
         settings = conn.recv()
-        backend = make_backend(settings)
+        backend = make_in_process(settings)
         backend.load()
     except BaseException as exc:  # noqa: BLE001 - every failure goes back to the node, which reports it
         conn.send(_error_reply(exc))
