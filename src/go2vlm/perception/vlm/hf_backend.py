@@ -266,7 +266,7 @@ class TransformersBackend:
         """generate()'s arguments for the compiled decode: a static cache of one length for every frame."""
         if not self.compiled:
             return {}
-        from transformers import CompileConfig
+        from transformers import CompileConfig, GenerationConfig
 
         if self.device.startswith("cuda"):
             config = CompileConfig()  # transformers' default: inductor, reduce-overhead (CUDA graphs)
@@ -274,7 +274,12 @@ class TransformersBackend:
             config = CompileConfig(mode="default")  # no CUDA graphs on the CPU
             # transformers compiles only on accelerators unless told (a private flag, typed None there)
             config._compile_all_devices = True  # type: ignore[assignment]
-        return {"cache_implementation": "static", "max_cache_len": self.cache_len, "compile_config": config}
+        kwargs: dict[str, object] = {"cache_implementation": "static", "compile_config": config}
+        # Newer transformers take the cache's length (max_cache_len); older ones grow the static cache (the
+        # largest of the calls so far), so the warm-up's largest frame fixes the length all the same.
+        if hasattr(GenerationConfig(), "max_cache_len"):
+            kwargs["max_cache_len"] = self.cache_len
+        return kwargs
 
     def _warm_up(self) -> None:
         """Compile before the first frame: two generations on a frame of the largest size (the second
