@@ -34,10 +34,7 @@ class Smallest:
 # Per benchmark: its quickest complete run. Keep `{json}` (the output file the test checks).
 SMALLEST: dict[str, Smallest] = {
     "bench_bus": Smallest(("--types", "ours", "--cases", "10", "--duration", "1", "--ser-n", "2", "--json", "{json}")),
-    "bench_demo": Smallest(
-        ("--duration", "1", "--fast-duration", "1", "--no-video", "--json", "{json}"),
-        slow="builds the demo's graph with the trotting sim twice",
-    ),
+    "bench_demo": Smallest(("--duration", "1", "--fast-duration", "1", "--no-video", "--json", "{json}")),
     "bench_guard": Smallest(("--trials", "1", "--json", "{json}"), slow="three 8 s drives of the sim at a wall"),
     "bench_images": Smallest(("--sizes", "640x480", "--frames", "3", "--json", "{json}")),
     "bench_mcp": Smallest(
@@ -69,9 +66,7 @@ SMALLEST: dict[str, Smallest] = {
         ("--latencies", "0.1", "--follow-s", "2", "--goto", "1", "--fast", "--json", "{json}"),
         slow="a follow and a go-to episode in the sim",
     ),
-    "bench_webrtc": Smallest(
-        ("--seconds", "1", "--calls", "2", "--json", "{json}"), slow="the sim with its WebRTC server, two transports"
-    ),
+    "bench_webrtc": Smallest(("--seconds", "1", "--calls", "2", "--json", "{json}")),
     "bench_worlds": Smallest(("--worlds", "follow_ball", "--seconds", "0.5", "--json", "{json}")),
 }
 
