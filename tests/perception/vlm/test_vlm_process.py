@@ -95,3 +95,52 @@ def test_transformers_in_its_own_process_answers_as_in_this_process(tiny_ckpt: P
     finally:
         here.close()
         there.close()
+
+
+def test_node_with_its_model_in_another_process_answers_and_reports_the_load() -> None:
+    """The vlm node with the stand-in model (inference_process=auto: its own process) over real DDS:
+    every answer carries its frame's stamp; the status reports the load and the process."""
+    from busutil import Recorder, wait_for
+
+    from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node, build_config
+    from go2vlm.msgs.builtin_interfaces import Time
+    from go2vlm.msgs.image import numpy_to_image
+    from go2vlm.msgs.sensor_msgs import Image
+    from go2vlm.msgs.std_msgs import Header
+    from go2vlm.msgs.vision_msgs import Detection2DArray
+    from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode
+
+    topic = "/test_vlm_process/image_raw"
+    cfg = build_config(
+        VlmConfig,
+        {"backend": "standin", "model": FAST, "mode": "detect", "image_topic": topic, "period_s": 0.0},
+        node="vlm",
+    )
+    node = VlmNode(cfg)
+    assert isinstance(node.backend, InferenceProcess)
+    harness = Node(node_name="vlm_process_harness")
+    cam = harness.create_publisher(Image, topic, QOS_SENSOR)
+    dets = Recorder()
+    harness.create_subscription(Detection2DArray, "/vlm/detections", dets, QOS_DEFAULT)
+    harness.start()
+    node.start()
+    try:
+        assert wait_for(lambda: node.state == "ready", 60)
+        stamps = set()
+        for i in range(50):
+            stamp = 2000.0 + i
+            stamps.add(stamp)
+            frame = numpy_to_image(np.zeros((120, 160, 3), np.uint8), "bgr8", Header(stamp=Time.from_sec(stamp)))
+            cam.publish(frame)
+            if wait_for(lambda: len(dets.msgs()) >= 2, 0.1):
+                break
+        assert wait_for(lambda: len(dets.msgs()) >= 2, 30)
+        for msg in dets.msgs():
+            assert msg.header.stamp.to_sec() in stamps and not msg.detections  # "[]": nothing found
+        status = node.status()
+        assert status["state"] == "ready" and status["inferences"] >= 2
+        assert status["load"]["process_start_s"] > 0 and "own process" in status["backend_detail"]
+    finally:
+        node.shutdown()
+        harness.shutdown()
+    assert node.backend._proc is None  # closed with the node
