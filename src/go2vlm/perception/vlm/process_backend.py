@@ -96,7 +96,9 @@ def _child(conn: Connection) -> None:
                     for old in blocks.values():
                         old.close()
                     blocks = {name: _attach(name)}
-                rgb = np.ndarray(shape, dtype=dtype, buffer=blocks[name].buf)
+                # A copy (a millisecond): no view of the block outlives the request, so the block
+                # can be closed when a larger one replaces it.
+                rgb = np.ndarray(shape, dtype=dtype, buffer=blocks[name].buf).copy()
                 conn.send(("ok", backend.generate(rgb, prompt)))
             except BaseException as exc:  # noqa: BLE001
                 conn.send(_error_reply(exc))
