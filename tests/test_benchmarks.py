@@ -7,6 +7,7 @@ A new benchmark needs a row in SMALLEST: the arguments of its quickest complete 
 where its output file goes (every benchmark takes `--json PATH`). Rows whose quickest run still
 starts the sim or a graph of nodes for more than ~20 s are marked slow, with the reason; the README's
 full test command runs them too.
+Files in benchmarks/ whose name starts with `_` are helpers, not benchmarks.
 """
 
 from __future__ import annotations
