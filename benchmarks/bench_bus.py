@@ -155,7 +155,14 @@ def main() -> int:
     p.add_argument("--cases", default="10,30,max", help="comma list of rates in Hz, or max")
     p.add_argument("--duration", type=float, default=5.0, help="seconds per case")
     p.add_argument("--ser-n", type=int, default=20, help="frames for the serialization timing")
+    p.add_argument("--json", default=None, help="also write every result line here (a JSON list)")
     args = p.parse_args()
+    rows: list[dict[str, object]] = []
+
+    def emit(row: dict[str, object]) -> None:
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+
     if args.role == "pub":
         role_pub(args)
         return 0
@@ -170,7 +177,7 @@ def main() -> int:
     kinds = [k.strip() for k in args.types.split(",") if k.strip()]
     for kind in [k for k in kinds if k != "small" and args.ser_n > 0]:
         s = serialization(kind, args.ser_n if kind == "ours" else max(3, args.ser_n // 5))
-        print(json.dumps({"type": kind, **{k: round(v, 3) for k, v in s.items()}}), flush=True)
+        emit({"type": kind, **{k: round(v, 3) for k, v in s.items()}})
     if len(kinds) > 1:
         # One receiving process per type: "ours" and "naive" share a DDS type name, and a process
         # keeps one Topic (one Python class) per name.
@@ -187,11 +194,18 @@ def main() -> int:
                 "--ser-n",
                 "0",
             ]
-            subprocess.run(cmd, check=True, env=dict(os.environ))
-        return 0
-    for case in args.cases.split(","):
-        rate = 0.0 if case.strip() == "max" else float(case)
-        print(json.dumps(run_case(kinds[0], rate, args.duration)), flush=True)
+            child = subprocess.run(cmd, check=True, env=dict(os.environ), stdout=subprocess.PIPE, text=True)
+            for line in child.stdout.splitlines():
+                if line.startswith("{"):
+                    emit(json.loads(line))
+                else:
+                    print(line, flush=True)
+    else:
+        for case in args.cases.split(","):
+            rate = 0.0 if case.strip() == "max" else float(case)
+            emit(run_case(kinds[0], rate, args.duration))
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
     return 0
 
 

@@ -16,6 +16,7 @@ sim stops when teleop drives it at a wall.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import random
@@ -50,8 +51,9 @@ def wall_ranges(x: float) -> list[float]:
     return out
 
 
-def bench_pure() -> None:
+def bench_pure() -> list[dict[str, float]]:
     guard, lim = CollisionGuard(GuardConfig()), Limits(1.0, 1.0, 1.0, 2.0, 1.0, 3.0)
+    rows = []
     guard.scan(Scan("base_link", wall_ranges(1.2), -math.pi, INC, 0.05, 10.0), 0.0)
     for v in (Velocity(0.5), Velocity(1.0), Velocity(0.0, 0.5), Velocity(0.0, 0.0, 1.0), Velocity(0.5, 0.0, 0.5)):
         n, t0 = 2000, time.perf_counter()
@@ -59,13 +61,15 @@ def bench_pure() -> None:
             out = guard.limit(v, 0.0, lim)
         us = (time.perf_counter() - t0) / n * 1e6
         print(f"limit({v.vx:g}, {v.vy:g}, {v.wz:g}) -> ({out.vx:.3f}, {out.vy:.3f}, {out.wz:.3f}): {us:.0f} us/call")
+        rows.append({"vx": v.vx, "vy": v.vy, "wz": v.wz, "us_per_call": us})
+    return rows
 
 
 class _Io(Node):
     name = "guard_bench"
 
 
-def bench_reaction(trials: int) -> None:
+def bench_reaction(trials: int) -> dict[str, float]:
     gate = make_node("safety")
     io = _Io()
     got: list[tuple[float, float]] = []
@@ -119,9 +123,10 @@ def bench_reaction(trials: int) -> None:
         f"reaction (scan publish -> first slowed /cmd_vel), {len(out)}/{trials} trials: median "
         f"{statistics.median(out):.1f} ms, max {max(out):.1f} ms"
     )
+    return {"trials": trials, "reacted": len(out), "median_ms": statistics.median(out), "max_ms": max(out)}
 
 
-def bench_sim() -> None:
+def bench_sim() -> list[dict[str, float | str]]:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
     from busutil import Procs, wait_for  # noqa: PLC0415
 
@@ -133,6 +138,7 @@ def bench_sim() -> None:
         ("forward 1.0 m/s", "[3.0, 1.5, 0.0]", 1.0, Twist(linear=Vector3(x=1.0)), WALL_EAST),
         ("sideways 0.5 m/s", "[1.5, 3.6, 0.0]", 0.5, Twist(linear=Vector3(y=0.5)), WALL_NORTH),
     ]
+    rows: list[dict[str, float | str]] = []
     for name, spawn, vmax, twist, wall in cases:
         procs, probe = Procs(), Probe().start()
         try:
@@ -144,20 +150,22 @@ def bench_sim() -> None:
             drive(probe, twist, 8.0)
             gaps = [probe.gap(wall)]
             print(f"{name}: start gap {gap0:.2f} m, stopped at {gaps[0]:.3f} m from the wall (margin 0.3)")
+            rows.append({"case": name, "start_gap_m": gap0, "end_gap_m": gaps[0]})
         finally:
             probe.shutdown()
             procs.stop_all()
+    return rows
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--skip-sim", action="store_true")
+    ap.add_argument("--json", type=Path, default=None, help="also write the results here")
     a = ap.parse_args()
-    bench_pure()
-    bench_reaction(a.trials)
-    if not a.skip_sim:
-        bench_sim()
+    out = {"limit": bench_pure(), "reaction": bench_reaction(a.trials), "sim": [] if a.skip_sim else bench_sim()}
+    if a.json:
+        a.json.write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":

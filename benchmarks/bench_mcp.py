@@ -85,6 +85,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--idle", type=float, default=20.0, help="seconds idle for the CPU share")
+    ap.add_argument("--json", default=None, help="also write the results here")
     a = ap.parse_args()
     env = dict(os.environ)
     env.setdefault("ROS_DOMAIN_ID", str(random.randint(100, 230)))
@@ -126,6 +127,9 @@ def main() -> None:
         "load_average": os.getloadavg(),
     }
     print(json.dumps(result, indent=2))
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(result, f, indent=2)
 
 
 if __name__ == "__main__":

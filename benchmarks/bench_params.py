@@ -9,6 +9,7 @@ go2vlm.bus.param_services.ParameterClient (what `go2vlm param` uses), one reques
 """
 
 import argparse
+import json
 import os
 import random
 import statistics
@@ -25,7 +26,7 @@ def percentile(xs: list[float], q: float) -> float:
     return xs[min(len(xs) - 1, int(q * len(xs)))]
 
 
-def round_trips(calls: int) -> None:
+def round_trips(calls: int, out: dict[str, object]) -> None:
     env = dict(os.environ, GO2VLM_IFACE="lo")
     node = subprocess.Popen([sys.executable, "-m", "go2vlm", "run", "follower"], env=env, stderr=subprocess.DEVNULL)
     try:
@@ -41,6 +42,7 @@ def round_trips(calls: int) -> None:
                         (r,) = client.set({"kp_angular": python_to_value(0.5 + 0.1 * (i % 2))})
                         assert r.successful, r.reason
                     times.append((time.perf_counter() - t) * 1000)
+                out[what] = {"calls": calls, "median_ms": statistics.median(times), "p99_ms": percentile(times, 0.99)}
                 print(
                     f"{what}: {calls} calls, median {statistics.median(times):.2f} ms, "
                     f"p99 {percentile(times, 0.99):.2f} ms"
@@ -50,7 +52,7 @@ def round_trips(calls: int) -> None:
         node.wait(10)
 
 
-def start_cost(n: int) -> None:
+def start_cost(n: int, out: dict[str, object]) -> None:
     from go2vlm.behavior.follower_node import FollowerNode
 
     per_node: dict[bool, float] = {}
@@ -61,18 +63,25 @@ def start_cost(n: int) -> None:
         for node in nodes:
             node.shutdown()
     without, with_ = per_node[False], per_node[True]
+    out["startup_cpu_ms"] = {"without_services": without, "with_services": with_}
     print(f"start-up CPU per node: {without:.1f} ms without, {with_:.1f} ms with the parameter services")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--calls", type=int, default=500)
+    ap.add_argument("--nodes", type=int, default=10, help="nodes per start-up cost pass")
+    ap.add_argument("--json", default=None, help="also write the results here")
     args = ap.parse_args()
+    out: dict[str, object] = {}
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(150, 200)))
     os.environ["GO2VLM_IFACE"] = "lo"
     domain.participant()
-    round_trips(args.calls)
-    start_cost(10)
+    round_trips(args.calls, out)
+    start_cost(args.nodes, out)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
 
 
 if __name__ == "__main__":

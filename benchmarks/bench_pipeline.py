@@ -21,6 +21,7 @@ add up to 50 ms and 20 ms (one output period each) on top of the processing.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import random
 import statistics
@@ -37,7 +38,7 @@ def _pct(xs: list[float], q: float) -> float:
     return s[min(len(s) - 1, int(round(q * (len(s) - 1))))]
 
 
-def bench_detector(frames: int) -> None:
+def bench_detector(frames: int, out: dict[str, object]) -> None:
     import cv2
 
     from go2vlm.msgs.geometry_msgs import Point, PointStamped
@@ -68,13 +69,14 @@ def bench_detector(frames: int) -> None:
             fn()
         dt = (time.perf_counter() - t0) / frames
         cpu = (time.thread_time() - c0) / frames  # CPU time: robust against other load on the machine
+        out[f"detector {name}"] = {"frames_per_cpu_s": 1.0 / cpu, "cpu_ms_per_frame": cpu * 1e3, "wall_fps": 1.0 / dt}
         print(
             f"detector  {name:22s} 640x480, 1 core: {1.0 / cpu:6.0f} frames/CPU-s ({cpu * 1e3:.3f} ms CPU/frame),"
             f" wall {1.0 / dt:6.0f} frames/s"
         )
 
 
-def bench_latency(flips: int, period_s: float) -> None:
+def bench_latency(flips: int, period_s: float, out: dict[str, object]) -> None:
     os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(20, 220)))
     os.environ.setdefault("GO2VLM_IFACE", "lo")
     import cv2
@@ -135,7 +137,14 @@ def bench_latency(flips: int, period_s: float) -> None:
             xs = [x * 1e3 for x in results[key]]
             if not xs:
                 print(f"latency   stamp -> {label:18s} no samples")
+                out[f"latency {label}"] = {"n": 0}
                 continue
+            out[f"latency {label}"] = {
+                "median_ms": statistics.median(xs),
+                "p95_ms": _pct(xs, 0.95),
+                "max_ms": max(xs),
+                "n": len(xs),
+            }
             print(
                 f"latency   stamp -> {label:18s} median {statistics.median(xs):6.1f} ms  p95 {_pct(xs, 0.95):6.1f} ms"
                 f"  max {max(xs):6.1f} ms  (n={len(xs)})"
@@ -154,11 +163,16 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=2000, help="detector: frames to time")
     ap.add_argument("--flips", type=int, default=40, help="latency: frames (each flips the turn)")
     ap.add_argument("--period", type=float, default=0.25, help="latency: seconds between frames")
+    ap.add_argument("--json", default=None, help="also write the results here")
     args = ap.parse_args()
+    out: dict[str, object] = {}
     if args.only in (None, "latency"):
-        bench_latency(args.flips, args.period)  # before pinning this process to one core
+        bench_latency(args.flips, args.period, out)  # before pinning this process to one core
     if args.only in (None, "detector"):
-        bench_detector(args.frames)
+        bench_detector(args.frames, out)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -298,6 +298,7 @@ def main() -> int:
     p.add_argument("--cases", default="plain,record,view")
     p.add_argument("--duration", type=float, default=20.0, help="seconds of publishing per case")
     p.add_argument("--camera-hz", type=float, default=30.0)
+    p.add_argument("--json", default=None, help="also write the results here")
     args = p.parse_args()
     if args.role == "pub":
         role_pub(args)
@@ -315,6 +316,8 @@ def main() -> int:
     if "plain" in results and "record" in results:
         extra = results["record"]["cores"] - results["plain"]["cores"]
         print(json.dumps({"record_beyond_bus_cores": round(extra, 3)}), flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1))
     return 0
 
 

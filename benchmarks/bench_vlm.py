@@ -125,7 +125,7 @@ def free_memory() -> None:
 
 
 def resolve_model(args: argparse.Namespace) -> str:
-    from go2vlm.perception.vlm import tiny
+    from go2vlm.testing import tiny_qwen as tiny
 
     if args.model:
         return args.model
@@ -151,7 +151,8 @@ def resolve_model(args: argparse.Namespace) -> str:
 
 
 def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any:
-    from go2vlm.perception.vlm.backend import BackendSettings, make_backend
+    from go2vlm.perception.vlm.backend import BackendSettings
+    from go2vlm.perception.vlm.factory import make_backend
 
     s = BackendSettings(
         model=model,
@@ -159,6 +160,8 @@ def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any
         dtype=args.dtype,
         device=args.device,
         quantization=quantization,
+        compile=args.compile,
+        process="off",  # the backend itself, in this process: its own time, and sizes can change its settings
         max_pixels=args.latency_max_pixels,
         max_new_tokens=args.new_tokens or 96,
         min_new_tokens=args.new_tokens or 0,
@@ -212,6 +215,8 @@ def bench_latency(args: argparse.Namespace, backend: Any, quant: str, load_s: fl
     decode_tps = gen.new_tokens / (statistics.fmean(per["decode"]) / 1e3) if per["decode"] and gen.new_tokens else 0
     return {
         "quantization": quant,
+        "compiled": bool(getattr(backend, "compiled", False)),
+        "load_report": dict(getattr(backend, "load_report", {})),
         "backend": backend.description,
         "image": f"{h}x{w}",
         "resized": f"{gen.resized_hw[0]}x{gen.resized_hw[1]}",
@@ -413,6 +418,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--device", default="auto")
     p.add_argument("--dtype", default="auto", choices=("auto", "fp16", "bf16", "fp32"))
     p.add_argument("--quantization", default="none", help="comma list of none,nf4,int8 (compared in turn)")
+    p.add_argument(
+        "--compile",
+        default="auto",
+        choices=("auto", "on", "off"),
+        help="static cache + compiled decode (auto: CUDA 16-bit)",
+    )
     p.add_argument("--new-tokens", type=int, default=0, help="generate exactly N tokens (0: up to 96, stop at eos)")
     p.add_argument("--prompt", default=None, help="default: the detect-mode grounding prompt")
     p.add_argument("--sections", default="latency,sizes,freshness")
@@ -431,15 +442,19 @@ def main(argv: list[str] | None = None) -> int:
         help="freshness: comma list of per-inference padding to replay a bigger model (seed: 2500 for the 3B)",
     )
     p.add_argument("--queue-depth", type=int, default=10, help="seed design's subscription depth")
-    p.add_argument("--domain", type=int, default=None, help="DDS domain (default: a random private one)")
-    p.add_argument("--out", default=None, help="write all results as JSON here")
+    p.add_argument(
+        "--domain", type=int, default=None, help="DDS domain (default: $ROS_DOMAIN_ID, else a random private one)"
+    )
+    p.add_argument("--out", "--json", dest="out", default=None, help="write all results as JSON here")
     args = p.parse_args(argv)
     args.sizes = [parse_size(s) for s in args.sizes.split(",") if s]
     args.max_pixels = [int(x) for x in args.max_pixels.split(",") if x]
     args.prompt = args.prompt or detect_prompt(())
     sections = set(args.sections.split(","))
     # A private domain on loopback: never talk to a robot while benchmarking.
-    os.environ["ROS_DOMAIN_ID"] = str(args.domain if args.domain is not None else random.randint(100, 200))
+    if args.domain is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(args.domain)
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(100, 200)))
     os.environ.setdefault("GO2VLM_IFACE", "lo")
 
     model = resolve_model(args)

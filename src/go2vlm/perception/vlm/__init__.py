@@ -4,7 +4,8 @@ Light to import: torch/transformers/openai load only when a backend is created.
 
 * :mod:`.vlm_node` -- the ``vlm`` node (``go2vlm run vlm --param model=DIR``)
 * :mod:`.backend`, :mod:`.factory`, :mod:`.hf_backend`, :mod:`.openai_backend` -- in-process or
-  OpenAI-compatible server
+  OpenAI-compatible server; :mod:`.process_backend` -- the model in a process of its own;
+  :mod:`.standin_backend` -- no model, a launch-bound decode's timing
 * :mod:`.parse` -- untrusted model output -> boxes, with counters
 * :mod:`.geometry` -- Qwen smart resize, coordinate conventions
 """

@@ -137,6 +137,8 @@ class BackendSettings:
     dtype: str = "auto"  # auto|fp16|bf16|fp32
     device: str = "auto"  # auto|cuda|cpu|cuda:N
     quantization: str = "none"  # none|nf4|int8
+    compile: str = "auto"  # auto|on|off: transformers, static KV cache + compiled decode (auto: CUDA bf16/fp16)
+    process: str = "auto"  # auto|on|off: the model in a process of its own (auto: transformers, standin)
     max_pixels: int = DEFAULT_MAX_PIXELS  # 0: the checkpoint's own processor limits (min_pixels too)
     min_pixels: int = DEFAULT_MIN_PIXELS
     max_new_tokens: int = 256

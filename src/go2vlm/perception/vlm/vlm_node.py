@@ -83,7 +83,11 @@ MAX_ANSWER_CHARS = 8192
 @dataclass
 class VlmConfig:
     model: str = param("", help="local checkpoint dir or hub id (openai: the served model name)")
-    backend: str = param("transformers", choices=("transformers", "openai"))
+    backend: str = param(
+        "transformers",
+        choices=("transformers", "openai", "standin"),
+        help="standin: no model, a launch-bound eager decode's timing (benchmarks; perception/vlm/standin_backend.py)",
+    )
     prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)", live=True)
     mode: str = param(
         "describe",
@@ -103,6 +107,16 @@ class VlmConfig:
     dtype: str = param("auto", choices=("auto", "fp16", "bf16", "fp32"))
     device: str = param("auto", help="auto, cpu, cuda or cuda:N")
     quantization: str = param("none", choices=("none", "nf4", "int8"), help="bitsandbytes, CUDA only")
+    compile: str = param(
+        "auto",
+        choices=("auto", "on", "off"),
+        help="transformers: static KV cache + compiled decode, warmed up at load (auto: CUDA bf16/fp16, no bnb)",
+    )
+    inference_process: str = param(
+        "auto",
+        choices=("auto", "on", "off"),
+        help="run the model in a process of its own, so that bus work cannot slow it (auto: transformers, standin)",
+    )
     period_s: float = param(1.0, help="min time between inference starts", min=0.0, live=True)
     image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
     max_age_s: float = param(
@@ -138,6 +152,8 @@ class VlmConfig:
             dtype=self.dtype,
             device=self.device,
             quantization=self.quantization,
+            compile=self.compile,
+            process=self.inference_process,
             max_pixels=self.max_pixels,
             min_pixels=self.min_pixels,
             max_new_tokens=self.max_new_tokens,
@@ -194,6 +210,7 @@ class VlmNode(Node):
         self.last_source_stamp: float | None = None
         self.last_source_seq = 0
         self.last_detections = 0
+        self.load_report: dict[str, float] = {}  # the backend's: load_s, compile_warmup_s, process_start_s
         self.pub_text = VLM_TEXT.publisher(self)
         self.pub_dets = VLM_DETECTIONS.publisher(self)
         self.pub_decision = VLM_DECISION.publisher(self)
@@ -260,7 +277,11 @@ class VlmNode(Node):
             self.state = "ready"
         limits = getattr(self.backend, "settings", None)
         pixels = f", pixels {limits.min_pixels}..{limits.max_pixels}" if limits is not None else ""
-        self.log.info(f"model ready: {self.backend.description}{pixels}")
+        report = dict(getattr(self.backend, "load_report", {}))
+        with self._stats:
+            self.load_report = report
+        took = ", ".join(f"{k} {v:g}" for k, v in report.items())
+        self.log.info(f"model ready: {self.backend.description}{pixels}" + (f" ({took})" if took else ""))
         next_start = 0.0
         while not self._halt.is_set():
             if self.clock.monotonic() < next_start:
@@ -363,6 +384,7 @@ class VlmNode(Node):
                 "mode": cfg.mode,
                 "query": self.query,
                 "state": self.state,
+                "load": dict(self.load_report),
                 "last_error": self.last_error,
                 "latency_ms": dict(self.last_latency_ms),
                 "result_age_ms": self.last_result_age_ms,
