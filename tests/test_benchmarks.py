@@ -46,6 +46,7 @@ SMALLEST: dict[str, Smallest] = {
     "bench_memory": Smallest(
         ("--hours", "0.002", "--episodes", "1", "--json", "{json}"), slow="two search episodes in the sim"
     ),
+    "bench_odom_drift": Smallest(("--seeds", "2", "--json", "{json}")),
     "bench_params": Smallest(("--calls", "5", "--nodes", "1", "--json", "{json}")),
     "bench_pipeline": Smallest(("--frames", "20", "--flips", "2", "--period", "0.3", "--json", "{json}")),
     "bench_record_view": Smallest(
