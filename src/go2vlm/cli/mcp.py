@@ -48,7 +48,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--vlm-base-url", default=None, help="--sim: a vlm node (describe) on this OpenAI-compatible server")
     p.add_argument("--vlm-model", default=None, help="--sim: the served model's name for --vlm-base-url")
     p.add_argument("--confirm", action="store_true", help="each motion goal waits for a person's yes")
-    p.add_argument("--deadman", type=positive, default=10.0, help="stop a goal after S s without status() (10)")
+    p.add_argument("--deadman", type=positive, default=10.0,
+                   help="stop a goal after S s without status() (10; at most 600)")  # fmt: skip
     add_node_params(p, "--sim: a node's parameter, e.g. -p sim.rtf=2 or -p commander.max_linear=0.3 (repeatable)")
     add_dds_args(p)
     p.set_defaults(func=run)
@@ -100,6 +101,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.param and args.sim is None:
         raise UsageError("--param sets the nodes of --sim; without --sim there are none here")
+    from go2vlm.apps.mcp.bridge_node import MAX_DEADMAN_S
+
+    if not 1.0 <= args.deadman <= MAX_DEADMAN_S:
+        raise UsageError(f"--deadman {args.deadman:g}: within 1..{MAX_DEADMAN_S:g} s")
     token = args.token or os.environ.get(TOKEN_ENV) or None
     host, port = parse_bind(args.http) if args.http is not None else ("", 0)
     if token is not None and len(token) < MIN_TOKEN_CHARS:

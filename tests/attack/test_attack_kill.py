@@ -1,0 +1,112 @@
+"""Attack: kill -9 one process of the robot's graph in the middle of a goal (docs/safety.md, the attack
+table). The graph runs one process per node (`go2vlm launch mcp_sim --processes`: the MuJoCo sim, the
+target_tracker, the object memory, the commander, the follower, the safety gate) and an agent drives
+it through `go2vlm mcp --http` with the official SDK client; the outcome is judged from the sim's
+ground truth.
+
+- The MCP server, mid `follow` and mid `go to`: the commander's goal lease runs out and the commander
+  stops the goal itself; the robot is still within the deadman + 1 s (the assertion is that bound).
+- The commander: the gate times its input out; the robot stops.
+- The target_tracker: the target is no longer confirmed; the go to stops walking (it may turn in place
+  to search, never walk).
+- The object memory: the go to carries on with the tracker and reaches the cylinder, no collision.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import anyio
+import pytest
+from attackutil import Graph, last_status, moving, serve_http, still_from
+from busutil import Procs, wait_for
+from mcputil import Probe, data, http_client, speed
+
+pytest.importorskip("mcp")
+
+pytestmark = pytest.mark.slow
+DEADMAN_S = 5.0
+
+
+async def _start_and_walk(url: str, tool: str, probe: Probe) -> None:
+    """Call tool("blue cylinder") and poll status() until the robot walks."""
+    async with http_client(url) as client:
+        data(await client.call_tool(tool, {"object": "blue cylinder"}))
+        for _ in range(400):
+            data(await client.call_tool("status", {}))
+            if moving(probe):
+                return
+            await anyio.sleep(0.25)
+    raise AssertionError(f"{tool}: the robot never walked; commander {last_status(probe)}")
+
+
+def test_kill_9_the_mcp_server_mid_follow_and_mid_go_to(procs: Procs) -> None:
+    graph = Graph(procs)
+    probe = Probe().start()
+    found: dict[str, dict[str, float]] = {}
+    try:
+        assert wait_for(lambda: len(probe.poses) > 20, 120), "no ground truth from the sim"
+        for tool in ("follow", "go_to"):
+            p, _, url = serve_http(procs, "127.0.0.1:0", "--deadman", str(DEADMAN_S))
+            anyio.run(_start_and_walk, url, tool, probe)
+            t_kill, wall_kill = probe.sim_time, time.monotonic()
+            os.kill(p.pid, signal.SIGKILL)
+            assert wait_for(lambda: "lease" in (last_status(probe).get("reason") or ""), DEADMAN_S + 30), last_status(
+                probe
+            )
+            wall_stopped = time.monotonic() - wall_kill
+            still = still_from(probe, t_kill)
+            assert still is not None, f"{tool}: the robot never stood still after the kill"
+            found[tool] = {"still_s": still - t_kill, "commander_stopped_wall_s": wall_stopped}
+            print(f"kill -9 mcp mid {tool}: the commander stopped it {wall_stopped:.2f} s (wall) after the kill; "
+                  f"the robot still {still - t_kill:.2f} s (sim) after it")  # fmt: skip
+            assert still - t_kill <= DEADMAN_S + 1.0, found
+            st = last_status(probe)
+            assert st["state"] == "stopped" and st["lease"] is None, st
+    finally:
+        probe.shutdown()
+    assert set(found) == {"follow", "go_to"}
+
+
+def _goal(probe: Probe, text: str) -> None:
+    from go2vlm.bus.topics import GOAL
+    from go2vlm.msgs.std_msgs import String
+
+    pub = GOAL.publisher(probe)
+    assert wait_for(lambda: pub.matched >= 1, 30)
+    pub.publish(String(data=text))
+
+
+@pytest.mark.parametrize("victim", ["commander", "target_tracker", "object_memory"])
+def test_kill_9_a_node_mid_go_to(procs: Procs, victim: str) -> None:
+    graph = Graph(procs)
+    probe = Probe().start()
+    try:
+        assert wait_for(lambda: len(probe.poses) > 20, 120), "no ground truth from the sim"
+        _goal(probe, "go to the blue cylinder")
+        assert wait_for(lambda: moving(probe), 120), last_status(probe)
+        t_kill = probe.sim_time
+        graph.kill9(victim)
+        if victim == "object_memory":
+            # Nothing it said is needed to finish: the tracker confirms the cylinder, the walk ends reached.
+            assert wait_for(lambda: last_status(probe).get("state") == "reached", 180), last_status(probe)
+            return
+        # Stopped walking: from some moment on the base never moves forward again (a search turns in place).
+        still = still_from(probe, t_kill) if victim == "commander" else None
+        if victim == "target_tracker":
+            assert wait_for(lambda: last_status(probe).get("state") in ("lost", "searching", "not_found"), 30)
+            t_lost = probe.sim_time
+            assert wait_for(lambda: probe.pose()[0] > t_lost + 3.0, 60)
+            poses = probe.since(t_lost + 1.0)
+            fastest = max(speed(poses, i)[0] for i in range(len(poses)))
+            print(f"kill -9 target_tracker mid go to: commander {last_status(probe).get('state')}, walking at most "
+                  f"{fastest:.2f} m/s from 1 s after it said lost ({t_lost - t_kill:.2f} s of sim time after the kill)")  # fmt: skip
+            assert fastest <= 0.1, fastest
+            return
+        assert still is not None, "the robot never stood still after the commander died"
+        print(f"kill -9 commander mid go to: the robot still {still - t_kill:.2f} s (sim) after it")
+        assert still - t_kill <= 2.0
+    finally:
+        probe.shutdown()
