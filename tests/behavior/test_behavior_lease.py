@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from go2vlm.behavior.lease import (
     MAX_LEASE_S,
     Lease,
-    LeaseError,
     LeasedGoal,
+    LeaseError,
     Renewal,
     overdue,
     parse_goal,

@@ -185,7 +185,7 @@ class ObjectMemory:
         self._ids = Counter()
         for o in objs:
             head, _, n = o.id.rpartition("_")
-            if n.isdigit():
+            if n.isascii() and n.isdigit():  # memory_file.py checks; this keeps load all or nothing anyway
                 self._ids[head] = max(self._ids[head], int(n))
 
     def forget(self, oid: str) -> bool:
