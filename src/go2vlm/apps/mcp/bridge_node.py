@@ -139,6 +139,7 @@ class McpBridgeNode(Node):
         self.pub_goal = GOAL.publisher(self)
         self.pub_lease = GOAL_LEASE.publisher(self)
         self._lease_id = ""  # our goal's lease ('' = none)
+        self._starting = ""  # the goal a tool call is starting now ('' = none)
         self._renewed = -1e9
         self.pub_pending = MCP_PENDING.publisher(self)
         self.pub_pending.publish(String(data="{}"))
@@ -310,22 +311,29 @@ class McpBridgeNode(Node):
     def start_goal(self, text: str, *, replace: bool) -> dict[str, Any]:
         """Send a motion goal under the rules (busy, e-stop, confirm); the commander's answer."""
         self.require_gate()
-        with self._cv:
+        with self._cv:  # the check and the claim are one step: two concurrent calls never both pass
+            if self._starting:
+                raise Refused(f"another motion goal ({self._starting!r}) is being started right now; call status()")
             self.rules.check_start(text, replace=replace, estop=self.estop_latched())
-        if self.config.confirm:
-            self._confirm(text)
-            with self._cv:  # the world may have changed while a person thought about it
-                self.rules.check_start(text, replace=replace, estop=self.estop_latched())
-        with self._cv:
-            self.rules.started(text, time.monotonic())
-            self.last_event = ""
-            self._lease_id, self._renewed = f"mcp-{secrets.token_hex(6)}", time.monotonic()
+            self._starting = text
         try:
-            return self._send(text, self._lease_id)
-        except Refused:
+            if self.config.confirm:
+                self._confirm(text)
+                with self._cv:  # the world may have changed while a person thought about it
+                    self.rules.check_start(text, replace=replace, estop=self.estop_latched())
             with self._cv:
-                self.rules.forget()
-            raise
+                self.rules.started(text, time.monotonic())
+                self.last_event = ""
+                self._lease_id, self._renewed = f"mcp-{secrets.token_hex(6)}", time.monotonic()
+            try:
+                return self._send(text, self._lease_id)
+            except Refused:
+                with self._cv:
+                    self.rules.forget()
+                raise
+        finally:
+            with self._cv:
+                self._starting = ""
 
     def stop(self) -> dict[str, Any]:
         with self._cv:
