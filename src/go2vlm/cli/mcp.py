@@ -21,7 +21,6 @@ import argparse
 import os
 import sys
 import threading
-from pathlib import Path
 from typing import Any
 
 from go2vlm.cli.args import add_dds_args, add_node_params, node_params, positive
@@ -68,23 +67,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.set_defaults(func=run)
 
 
-MAX_TOKEN_FILE_BYTES = 4096
-
-
 def read_token(args: argparse.Namespace) -> str | None:
     """The bearer token: --token-file's first line, else $GO2VLM_MCP_TOKEN, else None; never --token."""
     if args.token is not None:
         raise UsageError(f"--token shows the secret in `ps`: put it in ${TOKEN_ENV} or a file (--token-file)")
-    if args.token_file is None:
-        return os.environ.get(TOKEN_ENV) or None
-    from go2vlm.statefiles import read_bounded
+    from go2vlm.secret import read_secret
 
     try:
-        text = read_bounded(Path(args.token_file).expanduser(), MAX_TOKEN_FILE_BYTES).decode()
-    except (OSError, ConfigError, UnicodeDecodeError) as exc:
-        raise UsageError(f"--token-file {args.token_file}: {getattr(exc, 'strerror', None) or exc}") from None
-    lines = text.strip().splitlines()
-    return lines[0].strip() if lines else None
+        return read_secret(TOKEN_ENV, args.token_file, "--token-file") or None
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def parse_bind(text: str) -> tuple[str, int]:

@@ -131,6 +131,7 @@ from go2vlm.robots.go2 import protocol
 from go2vlm.robots.go2_sim.physics import PhysicsThread
 from go2vlm.robots.go2_sim.publishers import SimPublishers
 from go2vlm.robots.go2_sim.render_thread import CameraSetup, RenderThread
+from go2vlm.secret import read_secret
 from go2vlm.sim import Go2Sim, SimConfig
 
 
@@ -164,11 +165,14 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
     )
     webrtc_seal: int = param(
         protocol.SEAL_STATIC,
-        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key",
+        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 the robot's AES key (env GO2VLM_AES_KEY "
+        "or webrtc_aes_key_file)",
         min=1,
         max=3,
     )
-    webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
+    webrtc_aes_key_file: str = param(
+        "", help="a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), webrtc_seal 3"
+    )
     webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
     webrtc_takeover: bool = param(False, help="a new WebRTC client replaces the connected one (as the phone app can)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
@@ -273,7 +277,7 @@ class SimNode(RobotEnd):
                 port=cfg.webrtc_port,
                 legacy_port=cfg.webrtc_legacy_port,
                 seal=cfg.webrtc_seal,
-                aes_key=cfg.webrtc_aes_key,
+                aes_key=read_secret(protocol.AES_KEY_ENV, cfg.webrtc_aes_key_file, "webrtc_aes_key_file"),
                 firmware=cfg.webrtc_firmware,
                 takeover=cfg.webrtc_takeover,
             )
