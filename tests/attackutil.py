@@ -76,3 +76,14 @@ def still_from(probe: Probe, t0: float, hold_s: float = 1.5, timeout_s: float = 
 def last_status(probe: Probe) -> dict[str, Any]:
     with probe.lock:
         return dict(probe.status[-1]) if probe.status else {}
+
+
+def min_clearance(probe: Probe, t0: float, world: str = "vision_test") -> float:
+    """The smallest gap (m) between the robot's footprint and the world's objects from sim time t0 on."""
+    from go2vlm.geometry.footprint import Footprint, clearance
+    from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+    from go2vlm.sim.worlds import world_footprints, world_model
+
+    shapes = world_footprints(world_model(world)[0])
+    robot = [Footprint.rect(p[1], p[2], p[3], FOOTPRINT_LENGTH, FOOTPRINT_WIDTH) for p in probe.since(t0)[::10]]
+    return min(clearance(r, s) for r in robot for s in shapes.values())

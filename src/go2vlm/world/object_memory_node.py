@@ -468,7 +468,7 @@ class ObjectMemoryNode(Node):
         if req.command == "load":
             try:
                 objs = self._read(path)
-            except (MemoryFileError, OSError) as exc:
+            except (MemoryFileError, StateFileError, OSError) as exc:
                 return MemoryFile.Response(False, f"refused {path}: {_one_line(exc)}", 0)
             self.memory.load(objs)
             self._dirty = self._markers_dirty = True
@@ -487,7 +487,7 @@ class ObjectMemoryNode(Node):
             return
         try:
             objs = self._read(path)
-        except (MemoryFileError, OSError) as exc:
+        except (MemoryFileError, StateFileError, OSError) as exc:
             raise ConfigError(f"memory_file {path}: {_one_line(exc)}") from None
         self.memory.load(objs)
 
