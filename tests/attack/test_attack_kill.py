@@ -10,6 +10,9 @@ ground truth.
 - The target_tracker: nothing confirms the target any more; the go to goes on, if at all, only on
   what the object memory remembered, comes to rest and touches nothing.
 - The object memory: the go to carries on with the tracker and reaches the cylinder, no collision.
+- The vlm node (the shipped tiny grounder, on the CPU, grounding for the target_tracker): the tracker
+  carries the target on its own for at most max_grounding_age_s, the go to comes to rest (reached, or
+  stopped for want of answers) and touches nothing.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from __future__ import annotations
 import os
 import signal
 import time
+from pathlib import Path
 
 import anyio
 import pytest
@@ -109,5 +113,38 @@ def test_kill_9_a_node_mid_go_to(procs: Procs, victim: str) -> None:
         assert still is not None, "the robot never stood still after the commander died"
         print(f"kill -9 commander mid go to: the robot still {still - t_kill:.2f} s (sim) after it")
         assert still - t_kill <= 2.0
+    finally:
+        probe.shutdown()
+
+
+def test_kill_9_the_vlm_mid_go_to(procs: Procs, tmp_path: Path) -> None:
+    pytest.importorskip("torch")
+    pytest.importorskip("transformers")
+    import yaml
+
+    from go2vlm.launch.launcher import resolve
+    from go2vlm.testing.tiny_grounder import grounder_checkpoint, grounder_node_params
+
+    graph_file = tmp_path / "episode_vlm.yaml"
+    nodes = yaml.safe_load(resolve("episode_vlm").read_text())
+    for n in nodes:
+        if n["node"] == "vlm":
+            n["params"].update(model=str(grounder_checkpoint()), backend="transformers", **grounder_node_params())
+    graph_file.write_text(yaml.safe_dump(nodes))
+    graph = Graph(procs, str(graph_file))
+    probe = Probe().start()
+    try:
+        assert wait_for(lambda: len(probe.poses) > 20, 180), "no ground truth from the sim"
+        _goal(probe, "go to the blue cylinder")
+        walking = lambda: moving(probe, 0.1) and last_status(probe).get("state") == "approaching"  # noqa: E731
+        assert wait_for(walking, 300), last_status(probe)
+        t_kill = probe.sim_time
+        graph.kill9("vlm")
+        still = still_from(probe, t_kill, hold_s=3.0, timeout_s=240.0)
+        assert still is not None, f"the robot never came to rest: {last_status(probe)}"
+        gap = min_clearance(probe, t_kill)
+        print(f"kill -9 vlm mid go to: at rest {still - t_kill:.2f} s (sim) after it, "
+              f"{last_status(probe).get('state')}: {last_status(probe).get('reason')}; nearest {gap:.2f} m")
+        assert gap > 0.0
     finally:
         probe.shutdown()
