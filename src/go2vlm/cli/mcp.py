@@ -187,10 +187,11 @@ def run(args: argparse.Namespace) -> int:
             serve_stdio(app)
         else:
             shown = f"[{host}]" if ":" in host else host
+            hosts = " ".join(h for h in getattr(security, "allowed_hosts", []) if not h.endswith(":*"))
 
             def ready(bound: int) -> None:
                 guard = "bearer token required" if token else "loopback only, no token"
-                guard += "; Host: " + " ".join(h for h in security.allowed_hosts if not h.endswith(":*"))
+                guard += f"; Host: {hosts}"
                 print(f"go2vlm mcp: serving MCP on http://{shown}:{bound}/mcp ({guard})", file=sys.stderr, flush=True)
 
             serve_http(app, host, port, security, ready)
