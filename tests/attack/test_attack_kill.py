@@ -26,7 +26,7 @@ import anyio
 import pytest
 from attackutil import Graph, last_status, min_clearance, moving, serve_http, still_from
 from busutil import Procs, wait_for
-from mcputil import Probe, data, http_client
+from mcputil import Probe, data, http_client, stdio_client
 
 pytest.importorskip("mcp")
 
@@ -69,9 +69,29 @@ def test_kill_9_the_mcp_server_mid_follow_and_mid_go_to(procs: Procs) -> None:
             assert still - t_kill <= DEADMAN_S + 1.0, found
             st = last_status(probe)
             assert st["state"] == "stopped" and st["lease"] is None, st
+        # stdin EOF: the agent that started a stdio server quits; the server stops its goal on the way out.
+        t_quit = anyio.run(_stdio_follow_then_quit, probe)
+        assert wait_for(lambda: last_status(probe).get("state") == "stopped", DEADMAN_S + 30), last_status(probe)
+        still = still_from(probe, t_quit)
+        assert still is not None
+        found["stdin EOF"] = {"still_s": still - t_quit}
+        print(f"stdin EOF mid follow: {last_status(probe).get('reason')}; the robot still {still - t_quit:.2f} s (sim)")
+        assert still - t_quit <= DEADMAN_S + 1.0
     finally:
         probe.shutdown()
-    assert set(found) == {"follow", "go_to"}
+    assert set(found) == {"follow", "go_to", "stdin EOF"}
+
+
+async def _stdio_follow_then_quit(probe: Probe) -> float:
+    """follow over a stdio server joining the bus; the agent quits (stdin EOF) while the robot walks."""
+    async with stdio_client("--deadman", str(DEADMAN_S)) as client:
+        data(await client.call_tool("follow", {"object": "blue cylinder"}))
+        for _ in range(400):
+            data(await client.call_tool("status", {}))
+            if moving(probe, 0.1):
+                break
+            await anyio.sleep(0.25)
+        return probe.sim_time
 
 
 def _goal(probe: Probe, text: str) -> None:
