@@ -78,7 +78,8 @@ thread is robots/go2_sim/physics.py, its render thread render_thread.py, its out
 Faults (live parameters, `go2vlm param set /sim NAME VALUE`, for the health monitor's tests and
 drills; robots/go2_sim/lowstate.py): fault_motor_temp_c (> 0: the FR calf motor reports it),
 fault_battery_pct (>= 0: the battery reports it), fault_tilt_deg (added to the reported roll),
-fault_lowstate_silent (true: /lowstate stops, a lost state stream). A real tilt: /sim/push.
+fault_lowstate_silent (true: /lowstate stops, a lost state stream), fault_webrtc_silent (true: the
+WebRTC data channel says nothing while the video goes on: a stalled channel). A real tilt: /sim/push.
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
@@ -194,6 +195,9 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
         0.0, help="fault: added to the roll /lowstate reports (degrees)", min=-180.0, max=180.0, live=True
     )
     fault_lowstate_silent: bool = param(False, help="fault: stop publishing /lowstate", live=True)
+    fault_webrtc_silent: bool = param(
+        False, help="fault: the WebRTC data channel sends nothing (the video goes on)", live=True
+    )
 
     def validate(self) -> None:
         SimConfig.validate(self)

@@ -67,8 +67,9 @@ MAX_PENDING = 1024  # sport requests waiting for the bridge's answer
 class _Peer:
     """One connected client: its peer connection, data channel and what it asked for."""
 
-    def __init__(self, pc: Any) -> None:
+    def __init__(self, pc: Any, silent: Any = lambda: False) -> None:
         self.pc = pc
+        self.silent = silent  # () -> True while the data channel is to say nothing (a fault drill)
         self.channel: Any = None
         self.key = secrets.token_hex(8)
         self.validated = False
@@ -84,7 +85,7 @@ class _Peer:
 
     def send(self, data: str | bytes) -> None:
         ch = self.channel
-        if ch is not None and ch.readyState == "open":
+        if ch is not None and ch.readyState == "open" and not self.silent():
             try:
                 ch.send(data)
             except Exception:
@@ -208,7 +209,7 @@ class SimWebRtcServer:
             self.node.log.warning("a new WebRTC client takes the robot over; the old one is dropped")
             await old.pc.close()
         pc = RTCPeerConnection()
-        peer = _Peer(pc)
+        peer = _Peer(pc, lambda: bool(getattr(self.node.config, "fault_webrtc_silent", False)))
         self.peer = peer
 
         @pc.on("datachannel")
