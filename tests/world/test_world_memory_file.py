@@ -53,10 +53,15 @@ def test_refused_with_one_line_and_nothing_loaded(mutate, says: str) -> None:
     assert isinstance(e.value, ConfigError)  # exit 2 in the CLI
 
 
-def test_loaded_log_odds_are_clamped_to_the_memorys() -> None:
+def test_loaded_values_are_clamped_to_what_the_memory_allows() -> None:
+    from go2vlm.world.memory import ObjectMemory
+
     doc = json.loads(dumps([OBJ], "vision_test", "odom", 41.0))
-    doc["objects"][0]["logodds"] = 100.0
-    assert loads(json.dumps(doc), "vision_test", "odom", 2, max_logodds=4.0)[0].logodds == 4.0
+    doc["objects"][0].update(logodds=100.0, cov=[1e-30, 0.0, 1e-30])
+    memory = ObjectMemory()
+    memory.load(loads(json.dumps(doc), "vision_test", "odom", 2))
+    o = memory.objects["blue_cylinder_1"]
+    assert o.logodds == memory.params.max_logodds and o.sigma >= memory.params.min_sigma_m * 0.999
 
 
 @settings(max_examples=200, deadline=None)

@@ -12,9 +12,10 @@ A file is read all or nothing: one that is not JSON (nested too deep included), 
 newer version, of another world or frame, with more objects than the memory holds, or with a single
 bad object (an id that is not `<label words>_<number>`, a position beyond MAX_COORD_M, a field of the
 wrong type) is refused with one line saying why (MemoryFileError, a ConfigError: exit 2 in the CLI),
-and nothing is loaded: every object is checked before the caller replaces anything. Log-odds are
-clamped to what the memory allows (max_logodds). Where files may live, and how they are read and
-written (bounded, fsync then rename, never overwritten unasked): statefiles.py.
+and nothing is loaded: every object is checked before the caller replaces anything. ObjectMemory.load
+clamps what it loads to what the memory allows (log-odds, the position's certainty). Where files may
+live, and how they are read and written (bounded, fsync then rename, never overwritten unasked):
+statefiles.py.
 Positions are in `frame_id` (the odometry frame): a robot whose odometry starts again at its dock
 each run finds its things where it left them only if it starts at the same dock.
 """
@@ -73,7 +74,7 @@ def _num(d: dict[str, Any], key: str, where: str, lo: float = -1e6, hi: float = 
 
 def _int(d: dict[str, Any], key: str, where: str) -> int:
     v = d.get(key)
-    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10**9:
         raise MemoryFileError(f"{where}: {key} = {v!r} is not a count")
     return v
 
@@ -86,7 +87,7 @@ def _triple(d: dict[str, Any], key: str, where: str) -> tuple[float, float, floa
     return a, b, c
 
 
-def _object(d: Any, k: int, max_logodds: float) -> MemoryObject:
+def _object(d: Any, k: int) -> MemoryObject:
     where = f"object {k}"
     if not isinstance(d, dict):
         raise MemoryFileError(f"{where} is not a JSON object")
@@ -107,15 +108,13 @@ def _object(d: Any, k: int, max_logodds: float) -> MemoryObject:
     return MemoryObject(
         oid, normalize_label(label), _num(d, "x", where, -MAX_COORD_M, MAX_COORD_M),
         _num(d, "y", where, -MAX_COORD_M, MAX_COORD_M), _num(d, "z", where, -100, 100),
-        cov, size, min(_num(d, "logodds", where, -100, 100), max_logodds), _int(d, "seen", where),
+        cov, size, _num(d, "logodds", where, -100, 100), _int(d, "seen", where),
         _int(d, "refused", where), _int(d, "missed", where), _num(d, "first_seen", where, 0, 1e12),
         _num(d, "last_seen", where, 0, 1e12),
     )  # fmt: skip
 
 
-def loads(
-    text: str | bytes, world: str | None, frame_id: str | None, max_objects: int, max_logodds: float = 4.0
-) -> list[MemoryObject]:
+def loads(text: str | bytes, world: str | None, frame_id: str | None, max_objects: int) -> list[MemoryObject]:
     """The objects of a memory file, checked (module docstring); MemoryFileError otherwise. `world` or
     `frame_id` None: whatever the file says (reading a file without a memory to load it into)."""
     if len(text) > MAX_FILE_BYTES:
@@ -144,7 +143,7 @@ def loads(
         raise MemoryFileError("not a memory file: 'objects' is not a list")
     if len(objects) > max_objects:
         raise MemoryFileError(f"it holds {len(objects)} objects, and this memory holds at most {max_objects}")
-    out = [_object(d, k, max_logodds) for k, d in enumerate(objects)]
+    out = [_object(d, k) for k, d in enumerate(objects)]
     ids = [o.id for o in out]
     if len(set(ids)) != len(ids):
         raise MemoryFileError("two objects share an id")

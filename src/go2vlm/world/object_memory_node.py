@@ -479,7 +479,7 @@ class ObjectMemoryNode(Node):
     def _read(self, path: Path) -> list[Any]:
         cfg = self.config
         data = read_bounded(path, MAX_FILE_BYTES)
-        return loads(data, cfg.world, cfg.world_frame, cfg.max_objects, self.memory.params.max_logodds)
+        return loads(data, cfg.world, cfg.world_frame, cfg.max_objects)
 
     def _load_at_start(self, path: Path) -> None:
         if not os.path.lexists(path):
