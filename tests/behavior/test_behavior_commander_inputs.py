@@ -201,3 +201,14 @@ def test_a_leased_goal_stops_when_its_owner_stops_renewing_it() -> None:
         assert wait_for(lambda: fake.cstate().get("state") == "rejected", 5), fake.cstate()
         assert "beyond max_go_to_m = 5 m" in fake.cstate()["reason"]
         assert all(vx == 0.0 for vx, _ in fake.cmds)
+
+
+def test_a_goal_that_runs_past_max_goal_s_stops() -> None:
+    commander = make_node("commander", params={"max_goal_s": 1.0, "search_timeout_s": 60.0})
+    fake = _FakeTracker()
+    with running(fake, commander):
+        assert wait_for(lambda: fake.goal.matched >= 1 and fake.cstate(), 10)
+        fake.goal.publish(String(data="follow the red ball"))  # a follow never ends by itself
+        assert wait_for(lambda: fake.cstate().get("goal") == "follow the red ball", 5), fake.cstate()
+        assert wait_for(lambda: fake.cstate().get("state") == "stopped", 5), fake.cstate()
+        assert "max_goal_s = 1 s" in fake.cstate()["reason"]
