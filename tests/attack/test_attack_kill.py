@@ -34,10 +34,21 @@ pytestmark = pytest.mark.slow
 DEADMAN_S = 5.0
 
 
+async def _call_when_a_gate_reports(client: object, tool: str) -> None:
+    """tool("blue cylinder"), once the server joining the bus has heard the gate (discovery takes a while)."""
+    for _ in range(120):
+        r = await client.call_tool(tool, {"object": "blue cylinder"})  # type: ignore[attr-defined]
+        if not (r.is_error and "no safety gate reports" in r.content[0].text):
+            data(r)
+            return
+        await anyio.sleep(0.25)
+    raise AssertionError("the server never heard the gate")
+
+
 async def _start_and_walk(url: str, tool: str, probe: Probe) -> None:
     """Call tool("blue cylinder") and poll status() until the robot walks."""
     async with http_client(url) as client:
-        data(await client.call_tool(tool, {"object": "blue cylinder"}))
+        await _call_when_a_gate_reports(client, tool)
         for _ in range(400):
             data(await client.call_tool("status", {}))
             if moving(probe):
@@ -85,7 +96,7 @@ def test_kill_9_the_mcp_server_mid_follow_and_mid_go_to(procs: Procs) -> None:
 async def _stdio_follow_then_quit(probe: Probe) -> float:
     """follow over a stdio server joining the bus; the agent quits (stdin EOF) while the robot walks."""
     async with stdio_client("--deadman", str(DEADMAN_S)) as client:
-        data(await client.call_tool("follow", {"object": "blue cylinder"}))
+        await _call_when_a_gate_reports(client, "follow")
         for _ in range(400):
             data(await client.call_tool("status", {}))
             if moving(probe, 0.1):
