@@ -18,8 +18,9 @@ folder, `..`, a symlink leading out) is refused and nothing is written. --save n
 unless --overwrite. --file reads any file here, without a robot.
 
 Exit codes: 0; 1 when no object memory answers within --timeout, or --where finds nothing; 2 for a
-memory file that is corrupt, of another world or frame, or of a newer version (one line, nothing
-loaded). Time here is wall time: a tool's deadlines are for the person at the terminal.
+memory file that is corrupt, of another world or frame, or of a newer version, and for a file name
+refused (outside the state directory, or --save over an existing file without --overwrite): one line,
+nothing loaded or written. Time here is wall time: a tool's deadlines are for the person at the terminal.
 """
 
 from __future__ import annotations
@@ -35,7 +36,10 @@ from go2vlm.errors import ConfigError, UsageError
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
+    p = sub.add_parser(
+        "objects", help="what the robot remembers and where (the object memory)", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
     p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
     what = p.add_mutually_exclusive_group()
     what.add_argument("--save", metavar="NAME", help="the running memory writes itself to NAME: a name (saved as "
