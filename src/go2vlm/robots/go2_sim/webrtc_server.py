@@ -41,6 +41,7 @@ import json
 import secrets
 import threading
 import time
+from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
@@ -67,7 +68,7 @@ MAX_PENDING = 1024  # sport requests waiting for the bridge's answer
 class _Peer:
     """One connected client: its peer connection, data channel and what it asked for."""
 
-    def __init__(self, pc: Any, silent: Any = lambda: False) -> None:
+    def __init__(self, pc: Any, silent: Callable[[], bool] = lambda: False) -> None:
         self.pc = pc
         self.silent = silent  # () -> True while the data channel is to say nothing (a fault drill)
         self.channel: Any = None
