@@ -150,3 +150,18 @@ def test_object_labels(phrase: str, grounding: str | None, label: str | None, wh
     else:
         with pytest.raises(Refused, match=re.escape(why)):
             object_label(phrase, grounding)
+
+
+def test_only_three_names_are_loopback_and_every_bind_names_its_hosts() -> None:
+    pytest.importorskip("mcp")
+    from go2vlm.apps.mcp.server import allowed_hosts, is_loopback
+
+    for host in ("127.0.0.1", "::1", "[::1]", "localhost"):
+        assert is_loopback(host)
+    for host in ("127.0.0.7", "0:0:0:0:0:0:0:1", "127.1", "0.0.0.0", "::", "LOCALHOST.", "evil.example"):
+        assert not is_loopback(host)
+    assert set(allowed_hosts("127.0.0.1")) >= {"127.0.0.1:*", "localhost:*", "[::1]:*"}
+    assert allowed_hosts("192.168.1.5") == ["192.168.1.5", "192.168.1.5:*"]
+    assert allowed_hosts("fd00::5") == ["[fd00::5]", "[fd00::5]:*"]
+    wild = allowed_hosts("0.0.0.0", ("robot-pc",))
+    assert "robot-pc:*" in wild and "localhost" in wild and not any(h.startswith("0.0.0.0") for h in wild)

@@ -2,7 +2,8 @@
 drives only on the target_tracker's confirmed target (a real tracker on synthetic frames), stops the
 moment the tracker says lost, drives follow goals itself (no /detected_target), ignores bad tracker
 reports, steers round a box on /scan and ignores a bad scan, and answers a goal it cannot parse
-(given as a CLI parameter) with zero motion through the real gate. Perception itself (grounding,
+(given as a CLI parameter) with zero motion through the real gate; a goal with a lease stops when
+its owner stops renewing it, and a go to beyond max_go_to_m is refused. Perception itself (grounding,
 catching up late VLM answers, bad images and boxes) is tested at the target_tracker:
 tests/perception/test_perception_tracker_node.py."""
 
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ from go2vlm.geometry.scan import ScanSpec
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.go2vlm_msgs import TRACKING, TrackedTarget
 from go2vlm.msgs.sensor_msgs import LaserScan
+from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, Point2D, Pose2D
 
 
@@ -169,3 +172,45 @@ def test_bad_parameters_are_clear_errors() -> None:
         make_node("commander", params={"follow_control": "follower"})
     with pytest.raises(ParamError, match="grounding"):  # grounding is the target_tracker's now
         make_node("commander", params={"grounding": "vlm"})
+
+
+def test_a_leased_goal_stops_when_its_owner_stops_renewing_it() -> None:
+    """behavior/lease.py in the commander: renewed, the goal runs; unrenewed, it stops by itself; a bad
+    goal message is rejected with the reason; a go to farther than max_go_to_m is refused."""
+    commander = make_node("commander", params={"max_go_to_m": 5.0})
+    fake = _FakeTracker()
+    lease = fake.create_publisher(String, "/goal/lease", QOS_DEFAULT)
+    with running(fake, commander):
+        assert wait_for(lambda: fake.goal.matched >= 1 and lease.matched >= 1 and fake.cstate(), 10)
+        fake.goal.publish(String(data=json.dumps({"goal": "look for the red ball", "lease": {"id": "t-1", "s": 1.0}})))
+        assert wait_for(lambda: fake.cstate().get("state") == "searching", 5), fake.cstate()
+        assert fake.cstate()["goal"] == "look for the red ball" and fake.cstate()["lease"]["id"] == "t-1"
+        for _ in range(20):  # 2 s of renewals (each for 1 s): still searching
+            lease.publish(String(data=json.dumps({"id": "t-1", "s": 1.0})))
+            lease.publish(String(data=json.dumps({"id": "someone-else", "s": 60.0})))  # not this goal's
+            time.sleep(0.1)  # the renewal rate, not synchronisation
+        assert fake.cstate()["state"] == "searching", fake.cstate()
+        assert wait_for(lambda: fake.cstate().get("state") == "stopped", 3), fake.cstate()  # renewals stopped
+        st = fake.cstate()
+        assert "lease 't-1' expired" in st["reason"] and st["lease"] is None, st
+        assert wait_for(lambda: fake.last_cmd() == (0.0, 0.0), 2)
+        fake.goal.publish(String(data='{"goal": "look for the red ball", "lease": {"id": "t 2", "s": 1e9}}'))
+        assert wait_for(lambda: fake.cstate().get("state") == "rejected", 5), fake.cstate()
+        assert "a bad goal message" in fake.cstate()["reason"]
+        fake.goal.publish(String(data="go to the blue cylinder"))
+        assert wait_for(lambda: fake.cstate().get("state") == "searching", 5), fake.cstate()
+        fake.report("blue cylinder", 320.0, 20.0, 8.0)  # confirmed 8 m away: beyond the 5 m cap
+        assert wait_for(lambda: fake.cstate().get("state") == "rejected", 5), fake.cstate()
+        assert "beyond max_go_to_m = 5 m" in fake.cstate()["reason"]
+        assert all(vx == 0.0 for vx, _ in fake.cmds)
+
+
+def test_a_goal_that_runs_past_max_goal_s_stops() -> None:
+    commander = make_node("commander", params={"max_goal_s": 1.0, "search_timeout_s": 60.0})
+    fake = _FakeTracker()
+    with running(fake, commander):
+        assert wait_for(lambda: fake.goal.matched >= 1 and fake.cstate(), 10)
+        fake.goal.publish(String(data="follow the red ball"))  # a follow never ends by itself
+        assert wait_for(lambda: fake.cstate().get("goal") == "follow the red ball", 5), fake.cstate()
+        assert wait_for(lambda: fake.cstate().get("state") == "stopped", 5), fake.cstate()
+        assert "max_goal_s = 1 s" in fake.cstate()["reason"]

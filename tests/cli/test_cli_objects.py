@@ -50,30 +50,37 @@ def test_list_where_save_load(procs, tmp_path: Path) -> None:
         assert where.returncode == 0 and where.stdout.startswith("blue cylinder at (3.0"), where
         assert objects("--where", "red ball").returncode == 1
 
-        saved = tmp_path / "home.json"
-        rep = objects("--save", str(saved))
+        folder = tmp_path / "state" / "go2vlm" / "objects"  # the memory's files: its state directory only
+        saved = folder / "home.json"
+        rep = objects("--save", "home")
         assert rep.returncode == 0 and "saved 1 object" in rep.stdout, rep
+        again = objects("--save", "home")
+        assert again.returncode == 2 and "overwrite" in again.stderr, again
+        assert objects("--save", str(saved), "--overwrite").returncode == 0
+        outside = objects("--save", str(tmp_path / "elsewhere.json"))
+        assert outside.returncode == 2 and "outside go2vlm's state directory" in outside.stderr, outside
+        assert not (tmp_path / "elsewhere.json").exists()
         doc = json.loads(saved.read_text())
         bad = {"corrupt.json": '{"format": "go2vlm-object-memory", "ver',
                "office.json": json.dumps({**doc, "world": "office"}),
                "future.json": json.dumps({**doc, "version": 99})}  # fmt: skip
         for name, text in bad.items():
-            (tmp_path / name).write_text(text)
-            rep = objects("--load", str(tmp_path / name))
+            (folder / name).write_text(text)
+            rep = objects("--load", name)
             assert rep.returncode == 2 and len(rep.stderr.strip().splitlines()) == 1, (name, rep)
-        assert "world 'office'" in objects("--load", str(tmp_path / "office.json")).stderr
-        assert "newer go2vlm" in objects("--load", str(tmp_path / "future.json")).stderr
+        assert "world 'office'" in objects("--load", "office").stderr
+        assert "newer go2vlm" in objects("--load", str(folder / "future.json")).stderr
         assert set(robot.memory()) == {"blue_cylinder_1"}  # nothing half-loaded
         doc["objects"][0].update(id="red_ball_2", label="red ball", x=-1.5, y=0.5)
         saved.write_text(json.dumps(doc))
-        rep = objects("--load", str(saved))
+        rep = objects("--load", "home.json")
         assert rep.returncode == 0 and "loaded 1 object" in rep.stdout, rep
         assert wait_for(lambda: set(robot.memory()) == {"red_ball_2"}, 10)
 
     offline = objects("--file", str(saved))
     assert offline.returncode == 0 and "world 'home'" in offline.stdout and "red_ball_2" in offline.stdout
     assert objects("--file", str(saved), "--where", "ball").stdout.startswith("red ball at (-1.50, 0.50)")
-    assert objects("--file", str(tmp_path / "corrupt.json")).returncode == 2
+    assert objects("--file", str(folder / "corrupt.json")).returncode == 2
 
 
 def test_no_memory_running_is_a_clear_failure() -> None:

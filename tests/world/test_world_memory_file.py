@@ -31,11 +31,16 @@ def test_round_trip() -> None:
         (lambda d: {**d, "frame_id": "map"}, "frame 'map'"),
         (lambda d: {**d, "objects": [d["objects"][0]] * 3}, "at most 2"),
         (lambda d: {**d, "objects": [d["objects"][0], d["objects"][0]]}, "share an id"),
-        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "x": float("nan")}]}, "x = nan"),
-        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "cov": [1, 2, 1]}]}, "covariance"),
-        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "label": ""}]}, "label"),
-        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b", "seen": -1}]}, "seen"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2", "x": float("nan")}]}, "x = nan"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2", "cov": [1, 2, 1]}]}, "covari"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2", "label": ""}]}, "label"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2", "seen": -1}]}, "seen"),
         (lambda d: {**d, "objects": "all of them"}, "not a list"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "ball_\u00b2"}]}, "id 'ball_"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2\n"}]}, "id"),
+        (lambda d: {**d, "objects": [d["objects"][0], {**d["objects"][0], "id": "b_2", "x": 1e6}]}, "x = 1000000"),
+        (lambda d: "[" * 100_000 + "]" * 100_000, "not JSON"),
+        (lambda d: '{"a": ' * 5000 + "1" + "}" * 5000, "not JSON"),
     ],
 )
 def test_refused_with_one_line_and_nothing_loaded(mutate, says: str) -> None:
@@ -46,6 +51,17 @@ def test_refused_with_one_line_and_nothing_loaded(mutate, says: str) -> None:
         loads(text, "vision_test", "odom", 2)
     assert says in str(e.value) and "\n" not in str(e.value)
     assert isinstance(e.value, ConfigError)  # exit 2 in the CLI
+
+
+def test_loaded_values_are_clamped_to_what_the_memory_allows() -> None:
+    from go2vlm.world.memory import ObjectMemory
+
+    doc = json.loads(dumps([OBJ], "vision_test", "odom", 41.0))
+    doc["objects"][0].update(logodds=100.0, cov=[1e-30, 0.0, 1e-30])
+    memory = ObjectMemory()
+    memory.load(loads(json.dumps(doc), "vision_test", "odom", 2))
+    o = memory.objects["blue_cylinder_1"]
+    assert o.logodds == memory.params.max_logodds and o.sigma >= memory.params.min_sigma_m * 0.999
 
 
 @settings(max_examples=200, deadline=None)

@@ -78,15 +78,20 @@ def test_a_late_answer_lands_where_the_object_is_and_bad_ones_are_refused(tmp_pa
 
         # Saved, then a corrupt file and a file of another world are refused and change nothing.
         with ServiceClient(MemoryFile, "/object_memory/memory_file", robot.participant) as files:
-            path = tmp_path / "home.json"
-            rep = files.call(MemoryFile.Request(command="save", path=str(path)), 10)
+            folder = tmp_path / "state" / "go2vlm" / "objects"  # a name is a file in the state directory
+            path = folder / "home.json"
+            rep = files.call(MemoryFile.Request(command="save", path="home"), 10)
             assert rep.success and rep.objects == 1 and json.loads(path.read_text())["world"] == "home"
-            (tmp_path / "bad.json").write_text('{"format": "go2vlm-object-memory", "version": 1, "world": "ho')
+            rep = files.call(MemoryFile.Request(command="save", path="home"), 10)
+            assert not rep.success and "overwrite=true" in rep.message
+            rep = files.call(MemoryFile.Request(command="save", path=str(path), overwrite=True), 10)
+            assert rep.success, rep.message
+            (folder / "bad.json").write_text('{"format": "go2vlm-object-memory", "version": 1, "world": "ho')
             other = json.loads(path.read_text())
             other["world"] = "office"
-            (tmp_path / "office.json").write_text(json.dumps(other))
+            (folder / "office.json").write_text(json.dumps(other))
             for name, says in (("bad.json", "not JSON"), ("office.json", "world 'office'"), ("none.json", "No such")):
-                rep = files.call(MemoryFile.Request(command="load", path=str(tmp_path / name)), 10)
+                rep = files.call(MemoryFile.Request(command="load", path=name), 10)
                 assert not rep.success and says in rep.message and "\n" not in rep.message
             assert set(robot.memory()) == {"blue_cylinder_1"}
             doc = json.loads(path.read_text())

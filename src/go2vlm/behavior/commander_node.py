@@ -9,7 +9,10 @@ vlm node answers decisions. It drives every goal itself, follow included, with o
 follower node is the follow article's standalone demo, not part of this graph.
 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
-  subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter)
+  subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter), or
+                                  JSON {"goal": text, "lease": {"id", "s"}}: a goal with a lease
+              /goal/lease         std_msgs/String       JSON {"id", "s"}: renews the running goal's lease
+                                  (behavior/lease.py); unrenewed for its s (wall time), the goal stops
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
                                   frame; only `tracking` reports for the goal's object count; their
                                   bearing_rad and hfov_rad (from the real CameraInfo) place it
@@ -71,6 +74,10 @@ is ignored, logged and counted (decisions_rejected). The text never becomes a ve
 still for decision_hold_s, turn turns in place at decision_turn_rate for angle/rate seconds; all
 motion still goes through the safety gate.
 
+Bounds (behavior/lease.py): a goal with a lease stops when its owner stops renewing it (the MCP
+server's goals all carry one); every goal stops after max_goal_s; a go to whose object is farther than
+max_go_to_m is refused (state rejected, with the reason). Leases are in wall time (an owner's silence).
+
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
@@ -83,9 +90,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import time
 from dataclasses import dataclass
 from typing import Any
 
+from go2vlm.behavior.lease import Lease, LeaseError, overdue, parse_goal, parse_renewal, too_far
 from go2vlm.behavior.mission import Intent, Mission, MissionParams
 from go2vlm.behavior.sighting import sighting_of
 from go2vlm.bus import Node, core_params, param
@@ -94,6 +103,7 @@ from go2vlm.bus.topics import (
     COMMANDER_STATUS,
     GO2_COMMAND,
     GOAL,
+    GOAL_LEASE,
     OBJECTS,
     ODOM,
     SCAN,
@@ -197,6 +207,10 @@ class CommanderConfig:
                                  min=0.0, max=5.0, live=True)  # fmt: skip
     look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
                                   min=0.5, max=120.0, live=True)  # fmt: skip
+    max_goal_s: float = param(900.0, help="any goal stops after this long (s)", min=1.0, max=86400.0, live=True)
+    max_go_to_m: float = param(
+        25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
+    )
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
     decision_hold_s: float = param(
@@ -232,6 +246,9 @@ class CommanderNode(Node):
         self.pub_go2 = GO2_COMMAND.publisher(self)
         self.pub_status = COMMANDER_STATUS.publisher(self)
         GOAL.subscription(self, self.on_goal)
+        GOAL_LEASE.subscription(self, self.on_lease)
+        self._lease: Lease | None = None  # the running goal's, on wall time
+        self._goal_t0 = 0.0
         TARGET_TRACKED.subscription(self, self.on_tracked)
         VLM_DECISION.subscription(self, self.on_decision)
         SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
@@ -254,11 +271,30 @@ class CommanderNode(Node):
         self.mission.params = self.config.mission_params()
 
     def on_goal(self, msg: String) -> None:
-        self.set_goal(msg.data)
+        try:
+            g = parse_goal(msg.data)
+        except LeaseError as exc:
+            self.set_goal("")  # rejected, and nothing moves
+            self.mission.reason = f"a bad goal message: {exc}"
+            return self.publish_status()
+        self.set_goal(g.text, None if g.lease_id is None else Lease.grant(g.lease_id, g.lease_s, time.monotonic()))
 
-    def set_goal(self, text: str) -> None:
+    def on_lease(self, msg: String) -> None:
+        try:
+            ok = self._lease is not None and self._lease.renew(parse_renewal(msg.data), time.monotonic())
+        except LeaseError as exc:
+            ok = False
+            self.log.throttled("error", 5.0, f"ignoring a bad {GOAL_LEASE.name}: {exc}", key="lease")
+        if not ok:
+            self.count("lease_not_ours")
+
+    def set_goal(self, text: str, lease: Lease | None = None) -> None:
+        before = self.mission.goal
         self.mission.set_goal(text, self.clock.monotonic())
         m = self.mission
+        if m.goal is not before:
+            self._goal_t0 = self.clock.monotonic()
+        self._lease = lease
         if m.state == "rejected":
             self.log.throttled("warning", 1.0, f"goal rejected: {m.reason}", key="goal")
         elif m.goal is not None:
@@ -321,6 +357,7 @@ class CommanderNode(Node):
 
     # -- control -------------------------------------------------------------------------------
     def tick(self) -> None:
+        self._bound()
         intent = self.mission.step(self.clock.monotonic())
         if intent.query != self._query:
             self._query = intent.query
@@ -332,6 +369,22 @@ class CommanderNode(Node):
         if (intent.state, intent.reason) != self._last_key:
             self._last_state_log(intent)
             self.publish_status()
+
+    def _bound(self) -> None:
+        """Stop the goal when its lease ran out or it ran too long; refuse a go to beyond its cap."""
+        m, now = self.mission, self.clock.monotonic()
+        if not m.active:
+            return
+        o = m.target_obj
+        far = m.base_distance(now) or (None if o is None else (m.relative(o, now) or (0.0, None))[1])
+        cfg = self.config
+        why = self._lease.expired(time.monotonic()) if self._lease is not None else None
+        why = why or overdue(self._goal_t0, now, cfg.max_goal_s)
+        refused = why is None and too_far(m.goal.kind if m.goal else None, far, cfg.max_go_to_m)
+        if why or refused:
+            self.set_goal("stop")
+            m.state, m.reason = ("rejected", refused) if refused else ("stopped", f"stopped: {why}")
+            self.log.warning(f"goal ended: {m.reason}")
 
     def _last_state_log(self, intent: Intent) -> None:
         if self._last_key is not None and intent.state != self._last_key[0]:
@@ -361,6 +414,8 @@ class CommanderNode(Node):
             "decision": m.last_decision,
             "counters": {**m.counters, **self.counters},
             "basis": m.basis,
+            "lease": None if self._lease is None else {"id": self._lease.lease_id,
+                                                       "left_s": round(self._lease.left(time.monotonic()), 2)},
             "remembered": self._remembered_status(now),
             "memory": None if m.memory is None else {
                 "objects": len(m.memory),

@@ -123,6 +123,7 @@ OBJECT_MARKERS = Topic("/objects/markers", MarkerArray, qos.QOS_LATCHED)
 
 # Behaviour.
 GOAL = Topic("/goal", String, qos.QOS_DEFAULT)
+GOAL_LEASE = Topic("/goal/lease", String, qos.QOS_DEFAULT)
 MCP_PENDING = Topic("/mcp/pending", String, qos.QOS_LATCHED)
 MCP_CONFIRM = Topic("/mcp/confirm", String, qos.QOS_DEFAULT)
 

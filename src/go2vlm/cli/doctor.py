@@ -1,7 +1,7 @@
 """`go2vlm doctor`: check the known traps, one line each with a verdict and the fix.
 
     go2vlm doctor [--interface enp3s0] [--model 3b|7b] [--quantization none|nf4|int8]
-    go2vlm doctor --robot 192.168.8.181 [--aes-key HEX]     # a Go2 over WebRTC (Wi-Fi, every model)
+    go2vlm doctor --robot 192.168.8.181 [--aes-key-file F]  # a Go2 over WebRTC (Wi-Fi, every model)
 
 Checks: the network interface (exists, up, an address; a Go2 needs 192.168.123.x), the DDS domain
 (ROS_DOMAIN_ID sane; who else speaks on it), the socket receive buffer against the kernel's limit
@@ -80,7 +80,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--quantization", choices=("none", "nf4", "int8"), default="none", help="as the vlm node's")
     p.add_argument("--robot", default=None, metavar="IP", help="also check a Go2 over WebRTC at this address")
     p.add_argument("--robot-port", type=int, default=9991, help="its signalling port (9991; the sim's --webrtc port)")
-    p.add_argument("--aes-key", default="", help="the robot's AES-128 key (32 hex chars), firmware >= 1.1.15")
+    p.add_argument("--aes-key-file", default="", metavar="FILE",
+                   help="a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
+                   "firmware >= 1.1.15")  # fmt: skip
     p.add_argument("--skip", action="append", default=[], metavar="CHECK", help="skip a check (e.g. render, torch)")
     p.set_defaults(func=run)
 
@@ -323,9 +325,12 @@ def run(args: argparse.Namespace) -> int:
     add("render", check_render)
     add("torch", lambda: check_torch(args.model, args.quantization))
     if args.robot:
+        from go2vlm.robots.go2.protocol import AES_KEY_ENV
         from go2vlm.robots.go2.webrtc.probe import probe
+        from go2vlm.secret import read_secret
 
-        for check, level, text, fix in probe(args.robot, args.robot_port, args.aes_key):
+        key = read_secret(AES_KEY_ENV, args.aes_key_file, "--aes-key-file")
+        for check, level, text, fix in probe(args.robot, args.robot_port, key):
             add(f"webrtc.{check}", functools.partial(Verdict, f"webrtc.{check}", level, text, fix))
     failed = [v.check for v in verdicts if v.level == FAIL]
     warned = [v.check for v in verdicts if v.level == WARN]

@@ -4,7 +4,13 @@ through the Model Context Protocol, behind the safety gate (apps/mcp/, docs/mcp.
     go2vlm mcp                          # stdio: an agent starts it; it joins the running robot on the bus
     go2vlm mcp --sim                    # ... and starts a sim with perception, commander and gate
     go2vlm mcp --http 8765              # streamable HTTP on http://127.0.0.1:8765/mcp
-    go2vlm mcp --http 0.0.0.0:8765 --token "$GO2VLM_MCP_TOKEN"   # off loopback: a token is required
+    GO2VLM_MCP_TOKEN=... go2vlm mcp --http 0.0.0.0:8765     # off loopback: a token is required
+    go2vlm mcp --http 192.168.1.5:8765 --token-file ~/.config/go2vlm/mcp-token
+
+The token comes from the environment ($GO2VLM_MCP_TOKEN) or a file (--token-file), never from the
+command line, where `ps` shows it. No token: only exactly 127.0.0.1, ::1 or localhost may be bound.
+Every bind checks the Host header against the hosts it names (the bound address; on a wildcard bind
+the loopback names, this machine's name and --allow-host), against DNS rebinding.
 
 Time here is wall time: the server's waits are for the agent, a person and DDS discovery.
 """
@@ -35,9 +41,15 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--http", metavar="[HOST:]PORT", default=None,
         help="serve streamable HTTP (path /mcp) instead of stdio; HOST defaults to 127.0.0.1, PORT 0 = any free",
     )  # fmt: skip
+    p.add_argument("--token", default=None, help=argparse.SUPPRESS)  # refused: `ps` shows it
     p.add_argument(
-        "--token", default=None,
-        help=f"bearer token every HTTP request must carry (env {TOKEN_ENV}); required off loopback",
+        "--token-file", metavar="FILE", default=None,
+        help=f"a file holding the bearer token every HTTP request must carry (or env {TOKEN_ENV}); required "
+        "off loopback",
+    )  # fmt: skip
+    p.add_argument(
+        "--allow-host", metavar="NAME", action="append", default=[],
+        help="a wildcard bind (0.0.0.0, ::) also accepts this Host header (repeatable)",
     )  # fmt: skip
     p.add_argument(
         "--sim", nargs="?", const="vision_test", default=None, metavar="WORLD",
@@ -48,10 +60,23 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--vlm-base-url", default=None, help="--sim: a vlm node (describe) on this OpenAI-compatible server")
     p.add_argument("--vlm-model", default=None, help="--sim: the served model's name for --vlm-base-url")
     p.add_argument("--confirm", action="store_true", help="each motion goal waits for a person's yes")
-    p.add_argument("--deadman", type=positive, default=10.0, help="stop a goal after S s without status() (10)")
+    p.add_argument("--deadman", type=positive, default=10.0,
+                   help="stop a goal after S s without status() (10; at most 600)")  # fmt: skip
     add_node_params(p, "--sim: a node's parameter, e.g. -p sim.rtf=2 or -p commander.max_linear=0.3 (repeatable)")
     add_dds_args(p)
     p.set_defaults(func=run)
+
+
+def read_token(args: argparse.Namespace) -> str | None:
+    """The bearer token: --token-file's first line, else $GO2VLM_MCP_TOKEN, else None; never --token."""
+    if args.token is not None:
+        raise UsageError(f"--token shows the secret in `ps`: put it in ${TOKEN_ENV} or a file (--token-file)")
+    from go2vlm.secret import read_secret
+
+    try:
+        return read_secret(TOKEN_ENV, args.token_file, "--token-file") or None
+    except ConfigError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def parse_bind(text: str) -> tuple[str, int]:
@@ -100,17 +125,22 @@ def run(args: argparse.Namespace) -> int:
 
     if args.param and args.sim is None:
         raise UsageError("--param sets the nodes of --sim; without --sim there are none here")
-    token = args.token or os.environ.get(TOKEN_ENV) or None
+    from go2vlm.apps.mcp.bridge_node import MAX_DEADMAN_S
+
+    if not 1.0 <= args.deadman <= MAX_DEADMAN_S:
+        raise UsageError(f"--deadman {args.deadman:g}: within 1..{MAX_DEADMAN_S:g} s")
+    token = read_token(args)
     host, port = parse_bind(args.http) if args.http is not None else ("", 0)
     if token is not None and len(token) < MIN_TOKEN_CHARS:
         raise UsageError(f"the token is too short: at least {MIN_TOKEN_CHARS} characters (e.g. `openssl rand -hex 16`)")
     security = auth = verifier = None
     if args.http is not None:
         try:
-            security, auth, verifier = http_security(host, token)
+            security, auth, verifier = http_security(host, token, tuple(args.allow_host))
         except ValueError:
             raise UsageError(
-                f"--http {args.http}: binding to {host} (not loopback) needs a token: --token or ${TOKEN_ENV}"
+                f"--http {args.http}: binding to {host} (not 127.0.0.1, ::1 or localhost) needs a token: "
+                f"${TOKEN_ENV} or --token-file"
             ) from None
     elif token is not None:
         print("go2vlm mcp: a token is for --http; stdio has no network to guard", file=sys.stderr)
@@ -157,9 +187,11 @@ def run(args: argparse.Namespace) -> int:
             serve_stdio(app)
         else:
             shown = f"[{host}]" if ":" in host else host
+            hosts = " ".join(h for h in getattr(security, "allowed_hosts", []) if not h.endswith(":*"))
 
             def ready(bound: int) -> None:
                 guard = "bearer token required" if token else "loopback only, no token"
+                guard += f"; Host: {hosts}"
                 print(f"go2vlm mcp: serving MCP on http://{shown}:{bound}/mcp ({guard})", file=sys.stderr, flush=True)
 
             serve_http(app, host, port, security, ready)

@@ -2,17 +2,25 @@
 
     go2vlm objects                          the running object memory's objects (/objects, latched)
     go2vlm objects --where "blue cylinder"  ask it: /object_memory/where_is
-    go2vlm objects --save home.json         it writes its memory to a file (on its machine)
-    go2vlm objects --load home.json         it loads a memory file, all or nothing
+    go2vlm objects --save home              it writes its memory to a file (on its machine)
+    go2vlm objects --save home --overwrite  ... replacing the one saved before
+    go2vlm objects --load home              it loads a memory file, all or nothing
     go2vlm objects --file runs/goal-.../objects.json [--where X]   a saved memory, no robot needed
 
 Like `ros2 topic echo /objects`, but readable: one line per object, the most confident first, with
 its label, place in the memory's frame (odom), confidence and age (seconds between its last sighting
 and the newest answer the memory has taken in).
 
+Where the files live: the memory writes and reads only in go2vlm's state directory on its machine,
+$XDG_STATE_HOME/go2vlm (~/.local/state/go2vlm without XDG_STATE_HOME). A name ("home" or "home.json")
+is the file objects/home.json there; a path must lie under that directory; anything else (another
+folder, `..`, a symlink leading out) is refused and nothing is written. --save never replaces a file
+unless --overwrite. --file reads any file here, without a robot.
+
 Exit codes: 0; 1 when no object memory answers within --timeout, or --where finds nothing; 2 for a
-memory file that is corrupt, of another world or frame, or of a newer version (one line, nothing
-loaded). Time here is wall time: a tool's deadlines are for the person at the terminal.
+memory file that is corrupt, of another world or frame, or of a newer version, and for a file name
+refused (outside the state directory, or --save over an existing file without --overwrite): one line,
+nothing loaded or written. Time here is wall time: a tool's deadlines are for the person at the terminal.
 """
 
 from __future__ import annotations
@@ -28,11 +36,17 @@ from go2vlm.errors import ConfigError, UsageError
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("objects", help="what the robot remembers and where (the object memory)")
+    p = sub.add_parser(
+        "objects", help="what the robot remembers and where (the object memory)", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
     p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
     what = p.add_mutually_exclusive_group()
-    what.add_argument("--save", metavar="FILE", type=Path, help="the running memory writes itself to FILE")
-    what.add_argument("--load", metavar="FILE", type=Path, help="the running memory loads FILE (all or nothing)")
+    what.add_argument("--save", metavar="NAME", help="the running memory writes itself to NAME: a name (saved as "
+                      "$XDG_STATE_HOME/go2vlm/objects/NAME.json) or a path under $XDG_STATE_HOME/go2vlm")
+    what.add_argument("--load", metavar="NAME", help="the running memory loads NAME (a name or a path under "
+                      "$XDG_STATE_HOME/go2vlm; all or nothing)")
+    p.add_argument("--overwrite", action="store_true", help="--save: replace an existing file")
     what.add_argument("--file", metavar="FILE", type=Path, help="read a saved memory file instead of a robot")
     p.add_argument("--json", action="store_true", help="the objects as JSON")
     p.add_argument("--timeout", type=positive, default=5.0, help="seconds to wait for the object memory")
@@ -62,11 +76,12 @@ def _print(rows: list[dict[str, Any]], as_json: bool, frame: str) -> None:
 
 
 def _from_file(args: argparse.Namespace) -> int:
+    from go2vlm.statefiles import read_bounded
     from go2vlm.world.memory import ObjectMemory
-    from go2vlm.world.memory_file import MemoryFileError, header, loads
+    from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, header, loads
 
     try:
-        text = args.file.read_bytes()
+        text = read_bounded(args.file, MAX_FILE_BYTES)
     except OSError as exc:
         raise ConfigError(f"cannot read {args.file}: {exc.strerror or exc}") from None
     try:
@@ -109,7 +124,7 @@ def cmd_objects(args: argparse.Namespace) -> int:
         command, path = ("save", args.save) if args.save is not None else ("load", args.load)
         with ServiceClient(MemoryFile, MEMORY_FILE_SERVICE) as client:
             try:
-                req = MemoryFile.Request(command=command, path=str(path.expanduser().resolve()))
+                req = MemoryFile.Request(command=command, path=_wire_path(path), overwrite=args.overwrite)
                 rep = client.call(req, args.timeout)
             except ServiceError as exc:
                 raise RuntimeError(f"no object memory answers: {exc}") from None
@@ -152,15 +167,27 @@ def cmd_objects(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_local(path: Path) -> None:
+def _wire_path(text: str) -> str:
+    """A name goes as it is (the memory's machine places it); a path, made absolute here."""
+    if "/" not in text and not text.startswith("~"):
+        return text
+    return str(Path(text).expanduser().resolve())
+
+
+def _check_local(text: str) -> None:
     """A file here that is no memory file is refused before the memory is asked (its world and frame
     are the running memory's to check)."""
-    from go2vlm.world.memory_file import MemoryFileError, loads
+    from go2vlm.statefiles import StateFileError, read_bounded, state_file
+    from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, loads
 
-    if not path.exists():
-        return  # perhaps a path on the memory's machine: it says
     try:
-        loads(path.read_bytes(), None, None, 1_000_000)
+        path = state_file(_wire_path(text), "objects")
+    except StateFileError:
+        return  # the memory refuses it, with the reason
+    if not path.exists():
+        return  # perhaps a file on the memory's machine: it says
+    try:
+        loads(read_bounded(path, MAX_FILE_BYTES), None, None, 1_000_000)
     except MemoryFileError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     except OSError as exc:

@@ -75,7 +75,8 @@ class WhereIs:
 @dataclass
 class MemoryFile_Request(IdlStruct, typename="go2vlm_msgs::srv::dds_::MemoryFile_Request_"):
     command: str = ""  # save | load
-    path: str = ""
+    path: str = ""  # a name, or a path under go2vlm's state directory (statefiles.py)
+    overwrite: bool = False  # save: replace an existing file
 
 
 @dataclass

@@ -31,6 +31,7 @@ from typing import Any
 
 from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, discovery_info
 from go2vlm.bus.topics import EMERGENCY_STOP, ESTOP_RELEASE
+from go2vlm.statefiles import state_dir
 
 __all__ = [
     "ESTOP_TOPIC",
@@ -129,9 +130,8 @@ def latch_path(robot: str, domain_id: int) -> Path:
     """Where the latch of `robot` on DDS domain `domain_id` is kept: $XDG_STATE_HOME (default
     ~/.local/state)/go2vlm/estop/<robot>-domain<N>.json. One per robot and domain: every gate that
     commands that robot there shares it, whatever its node name; two robots never share one."""
-    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in robot) or "robot"
-    return Path(base) / "go2vlm" / "estop" / f"{safe}-domain{domain_id}.json"
+    return state_dir() / "estop" / f"{safe}-domain{domain_id}.json"
 
 
 @dataclass(frozen=True)

@@ -179,13 +179,20 @@ class ObjectMemory:
         return out
 
     def load(self, objects: Iterable[MemoryObject]) -> None:
-        """Replace everything with `objects` (a memory file, already checked)."""
-        objs = list(objects)[: self.params.max_objects]
-        self.objects = {o.id: replace(o) for o in objs}
+        """Replace everything with `objects` (a memory file, already checked), each clamped to what this
+        memory allows: log-odds at most max_logodds, a position never surer than min_sigma_m."""
+        p = self.params
+        floor = p.min_sigma_m**2
+        objs = [
+            replace(o, logodds=min(o.logodds, p.max_logodds), cov=(max(floor, xx), xy, max(floor, yy)))
+            for o in list(objects)[: p.max_objects]
+            for xx, xy, yy in [o.cov]
+        ]
+        self.objects = {o.id: o for o in objs}
         self._ids = Counter()
         for o in objs:
             head, _, n = o.id.rpartition("_")
-            if n.isdigit():
+            if n.isascii() and n.isdigit():  # memory_file.py checks; this keeps load all or nothing anyway
                 self._ids[head] = max(self._ids[head], int(n))
 
     def forget(self, oid: str) -> bool:

@@ -8,9 +8,14 @@
        "x": -2.01, "y": 0.03, "z": 0.75, "cov": [0.0025, 0.0, 0.0025], "size": [0.6, 0.6, 1.5],
        "logodds": 4.0, "seen": 41, "refused": 0, "missed": 2, "first_seen": 3.1, "last_seen": 38.2}]}
 
-A file is read all or nothing: one that is not JSON, not this format, of a newer version, of another
-world or frame, with more objects than the memory holds, or with a single bad object is refused with
-one line saying why (MemoryFileError, a ConfigError: exit 2 in the CLI), and nothing is loaded.
+A file is read all or nothing: one that is not JSON (nested too deep included), not this format, of a
+newer version, of another world or frame, with more objects than the memory holds, or with a single
+bad object (an id that is not `<label words>_<number>`, a position beyond MAX_COORD_M, a field of the
+wrong type) is refused with one line saying why (MemoryFileError, a ConfigError: exit 2 in the CLI),
+and nothing is loaded: every object is checked before the caller replaces anything. ObjectMemory.load
+clamps what it loads to what the memory allows (log-odds, the position's certainty). Where files may
+live, and how they are read and written (bounded, fsync then rename, never overwritten unasked):
+statefiles.py.
 Positions are in `frame_id` (the odometry frame): a robot whose odometry starts again at its dock
 each run finds its things where it left them only if it starts at the same dock.
 """
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Iterable
 from typing import Any
 
@@ -31,6 +37,8 @@ __all__ = ["FORMAT", "VERSION", "MemoryFileError", "dumps", "header", "loads"]
 FORMAT = "go2vlm-object-memory"
 VERSION = 1
 MAX_FILE_BYTES = 16 * 1024 * 1024
+MAX_COORD_M = 1000.0  # an object farther from the odometry origin than this is no object in a home
+_ID_NUMBER = re.compile(r"_([0-9]{1,9})\Z")
 
 
 class MemoryFileError(ConfigError):
@@ -66,7 +74,7 @@ def _num(d: dict[str, Any], key: str, where: str, lo: float = -1e6, hi: float = 
 
 def _int(d: dict[str, Any], key: str, where: str) -> int:
     v = d.get(key)
-    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10**9:
         raise MemoryFileError(f"{where}: {key} = {v!r} is not a count")
     return v
 
@@ -84,10 +92,13 @@ def _object(d: Any, k: int) -> MemoryObject:
     if not isinstance(d, dict):
         raise MemoryFileError(f"{where} is not a JSON object")
     oid, label = d.get("id"), d.get("label")
-    if not isinstance(oid, str) or not oid or len(oid) > MAX_LABEL:
-        raise MemoryFileError(f"{where}: id {oid!r} is not a short string")
+    if not isinstance(oid, str) or not oid or len(oid) > MAX_LABEL + 10:
+        raise MemoryFileError(f"{where}: id {str(oid)[:80]!r} is not a short string")
     if not isinstance(label, str) or not normalize_label(label) or len(label) > MAX_LABEL:
-        raise MemoryFileError(f"{where}: label {label!r} is not a label")
+        raise MemoryFileError(f"{where}: label {label[:80] if isinstance(label, str) else label!r} is not a label")
+    number = _ID_NUMBER.search(oid)
+    if number is None or not oid.isprintable():
+        raise MemoryFileError(f"{where}: id {oid[:80]!r} is not <label words>_<number>")
     cov = _triple(d, "cov", where)
     if cov[0] <= 0 or cov[2] <= 0 or cov[0] * cov[2] - cov[1] ** 2 <= 0:
         raise MemoryFileError(f"{where}: cov {list(cov)} is not a covariance")
@@ -95,9 +106,11 @@ def _object(d: Any, k: int) -> MemoryObject:
     if min(size) < 0 or max(size) > 100:
         raise MemoryFileError(f"{where}: size {list(size)} is not a size in metres")
     return MemoryObject(
-        oid, normalize_label(label), _num(d, "x", where), _num(d, "y", where), _num(d, "z", where, -100, 100),
-        cov, size, _num(d, "logodds", where, -100, 100), _int(d, "seen", where), _int(d, "refused", where),
-        _int(d, "missed", where), _num(d, "first_seen", where, 0, 1e12), _num(d, "last_seen", where, 0, 1e12),
+        oid, normalize_label(label), _num(d, "x", where, -MAX_COORD_M, MAX_COORD_M),
+        _num(d, "y", where, -MAX_COORD_M, MAX_COORD_M), _num(d, "z", where, -100, 100),
+        cov, size, _num(d, "logodds", where, -100, 100), _int(d, "seen", where),
+        _int(d, "refused", where), _int(d, "missed", where), _num(d, "first_seen", where, 0, 1e12),
+        _num(d, "last_seen", where, 0, 1e12),
     )  # fmt: skip
 
 
@@ -108,8 +121,8 @@ def loads(text: str | bytes, world: str | None, frame_id: str | None, max_object
         raise MemoryFileError(f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB")
     try:
         doc = json.loads(text)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise MemoryFileError(f"not a memory file: not JSON ({exc})") from None
+    except (ValueError, RecursionError) as exc:  # UnicodeDecodeError is a ValueError
+        raise MemoryFileError(f"not a memory file: not JSON ({str(exc)[:200]})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise MemoryFileError(f"not a memory file: its format is not {FORMAT!r}")
     version = doc.get("version")
@@ -122,9 +135,9 @@ def loads(text: str | bytes, world: str | None, frame_id: str | None, max_object
     if not isinstance(doc.get("world"), str) or not isinstance(doc.get("frame_id"), str):
         raise MemoryFileError("not a memory file: 'world' or 'frame_id' is not a string")
     if world is not None and doc["world"] != world:
-        raise MemoryFileError(f"it remembers world {doc.get('world')!r}, and this memory is of world {world!r}")
+        raise MemoryFileError(f"it remembers world {doc['world'][:80]!r}, and this memory is of world {world!r}")
     if frame_id is not None and doc["frame_id"] != frame_id:
-        raise MemoryFileError(f"its positions are in frame {doc.get('frame_id')!r}, and this memory's in {frame_id!r}")
+        raise MemoryFileError(f"its positions are in frame {doc['frame_id'][:80]!r}, and this memory's in {frame_id!r}")
     objects = doc.get("objects")
     if not isinstance(objects, list):
         raise MemoryFileError("not a memory file: 'objects' is not a list")

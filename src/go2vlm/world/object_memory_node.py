@@ -42,8 +42,11 @@ Topics
   services    /object_memory/where_is     go2vlm_msgs/srv/WhereIs: "where is X?" (a label; '' = all) ->
                                     found, one line for a person, the objects that fit (most confident
                                     first) as Detection3D
-              /object_memory/memory_file  go2vlm_msgs/srv/MemoryFile: save | load a memory file (a path
-                                    on this node's machine; world/memory_file.py). A load is all or nothing
+              /object_memory/memory_file  go2vlm_msgs/srv/MemoryFile: save | load a memory file on this
+                                    node's machine: a name ("home" = $XDG_STATE_HOME/go2vlm/objects/
+                                    home.json) or a path under $XDG_STATE_HOME/go2vlm/, nothing else
+                                    (statefiles.py); a save never replaces a file unless overwrite.
+                                    A load is all or nothing (world/memory_file.py)
 
 Refused answers and boxes, counted on the status (refused.<reason>), never placed: no_stamp (a zero
 stamp), no_camera_info, older_than_history (the pose history no longer reaches the stamp), pose_gap,
@@ -58,8 +61,9 @@ that; the colour grounder too): a remembered object of that label that the answe
 and did not loses confidence (answers about frames taken within 0.5 s after the query changed say
 nothing of it). all -- every answer lists everything visible (the sim's ground truth).
 
-Memory file: memory_file (loaded at start: a file that is corrupt, of another world or frame, or of a
-newer version stops the node with one line, exit 2; a missing one is started empty) and save_on_exit.
+Memory file: memory_file (a name or a path under the state directory, as for the service; loaded
+at start: a file that is corrupt, of another world or frame, or of a newer version stops the node
+with one line, exit 2; a missing one is started empty) and save_on_exit (replaces it).
 `go2vlm objects` lists the memory, asks where something is, and saves or loads it.
 
 Time: stamps only (the answers', the poses', the scans'): sim time and wall time both work while the
@@ -73,7 +77,6 @@ import json
 import math
 import os
 import statistics
-import tempfile
 from collections import OrderedDict, deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -117,15 +120,17 @@ from go2vlm.perception.color import PRESETS, color_mask
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.statefiles import StateFileError, read_bounded, state_file, write_atomic
 from go2vlm.world.labels import normalize_label
 from go2vlm.world.memory import MemoryParams, ObjectMemory, View
-from go2vlm.world.memory_file import MemoryFileError, dumps, loads
+from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, dumps, loads
 from go2vlm.world.objects_msg import detection_of, markers_of, objects_array
 from go2vlm.world.placement import CameraMount, Placed, PlacementError, PlacementParams, place, rebase
 from go2vlm.world.poses import Pose2D, PoseHistory, PoseUnavailable
 
 __all__ = ["ObjectMemoryConfig", "ObjectMemoryNode"]
 
+STATE_KIND = "objects"  # the memory files: $XDG_STATE_HOME/go2vlm/objects/<name>.json
 SMALL_WIDTH = 160  # px: frames kept for the colour check
 SCAN_WINDOW_S = 0.15  # a scan this close in time to the frame covers it
 FRAME_WINDOW_S = 0.06  # a small frame this close in time is the answer's frame
@@ -149,7 +154,9 @@ class ObjectMemoryConfig:
     scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link: lidar ranges ('' = none)")
     world: str = param("", help="the place this memory is of; a memory file of another world is refused")
     world_frame: str = param(spec.GO2.frames.odom, help="the frame objects are remembered in (/odom's)")
-    memory_file: str = param("", help="a memory file to load at start ('' = start empty)")
+    memory_file: str = param(
+        "", help="a memory file to load at start: a name or a path under $XDG_STATE_HOME/go2vlm ('' = start empty)"
+    )
     save_on_exit: bool = param(False, help="write memory_file when the node stops")
     history_s: float = param(30.0, help="poses, scans and frames kept: the oldest answer placed (s)", min=1.0,
                              max=600.0)  # fmt: skip
@@ -222,7 +229,7 @@ class ObjectMemoryNode(Node):
         self._dirty = self._markers_dirty = True
         self._last_pub = self._last_markers = -math.inf
         if cfg.memory_file:
-            self._load_at_start(Path(cfg.memory_file))
+            self._load_at_start(self._own_file())
         self.pub_objects = OBJECTS.publisher(self)
         self.pub_markers = OBJECT_MARKERS.publisher(self)
         self.pub_status = OBJECT_MEMORY_STATUS.publisher(self)
@@ -444,53 +451,58 @@ class ObjectMemoryNode(Node):
         return WhereIs.Response(True, msg, [detection_of(o, frame) for o in fits])
 
     def memory_file(self, req: MemoryFile_Request) -> MemoryFile_Response:
-        path = Path(str(req.path)).expanduser()
+        if req.command not in ("save", "load"):
+            return MemoryFile.Response(False, f"unknown command {str(req.command)[:20]!r}: use save or load", 0)
+        try:
+            path = state_file(str(req.path), STATE_KIND)
+        except StateFileError as exc:
+            return MemoryFile.Response(False, f"refused: {_one_line(exc)}", 0)
         if req.command == "save":
             try:
-                n = self.save(path)
+                n = self.save(path, overwrite=bool(req.overwrite))
+            except StateFileError as exc:
+                return MemoryFile.Response(False, f"refused: {_one_line(exc)}", 0)
             except OSError as exc:
                 return MemoryFile.Response(False, f"cannot write {path}: {exc.strerror or exc}", 0)
             return MemoryFile.Response(True, f"saved {n} object(s) of world {self.config.world!r} to {path}", n)
         if req.command == "load":
             try:
                 objs = self._read(path)
-            except (MemoryFileError, OSError) as exc:
+            except (MemoryFileError, StateFileError, OSError) as exc:
                 return MemoryFile.Response(False, f"refused {path}: {_one_line(exc)}", 0)
             self.memory.load(objs)
             self._dirty = self._markers_dirty = True
             self._flush(force=True)
             self.log.info(f"loaded {len(objs)} object(s) from {path}")
-            return MemoryFile.Response(True, f"loaded {len(objs)} object(s) from {path}", len(objs))
-        return MemoryFile.Response(False, f"unknown command {str(req.command)[:20]!r}: use save or load", 0)
+        return MemoryFile.Response(True, f"loaded {len(objs)} object(s) from {path}", len(objs))
 
     def _read(self, path: Path) -> list[Any]:
         cfg = self.config
-        return loads(path.read_bytes(), cfg.world, cfg.world_frame, cfg.max_objects)
+        data = read_bounded(path, MAX_FILE_BYTES)
+        return loads(data, cfg.world, cfg.world_frame, cfg.max_objects)
 
     def _load_at_start(self, path: Path) -> None:
-        if not path.exists():
+        if not os.path.lexists(path):
             self.log.info(f"no memory file {path} yet: starting empty")
             return
         try:
             objs = self._read(path)
-        except (MemoryFileError, OSError) as exc:
+        except (MemoryFileError, StateFileError, OSError) as exc:
             raise ConfigError(f"memory_file {path}: {_one_line(exc)}") from None
         self.memory.load(objs)
 
-    def save(self, path: Path) -> int:
-        """Write the memory to `path` atomically; the number of objects written."""
+    def _own_file(self) -> Path:
+        """memory_file, confined to the state directory (a ConfigError at start otherwise)."""
+        try:
+            return state_file(self.config.memory_file, STATE_KIND)
+        except StateFileError as exc:
+            raise ConfigError(f"memory_file: {_one_line(exc)}") from None
+
+    def save(self, path: Path, *, overwrite: bool = False) -> int:
+        """Write the memory to `path` (already confined) atomically; the number of objects written."""
         cfg = self.config
         objs = self.memory.snapshot()
-        text = dumps(objs, cfg.world, cfg.world_frame, self.answered_through)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w") as f:
-                f.write(text)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_atomic(path, dumps(objs, cfg.world, cfg.world_frame, self.answered_through).encode(), overwrite=overwrite)
         return len(objs)
 
     def status(self) -> dict[str, Any]:
@@ -521,9 +533,9 @@ class ObjectMemoryNode(Node):
         cfg = self.config
         if cfg.save_on_exit and cfg.memory_file:
             try:
-                n = self.save(Path(cfg.memory_file))
+                n = self.save(self._own_file(), overwrite=True)
                 self.log.info(f"saved {n} object(s) to {cfg.memory_file}")
-            except OSError as exc:
+            except (OSError, ConfigError) as exc:
                 self.log.error(f"cannot save the memory to {cfg.memory_file}: {exc}")
 
 

@@ -214,6 +214,46 @@ def test_a_dropped_link_stops_the_robot_and_reconnects(h: Harness) -> None:
         t.join()
 
 
+def _set_sim(name: str, value: str) -> None:
+    r = subprocess.run([*GO2VLM, "param", "set", "sim", name, value], capture_output=True, text=True, env=env(),
+                       timeout=60)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+
+
+def test_a_stalled_data_channel_with_live_video_sends_no_move(h: Harness) -> None:
+    """The data channel goes silent while the video goes on (the sim's fault_webrtc_silent): no Move is
+    sent (the driver sends none on a channel silent for 0.5 s, whatever the video does; the gate also
+    stops on the state stream that channel carried); once the channel speaks again, Moves resume."""
+    assert wait_for(lambda: h.last(h.status)["link"]["connected"], 30)
+    stop = threading.Event()
+
+    def teleop() -> None:
+        while not stop.is_set():
+            h.teleop.publish(Twist(linear=Vector3(0.2, 0.0, 0.0)))
+            time.sleep(0.05)  # the teleop rate, not synchronisation
+
+    t = threading.Thread(target=teleop, daemon=True)
+    t.start()
+    link = h.driver.link.link
+    try:
+        moves = h.driver.moves_sent
+        assert wait_for(lambda: h.driver.moves_sent > moves + 5, 30), "no Moves to begin with"
+        _set_sim("fault_webrtc_silent", "true")
+        assert wait_for(lambda: time.monotonic() - link.channel_heard > 0.6, 10), "the channel still speaks"
+        moves, frames = h.driver.moves_sent, len(h.images)
+        assert wait_for(lambda: len(h.images) > frames + 10, 20), "the video stopped too"
+        assert h.driver.moves_sent == moves, "a Move was sent while the data channel was silent"
+        # The driver's own rule, whatever the gate does: a Move (zero here) is refused on the silent channel.
+        assert link.connected and not h.driver.sport.send_noreply(p.MOVE, {"x": 0.0, "y": 0.0, "z": 0.0})
+        assert link.counters.get("quiet_link", 0) >= 1
+        _set_sim("fault_webrtc_silent", "false")
+        assert wait_for(lambda: h.driver.moves_sent > moves, 30), "Moves did not resume"
+    finally:
+        stop.set()
+        t.join()
+        _set_sim("fault_webrtc_silent", "false")
+
+
 def _doctor(port: int) -> subprocess.CompletedProcess[str]:
     skip = [a for c in ("render", "torch", "peers", "cmd_vel", "rcvbuf") for a in ("--skip", c)]
     args = ["doctor", "--robot", "127.0.0.1", "--robot-port", str(port), *skip]

@@ -141,7 +141,7 @@ def test_bad_voxel_maps_raise(header: dict) -> None:
 
 def test_voxel_map_that_does_not_decompress() -> None:
     with pytest.raises(ValueError, match="decompress"):
-        codec.voxel_points({"src_size": 2048, "resolution": 0.05, "origin": [0, 0, 0]}, b"\xff" * 5)
+        codec.voxel_points({"src_size": codec.VOXEL_BYTES, "resolution": 0.05, "origin": [0, 0, 0]}, b"\xff" * 5)
 
 
 def test_state_json_round_trip() -> None:

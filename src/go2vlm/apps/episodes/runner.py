@@ -140,7 +140,7 @@ def _save_memories(nodes: list[Node], out: Path, files: dict[str, str]) -> None:
         if isinstance(n, ObjectMemoryNode):
             name = "objects.json" if n.node_name == n.name else f"objects-{n.node_name}.json"
             try:
-                n.save(out / name)
+                n.save(out / name, overwrite=True)  # the run folder is the runner's own
             except OSError as exc:
                 print(f"go2vlm: {name} not written: {exc}", file=sys.stderr)
             else:

@@ -6,7 +6,12 @@ into commands, and the safety gate limits, guards and may stop them like anyone 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   publishes   /goal                  std_msgs/String   the commander's goals: "go to the blue cylinder",
                                      "look for ...", "follow ...", "turn left 20 degrees", "sit", "stand",
-                                     "stop"
+                                     each with a lease (JSON {"goal", "lease": {"id", "s"}}:
+                                     behavior/lease.py), and "stop"
+              /goal/lease            std_msgs/String   JSON {"id", "s"}: renews the goal's lease every
+                                     lease_s / 4 while this server lives, for min(lease_s, the deadman's
+                                     time left): a server that dies or an agent that goes silent leaves
+                                     a goal that the commander itself stops
               /emergency_stop        std_msgs/Bool, latched (transient-local, keep-last 1): true, held
                                      as `go2vlm estop` holds it, until the release arrives
               /mcp/pending           std_msgs/String, latched: JSON {id, goal, asked} of the goal waiting
@@ -27,6 +32,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
 
 Parameters (read-only at runtime)
   deadman_s          10.0   a goal started here stops when no status() call came for this long
+                            (1..600 s)
+  lease_s             2.0   the goals' lease: the commander stops a goal unrenewed for this long
   ack_timeout_s       3.0   wait this long for the commander to answer a goal (and for discovery)
   confirm            false  each motion goal waits for a person's yes (terminal or /mcp/confirm)
   confirm_timeout_s  60.0   no answer within this long is no
@@ -42,6 +49,7 @@ person talking over a network, not about the robot's clock (the sim may run fast
 from __future__ import annotations
 
 import json
+import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -58,6 +66,7 @@ from go2vlm.bus.topics import (
     EMERGENCY_STOP,
     ESTOP_RELEASE,
     GOAL,
+    GOAL_LEASE,
     MCP_CONFIRM,
     MCP_PENDING,
     OBJECTS,
@@ -73,12 +82,16 @@ from go2vlm.safety.estop import RELEASE_TOKEN, check_token
 
 __all__ = ["McpBridgeConfig", "McpBridgeNode"]
 
+MAX_DEADMAN_S = 600.0  # an agent silent for 10 minutes has gone
 GATE_SILENT_S = 12.0  # a gate silent this long has gone (it reports every status_period_s, at most 10 s)
 
 
 @dataclass
 class McpBridgeConfig:
-    deadman_s: float = param(10.0, help="stop a goal started here after this long without status()", min=1.0)
+    deadman_s: float = param(
+        10.0, help="stop a goal started here after this long without status()", min=1.0, max=MAX_DEADMAN_S
+    )
+    lease_s: float = param(2.0, help="the commander stops a goal unrenewed this long", min=0.5, max=30.0)
     ack_timeout_s: float = param(3.0, help="wait this long for the commander to answer a goal", min=0.2, max=60.0)
     confirm: bool = param(False, help="each motion goal waits for a person's yes")
     confirm_timeout_s: float = param(60.0, help="no answer within this long is no", min=1.0, max=3600.0)
@@ -124,6 +137,10 @@ class McpBridgeNode(Node):
         self._estop_pub: Any = None
         self.last_event = ""  # the newest thing this server did on its own (deadman, unanswered goal)
         self.pub_goal = GOAL.publisher(self)
+        self.pub_lease = GOAL_LEASE.publisher(self)
+        self._lease_id = ""  # our goal's lease ('' = none)
+        self._starting = ""  # the goal a tool call is starting now ('' = none)
+        self._renewed = -1e9
         self.pub_pending = MCP_PENDING.publisher(self)
         self.pub_pending.publish(String(data="{}"))
         for topic in (COMMANDER_STATUS, TRACKER_STATUS, VLM_STATUS):
@@ -195,16 +212,31 @@ class McpBridgeNode(Node):
             if why is None and self.rules.unanswered(now, self.config.ack_timeout_s * 3):
                 self.rules.forget()
                 why = "a goal sent here was never answered by the commander"
+            renew = self._renewal(now)
             cam = self._camera
             linger = cam is not None and now - self._camera_wanted > self.config.camera_linger_s
             if linger:
                 self._camera, self._frame = None, None
+        if renew is not None:
+            self.pub_lease.publish(String(data=renew))
         if why is not None:
             self.last_event = f"stopped: {why}"
             self.log.warning(self.last_event)
             self.pub_goal.publish(String(data="stop"))
         if linger:
             self.destroy_subscription(cam)
+
+    def _renewal(self, now: float) -> str | None:
+        """The lease renewal to send now (under self._cv), or None: while our goal runs and the agent
+        polls, every lease_s / 4, for no longer than the deadman leaves."""
+        c = self.config
+        if self.rules.ours is None or not self._lease_id or now - self._renewed < c.lease_s / 4:
+            return None
+        ttl = min(c.lease_s, c.deadman_s - (now - self.rules.last_poll))
+        if ttl < 0.1:
+            return None
+        self._renewed = now
+        return json.dumps({"id": self._lease_id, "s": round(ttl, 3)})
 
     # -- reading --------------------------------------------------------------------------------
     def status_of(self, topic: str, max_age_s: float | None = None) -> dict[str, Any] | None:
@@ -279,21 +311,29 @@ class McpBridgeNode(Node):
     def start_goal(self, text: str, *, replace: bool) -> dict[str, Any]:
         """Send a motion goal under the rules (busy, e-stop, confirm); the commander's answer."""
         self.require_gate()
-        with self._cv:
+        with self._cv:  # the check and the claim are one step: two concurrent calls never both pass
+            if self._starting:
+                raise Refused(f"another motion goal ({self._starting!r}) is being started right now; call status()")
             self.rules.check_start(text, replace=replace, estop=self.estop_latched())
-        if self.config.confirm:
-            self._confirm(text)
-            with self._cv:  # the world may have changed while a person thought about it
-                self.rules.check_start(text, replace=replace, estop=self.estop_latched())
-        with self._cv:
-            self.rules.started(text, time.monotonic())
-            self.last_event = ""
+            self._starting = text
         try:
-            return self._send(text)
-        except Refused:
+            if self.config.confirm:
+                self._confirm(text)
+                with self._cv:  # the world may have changed while a person thought about it
+                    self.rules.check_start(text, replace=replace, estop=self.estop_latched())
             with self._cv:
-                self.rules.forget()
-            raise
+                self.rules.started(text, time.monotonic())
+                self.last_event = ""
+                self._lease_id, self._renewed = f"mcp-{secrets.token_hex(6)}", time.monotonic()
+            try:
+                return self._send(text, self._lease_id)
+            except Refused:
+                with self._cv:
+                    self.rules.forget()
+                raise
+        finally:
+            with self._cv:
+                self._starting = ""
 
     def stop(self) -> dict[str, Any]:
         with self._cv:
@@ -320,7 +360,7 @@ class McpBridgeNode(Node):
             )
         return self.estop_reports()
 
-    def _send(self, text: str) -> dict[str, Any]:
+    def _send(self, text: str, lease_id: str = "") -> dict[str, Any]:
         timeout = self.config.ack_timeout_s
         deadline = time.monotonic() + timeout
         while self.pub_goal.matched == 0 and time.monotonic() < deadline:
@@ -329,7 +369,8 @@ class McpBridgeNode(Node):
             raise Refused(f"no commander listens on /goal (waited {timeout:g} s): is the robot's graph running?")
         with self._cv:
             seq0 = self._seq
-        self.pub_goal.publish(String(data=text))
+        lease = {"id": lease_id, "s": min(self.config.lease_s, self.config.deadman_s)}
+        self.pub_goal.publish(String(data=json.dumps({"goal": text, "lease": lease}) if lease_id else text))
 
         def answered() -> bool:
             s = self._status.get(COMMANDER_STATUS.name)
@@ -368,6 +409,13 @@ class McpBridgeNode(Node):
             self._cv.notify_all()
         self.log.info(f"confirmation: {what}")
         return what
+
+    def close(self) -> None:
+        # Leaving (SIGTERM, stdin EOF): stop our goal now rather than when its lease runs out.
+        with self._cv:
+            ours, self._lease_id = self.rules.ours, ""
+        if ours is not None:
+            self.pub_goal.publish(String(data="stop"))
 
     # -- status ----------------------------------------------------------------------------------
     def deadman_left(self) -> float | None:

@@ -8,16 +8,18 @@ deadman_s, or the goal stops), no goal while the e-stop is latched, and with `co
 first. There is no tool to release the e-stop: that stays a person's deliberate act.
 
 Transports: stdio (an agent starts the server) or streamable HTTP (`serve_http`), loopback unless told
-otherwise; off loopback every request must carry the bearer token (the SDK's bearer middleware), and
-no CORS headers are ever sent.
+otherwise. Without a token only exactly 127.0.0.1, ::1 or localhost may be bound; anywhere else every
+request must carry the bearer token (the SDK's bearer middleware). Every bind checks Host and Origin
+(the SDK's DNS-rebinding protection) against the hosts it names (`allowed_hosts`), bodies are bounded
+below the SDK's default, and no CORS headers are ever sent.
 """
 
 from __future__ import annotations
 
 import hmac
-import ipaddress
 import json
 import math
+import socket
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
@@ -29,11 +31,14 @@ from go2vlm.apps.mcp.bridge_node import McpBridgeNode
 from go2vlm.apps.mcp.rules import Refused, object_label
 from go2vlm.bus.topics import COMMANDER_STATUS, SAFETY_STATUS
 
-__all__ = ["INSTRUCTIONS", "Session", "build_server", "is_loopback", "serve_http", "serve_stdio"]
+__all__ = ["INSTRUCTIONS", "Session", "allowed_hosts", "build_server", "is_loopback", "serve_http", "serve_stdio"]
 
 # A request body above this is refused by the transport (HTTP 413); below it, arguments reach the
-# tools, whose own bounds answer with a tool error that says why (a 10 MB object name included).
-MAX_HTTP_BODY_BYTES = 16 * 1024 * 1024
+# tools, whose own bounds answer with a tool error that says why. The tools take at most 100
+# characters: 1 MiB is plenty, and a quarter of the SDK's default (4 MiB).
+MAX_HTTP_BODY_BYTES = 1024 * 1024
+LOOPBACK_NAMES = ("127.0.0.1", "::1", "localhost")  # exactly these: 127.0.0.7 or 0:0:0:0:0:0:0:1 are not
+WILDCARDS = ("0.0.0.0", "::", "")
 
 INSTRUCTIONS = """go2vlm: a Unitree Go2 (or its MuJoCo twin) that sees with a camera and a VLM.
 Give it goals with go_to / look_for / follow (an object such as "blue cylinder"), turn (at most 30
@@ -352,12 +357,27 @@ def where_is_object(b: McpBridgeNode, phrase: str) -> dict[str, Any]:
 
 
 def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
+    """Exactly 127.0.0.1, ::1 or localhost: the binds that need no token."""
+    return host.strip("[]") in LOOPBACK_NAMES
+
+
+def _bracket(host: str) -> str:
+    return f"[{host}]" if ":" in host and not host.startswith("[") else host
+
+
+def allowed_hosts(host: str, extra: tuple[str, ...] = ()) -> list[str]:
+    """The Host header values a bind accepts (with or without a port): the bound address itself; on
+    loopback the three loopback names; on a wildcard bind the loopback names, this machine's name and
+    `extra` (--allow-host). Anything else is refused with 421 (DNS rebinding)."""
+    names = [_bracket(h) for h in extra]
+    if is_loopback(host) or host in WILDCARDS:
+        names += ["127.0.0.1", "localhost", "[::1]"]
+    if host in WILDCARDS:
+        names.append(socket.gethostname())
+    else:
+        names.append(_bracket(host.strip("[]")))
+    names = list(dict.fromkeys(n for n in names if n))
+    return [v for n in names for v in (n, f"{n}:*")]
 
 
 class StaticToken:
@@ -394,23 +414,22 @@ def serve_stdio(app: Any) -> None:
     anyio.run(app.run_stdio_async)
 
 
-def http_security(host: str, token: str | None) -> tuple[Any, Any, Any]:
-    """(transport security, auth settings, token verifier) for an HTTP bind: loopback is the SDK's own
-    DNS-rebinding protection; elsewhere the token is required and checked on every request."""
+def http_security(host: str, token: str | None, extra_hosts: tuple[str, ...] = ()) -> tuple[Any, Any, Any]:
+    """(transport security, auth settings, token verifier) for an HTTP bind: Host and Origin checked on
+    every bind (`allowed_hosts`; browser origins only the loopback ones, and only on loopback); off
+    the three loopback names the token is required and checked on every request."""
     from mcp.server.auth.settings import AuthSettings
     from mcp.server.transport_security import TransportSecuritySettings
     from pydantic import AnyHttpUrl
 
-    security = None
-    if not is_loopback(host):
-        if not token:
-            raise ValueError("a non-loopback bind needs a token")
-        wildcard = host in ("0.0.0.0", "::", "")
-        security = TransportSecuritySettings(
-            enable_dns_rebinding_protection=not wildcard,
-            allowed_hosts=[host, f"{host}:*"],
-            allowed_origins=[],  # no browser origin at all
-        )
+    if not is_loopback(host) and not token:
+        raise ValueError("a non-loopback bind needs a token")
+    local = is_loopback(host)
+    security = TransportSecuritySettings(
+        enable_dns_rebinding_protection=True,
+        allowed_hosts=allowed_hosts(host, extra_hosts),
+        allowed_origins=[f"http://{n}:*" for n in ("127.0.0.1", "localhost", "[::1]")] if local else [],
+    )
     if not token:
         return security, None, None
     auth = AuthSettings(issuer_url=AnyHttpUrl("http://127.0.0.1"), resource_server_url=None)  # a static token: no OAuth

@@ -56,7 +56,8 @@ default because two masters on one robot is the situation where nobody knows wha
 and Damp is the one action the other controller cannot make worse by accident. "report" only logs
 and counts. Either way the log says so loudly and /go2/status names the writer (GUID, node).
 
-WebRTC (`ip`, `serial`, `mode`, `signal_port`, `aes_key`, `connect_timeout_s`): the first connection
+WebRTC (`ip`, `serial`, `mode`, `signal_port`, `aes_key_file`, `connect_timeout_s`; the AES key is a
+secret: from $GO2VLM_AES_KEY or the file aes_key_file names, never a parameter, never logged): the first connection
 is made at start; a robot that does not answer, a signalling answer that cannot be read or an unknown
 protocol is one line and exit 2. A link that drops later stops the robot (StopMove is not possible,
 so: nothing sent, nothing queued, /go2/status `link.connected` false, the gate stops on the silent
@@ -126,7 +127,10 @@ class Go2DriverConfig(RobotEndConfig):
     signal_port: int = param(
         p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
     )
-    aes_key: str = param("", help="webrtc: the robot's AES-128 key (32 hex chars), needed on firmware >= 1.1.15")
+    aes_key_file: str = param(
+        "", help="webrtc: a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
+        "needed on firmware >= 1.1.15",
+    )
     connect_timeout_s: float = param(
         10.0, help="webrtc: signalling + ICE + validation at start (wall s)", min=1.0, max=120.0
     )

@@ -317,6 +317,7 @@ BASH_RUN_SCRIPT = 1001
 VERSION_SCRIPT = "get_whole_packet_version.sh"
 # Signalling: HTTP on the robot. 9991 (con_notify, then con_ing_<path>) on firmware >= 1.1.x; 8081
 # (/offer, plaintext) on older firmware. The robot as access point is always 192.168.12.1.
+AES_KEY_ENV = "GO2VLM_AES_KEY"  # the robot's AES key (or a file: aes_key_file); never a parameter
 SIGNAL_PORT = 9991
 LEGACY_SIGNAL_PORT = 8081
 AP_IP = "192.168.12.1"

@@ -78,7 +78,8 @@ thread is robots/go2_sim/physics.py, its render thread render_thread.py, its out
 Faults (live parameters, `go2vlm param set /sim NAME VALUE`, for the health monitor's tests and
 drills; robots/go2_sim/lowstate.py): fault_motor_temp_c (> 0: the FR calf motor reports it),
 fault_battery_pct (>= 0: the battery reports it), fault_tilt_deg (added to the reported roll),
-fault_lowstate_silent (true: /lowstate stops, a lost state stream). A real tilt: /sim/push.
+fault_lowstate_silent (true: /lowstate stops, a lost state stream), fault_webrtc_silent (true: the
+WebRTC data channel says nothing while the video goes on: a stalled channel). A real tilt: /sim/push.
 
 Frames: odom coincides with the world frame (perfect odometry from the simulator), unless
 `odom_drift` > 0: then /odom, /tf (odom -> base_link) and rt/sportmodestate (position, IMU yaw,
@@ -136,6 +137,7 @@ from go2vlm.robots.go2 import protocol
 from go2vlm.robots.go2_sim.physics import PhysicsThread
 from go2vlm.robots.go2_sim.publishers import SimPublishers
 from go2vlm.robots.go2_sim.render_thread import CameraSetup, RenderThread
+from go2vlm.secret import read_secret
 from go2vlm.sim import Go2Sim, SimConfig
 from go2vlm.sim.odometry_drift import OdometryDrift
 
@@ -170,11 +172,14 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
     )
     webrtc_seal: int = param(
         protocol.SEAL_STATIC,
-        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 webrtc_aes_key",
+        help="how con_notify seals the key: 1 plain, 2 the app's key, 3 the robot's AES key (env GO2VLM_AES_KEY "
+        "or webrtc_aes_key_file)",
         min=1,
         max=3,
     )
-    webrtc_aes_key: str = param("", help="the robot's AES-128 key (32 hex chars) for webrtc_seal 3")
+    webrtc_aes_key_file: str = param(
+        "", help="a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), webrtc_seal 3"
+    )
     webrtc_firmware: str = param(protocol.SIM_FIRMWARE, help="the firmware version the sim reports over WebRTC")
     webrtc_takeover: bool = param(False, help="a new WebRTC client replaces the connected one (as the phone app can)")
     viewer: bool = param(False, help="open MuJoCo's interactive passive viewer (needs a display)")
@@ -203,6 +208,9 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
         "drawn from `seed`",
         min=0.0,
         max=10.0,
+    )
+    fault_webrtc_silent: bool = param(
+        False, help="fault: the WebRTC data channel sends nothing (the video goes on)", live=True
     )
 
     def validate(self) -> None:
@@ -290,7 +298,7 @@ class SimNode(RobotEnd):
                 port=cfg.webrtc_port,
                 legacy_port=cfg.webrtc_legacy_port,
                 seal=cfg.webrtc_seal,
-                aes_key=cfg.webrtc_aes_key,
+                aes_key=read_secret(protocol.AES_KEY_ENV, cfg.webrtc_aes_key_file, "webrtc_aes_key_file"),
                 firmware=cfg.webrtc_firmware,
                 takeover=cfg.webrtc_takeover,
             )

@@ -9,6 +9,8 @@ Signalling (HTTP, `host`:`port`, default 127.0.0.1:9991; and the legacy /offer o
   POST /con_notify          -> base64 {"data1": the RSA key and the next path, sealed (`seal`), "data2"}
   POST /con_ing_<path>      -> the sealed offer in, the sealed SDP answer out (robots/go2/webrtc/codec.py)
   POST /offer (legacy port) -> the same in plain text
+  A request whose Host is a DNS name (not an IP address or localhost: DNS rebinding) is refused with
+  421; a Content-Length that is not a number of bytes with 400, over MAX_SIGNAL_BYTES with 413.
   One peer at a time, as on the robot: a second offer is answered {"sdp": "reject"}, unless
   `takeover` (then the new peer replaces the old one, as the phone app taking the robot over).
 Data channel "data" (JSON, protocol.DC_*): validation first (the key, then base64 md5), then
@@ -39,6 +41,7 @@ import json
 import secrets
 import threading
 import time
+from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
@@ -65,8 +68,9 @@ MAX_PENDING = 1024  # sport requests waiting for the bridge's answer
 class _Peer:
     """One connected client: its peer connection, data channel and what it asked for."""
 
-    def __init__(self, pc: Any) -> None:
+    def __init__(self, pc: Any, silent: Callable[[], bool] = lambda: False) -> None:
         self.pc = pc
+        self.silent = silent  # () -> True while the data channel is to say nothing (a fault drill)
         self.channel: Any = None
         self.key = secrets.token_hex(8)
         self.validated = False
@@ -82,7 +86,7 @@ class _Peer:
 
     def send(self, data: str | bytes) -> None:
         ch = self.channel
-        if ch is not None and ch.readyState == "open":
+        if ch is not None and ch.readyState == "open" and not self.silent():
             try:
                 ch.send(data)
             except Exception:
@@ -110,7 +114,8 @@ class SimWebRtcServer:
             raise ConfigError(f"webrtc_seal must be one of {sorted(p.SIGNAL_SEALS)}, got {seal}")
         self.device_key = bytes.fromhex(aes_key) if aes_key else None
         if seal == p.SEAL_DEVICE and (self.device_key is None or len(self.device_key) != 16):
-            raise ConfigError("webrtc_seal 3 needs webrtc_aes_key: 32 hex characters")
+            raise ConfigError("webrtc_seal 3 needs the robot's AES key (32 hex characters): $GO2VLM_AES_KEY or "
+                              "webrtc_aes_key_file")  # fmt: skip
         self.node = node
         self.seal = seal
         self.firmware = firmware
@@ -205,7 +210,7 @@ class SimWebRtcServer:
             self.node.log.warning("a new WebRTC client takes the robot over; the old one is dropped")
             await old.pc.close()
         pc = RTCPeerConnection()
-        peer = _Peer(pc)
+        peer = _Peer(pc, lambda: bool(getattr(self.node.config, "fault_webrtc_silent", False)))
         self.peer = peer
 
         @pc.on("datachannel")
@@ -429,6 +434,25 @@ def _CameraTrack(server: SimWebRtcServer, peer: _Peer) -> Any:  # noqa: N802 (a 
     return _camera_track_class()(server, peer)
 
 
+def host_is_literal(host: str) -> bool:
+    """A Host header that names no DNS name: an IP address or localhost, with or without a port. A web
+    page's request after DNS rebinding carries the attacker's name and is refused."""
+    import ipaddress
+
+    name = host.strip()
+    if name.startswith("["):
+        name = name[1 : name.find("]")] if "]" in name else ""
+    elif name.count(":") == 1:
+        name = name.split(":")[0]
+    if name == "localhost":
+        return True
+    try:
+        ipaddress.ip_address(name)
+    except ValueError:
+        return False
+    return True
+
+
 def _handler(server: SimWebRtcServer, legacy: bool) -> type[BaseHTTPRequestHandler]:
     class Handler(BaseHTTPRequestHandler):
         def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base class's name)
@@ -443,7 +467,16 @@ def _handler(server: SimWebRtcServer, legacy: bool) -> type[BaseHTTPRequestHandl
             self.wfile.write(body)
 
         def do_POST(self) -> None:  # noqa: N802 (http.server's name)
-            length = int(self.headers.get("Content-Length") or 0)
+            if not host_is_literal(self.headers.get("Host") or ""):
+                server.count("bad_signals")
+                self._reply(421, "the Host header must be an IP address or localhost (DNS rebinding)")
+                return
+            text = (self.headers.get("Content-Length") or "0").strip()
+            length = int(text) if text.isascii() and text.isdigit() else -1
+            if length < 0:
+                server.count("bad_signals")
+                self._reply(400, "Content-Length must be a number of bytes")
+                return
             if length > codec.MAX_SIGNAL_BYTES:
                 server.count("bad_signals")
                 self._reply(413, "too large")

@@ -179,8 +179,8 @@ def parse_con_notify(text: str, device_key: bytes | None = None) -> tuple[str, s
         elif seal == p.SEAL_DEVICE:
             if device_key is None:
                 raise SignalError(
-                    "this robot (firmware >= 1.1.15, data2=3) needs its AES-128 key: --param aes_key=<32 hex chars> "
-                    "(Unitree's cloud gives it to the robot's owner)"
+                    "this robot (firmware >= 1.1.15, data2=3) needs its AES-128 key: $GO2VLM_AES_KEY or "
+                    "--param aes_key_file=<a file holding its 32 hex chars> (Unitree's cloud gives it to the owner)"
                 )
             data1 = gcm_open(data1, device_key)
     except SignalError:
@@ -271,6 +271,7 @@ def encode_binary(msg: dict[str, Any], payload: bytes) -> bytes:
 # -- lidar: the voxel map -----------------------------------------------------------------------
 VOXEL_RESOLUTION = 0.05  # m
 VOXEL_DIMS = (128, 128, 38)  # x, y, z cells: 6.4 x 6.4 x 1.9 m around the robot
+VOXEL_BYTES = VOXEL_DIMS[0] * VOXEL_DIMS[1] * VOXEL_DIMS[2] // 8  # 77,824: the only size a map may declare
 
 
 def voxelize(points: np.ndarray, center: np.ndarray, stamp: float) -> tuple[dict[str, Any], bytes]:
@@ -301,7 +302,9 @@ def voxelize(points: np.ndarray, center: np.ndarray, stamp: float) -> tuple[dict
 
 
 def voxel_points(header: dict[str, Any], payload: bytes) -> np.ndarray:
-    """A voxel map -> the centres of its occupied cells (N x 3, odom frame). ValueError if malformed."""
+    """A voxel map -> the centres of its occupied cells (N x 3, odom frame). ValueError if malformed,
+    or if it declares any size but the real map's (VOXEL_BYTES): a 64 MiB "voxel bomb" is refused
+    before anything is decompressed."""
     import lz4.block
 
     try:
@@ -310,12 +313,21 @@ def voxel_points(header: dict[str, Any], payload: bytes) -> np.ndarray:
         origin = np.array([float(v) for v in header["origin"]], dtype=float)
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"voxel map header is incomplete: {exc}") from None
-    if origin.shape != (3,) or not 0 < r < 10 or not 0 < size <= 64 * 1024 * 1024 or size % 2048:
-        raise ValueError(f"voxel map header out of range: size {size}, resolution {r}, origin {origin}")
+    if size != VOXEL_BYTES:
+        raise ValueError(f"voxel map declares {size} bytes; the map is {VOXEL_BYTES}")
+    width = header.get("width", list(VOXEL_DIMS))
+    if width != list(VOXEL_DIMS):
+        raise ValueError(f"voxel map width {str(width)[:40]}; the map is {list(VOXEL_DIMS)}")
+    if origin.shape != (3,) or not np.all(np.isfinite(origin)) or not 0 < r < 10:
+        raise ValueError(f"voxel map header out of range: resolution {r}, origin {origin}")
+    if len(payload) > VOXEL_BYTES + VOXEL_BYTES // 255 + 16:  # LZ4's worst case for the map
+        raise ValueError(f"voxel map payload of {len(payload)} bytes for a {VOXEL_BYTES}-byte map")
     try:
         raw = lz4.block.decompress(payload, uncompressed_size=size)
     except Exception as exc:
         raise ValueError(f"voxel map does not decompress: {exc}") from None
+    if len(raw) != size:
+        raise ValueError(f"voxel map decompresses to {len(raw)} bytes, not {size}")
     grid = np.frombuffer(raw, dtype=np.uint8)
     idx = np.nonzero(grid)[0]
     bits = np.unpackbits(grid[idx]).reshape(-1, 8).astype(bool)

@@ -25,7 +25,7 @@ import time
 import urllib.error
 import urllib.request
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -55,7 +55,7 @@ class LinkSettings:
     serial: str = ""  # find the robot on the LAN by its serial number (multicast), when no ip is given
     port: int = p.SIGNAL_PORT
     legacy_port: int = p.LEGACY_SIGNAL_PORT
-    aes_key: str = ""  # the robot's AES-128 key (32 hex chars), firmware >= 1.1.15
+    aes_key: str = field(default="", repr=False)  # the robot's AES-128 key (32 hex chars): a secret
     timeout_s: float = 10.0  # signalling + ICE + validation
     link_timeout_s: float = 1.5  # nothing heard for this long: the link is down
     max_backoff_s: float = 8.0
@@ -66,9 +66,9 @@ class LinkSettings:
         try:
             key = bytes.fromhex(self.aes_key.strip())
         except ValueError:
-            raise LinkError(f"aes_key {self.aes_key[:8]!r}... is not hex (32 hex characters)") from None
+            raise LinkError("the AES key is not hex (32 hex characters)") from None
         if len(key) != 16:
-            raise LinkError(f"aes_key must be 16 bytes (32 hex characters), got {len(key)} bytes")
+            raise LinkError(f"the AES key must be 16 bytes (32 hex characters), got {len(key)} bytes")
         return key
 
 
@@ -99,18 +99,35 @@ def discover(serial: str, timeout_s: float = 2.0) -> str | None:
             sock.settimeout(left)
             try:
                 data, addr = sock.recvfrom(2048)
-                reply = json.loads(data.decode())
             except TimeoutError:
                 break
-            except (ValueError, UnicodeDecodeError):
-                continue
-            if isinstance(reply, dict) and reply.get("sn") == serial:
-                return str(reply.get("ip") or addr[0])
+            ip = discovery_answer(data, addr[0], serial)
+            if ip is not None:
+                return ip
     except OSError:
         return None
     finally:
         sock.close()
     return None
+
+
+def discovery_answer(data: bytes, sender: str, serial: str) -> str | None:
+    """The robot's IP from one answer to the discovery query, or None when the answer is not one: JSON
+    {"sn": serial, "ip": ...} whose ip, if given, is the sender's own unicast IPv4 address (an answer
+    cannot send us to a third host, a broadcast, multicast or loopback address)."""
+    import ipaddress
+
+    try:
+        reply = json.loads(data.decode())
+        addr = ipaddress.IPv4Address(sender)
+    except (ValueError, UnicodeDecodeError, RecursionError):
+        return None
+    if not isinstance(reply, dict) or not serial or reply.get("sn") != serial:
+        return None
+    ip = reply.get("ip", sender)
+    if ip != sender or addr.is_multicast or addr.is_loopback or addr.is_unspecified or str(addr).endswith(".255"):
+        return None
+    return sender
 
 
 def port_open(ip: str, port: int, timeout_s: float = 1.5) -> bool:
@@ -191,7 +208,8 @@ class Go2Link:
         self.seal: int | None = None
         self.counters: dict[str, int] = {}
         self.connects = 0
-        self.last_heard = 0.0
+        self.last_heard = 0.0  # anything from the robot: the data channel or a video frame
+        self.channel_heard = 0.0  # the data channel itself (what a Move travels on)
         self.frame_log: collections.deque[tuple[int, float]] = collections.deque(maxlen=512)  # (pts, arrival)
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="go2-webrtc", daemon=True)
@@ -340,7 +358,7 @@ class Go2Link:
             await pc.close()
             raise LinkError(f"the Go2 at {self.ip} did not complete the WebRTC handshake in time ({state})") from None
         self.connects += 1
-        self.last_heard = time.monotonic()
+        self.last_heard = self.channel_heard = time.monotonic()  # it validated over the data channel
         self.connected = True
         for topic in self.topics:
             self._send_now(codec.message(p.DC_SUBSCRIBE, topic))
@@ -387,7 +405,7 @@ class Go2Link:
                 self.log.throttled("error", 2.0, f"video track failed: {type(exc).__name__}: {exc}")
 
     def _on_message(self, raw: str | bytes) -> None:
-        self.last_heard = time.monotonic()
+        self.last_heard = self.channel_heard = time.monotonic()
         try:
             msg, payload = codec.decode(raw)
         except ValueError as exc:

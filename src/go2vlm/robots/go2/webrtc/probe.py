@@ -33,7 +33,8 @@ def probe(ip: str, port: int = p.SIGNAL_PORT, aes_key: str = "", timeout_s: floa
             _, _, seal = codec.parse_con_notify(text, settings.device_key())
         except (LinkError, codec.SignalError) as exc:
             upgrade = "a newer go2vlm, or report the firmware version"
-            return [*out, ("signalling", FAIL, str(exc), "pass --aes-key" if "aes" in str(exc).lower() else upgrade)]
+            key = "set GO2VLM_AES_KEY or pass --aes-key-file"
+            return [*out, ("signalling", FAIL, str(exc), key if "aes" in str(exc).lower() else upgrade)]
         what = {1: "plain", 2: "the app's key (firmware 1.1.1-1.1.14)", 3: "the robot's own key (firmware >= 1.1.15)"}
         out.append(("signalling", OK, f"con_notify on {port}, key sealed with {what[seal]} (data2={seal})", ""))
     else:

@@ -33,9 +33,11 @@ from go2vlm.robots.go2 import protocol as p
 from go2vlm.robots.go2.client import RpcFuture
 from go2vlm.robots.go2.webrtc import codec
 from go2vlm.robots.go2.webrtc.link import BUSY, CLOSED_BY_ROBOT, Go2Link, LinkSettings
+from go2vlm.secret import read_secret
 
 OWN_IDS = 4096  # request ids remembered as ours (to tell other controllers' requests apart)
-QUIET_S = 0.5  # nothing heard from the robot for this long: send no Move (it might arrive late)
+QUIET_S = 0.5  # nothing heard on the data channel for this long: send no Move (it might arrive late);
+# video frames do not count: a stalled data channel with live video must not queue Moves
 
 
 class WebRtcSport:
@@ -69,7 +71,7 @@ class WebRtcSport:
     def send_noreply(self, api_id: int, parameter: str | dict[str, Any] = "") -> bool:
         """Fire and forget (Move): the robot answers it over WebRTC, and the answer is not waited for."""
         link = self.transport.link
-        if time.monotonic() - link.last_heard > QUIET_S:  # wall: the link's silence
+        if time.monotonic() - link.channel_heard > QUIET_S:  # wall: the data channel's silence
             link.count("quiet_link")
             return False
         rid = link.new_id()
@@ -105,7 +107,7 @@ class WebRtcTransport:
             mode=cfg.mode,
             serial=cfg.serial,
             port=cfg.signal_port,
-            aes_key=cfg.aes_key,
+            aes_key=read_secret(p.AES_KEY_ENV, cfg.aes_key_file, "aes_key_file"),
             timeout_s=cfg.connect_timeout_s,
         )
         self.link = Go2Link(

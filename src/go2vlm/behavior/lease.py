@@ -1,0 +1,148 @@
+"""Goal leases and goal bounds without any I/O: nothing outlives the order that started it.
+
+A goal may carry a lease: its owner (the MCP server, a script) sends it as JSON on /goal and renews
+it on /goal/lease; the commander stops the goal when no renewal came within the lease's seconds.
+The commander enforces it, not the client, so an owner that dies (SIGKILL, a crash, a lost network)
+leaves a still robot within one lease.
+
+    {"goal": "follow the red ball", "lease": {"id": "mcp-5f3a", "s": 2.0}}    on /goal
+    {"id": "mcp-5f3a", "s": 2.0}                                              on /goal/lease
+
+    goal = parse_goal(text)                  # a plain text goal, or one with a lease (LeaseError if bad)
+    lease = Lease.grant(goal.lease_id, goal.lease_s, now)
+    lease.renew(renewal, now)                # True when it was this lease's
+    lease.expired(now)                       # a reason to stop, or None
+
+A lease is at most MAX_LEASE_S: an owner cannot ask for a goal that outlives it by more. Plain text
+goals carry none (a person at a terminal, a launch file's goal); they keep the goal timeout and the
+go-to distance cap (`overdue`, `too_far`), which bound every goal. Teleop and the e-stop have their
+own watchdogs (safety/). Timestamps are the caller's: the commander feeds wall time to leases (an
+owner's silence is wall time) and its own clock to the goal timeout. Property tests:
+tests/behavior/test_behavior_lease.py.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass
+
+__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "overdue", "parse_goal", "parse_renewal",
+           "too_far"]  # fmt: skip
+
+MAX_LEASE_S = 60.0
+MIN_LEASE_S = 0.1
+MAX_GOAL_CHARS = 1000
+_ID = re.compile(r"[A-Za-z0-9_.:-]{1,64}")
+
+
+class LeaseError(ValueError):
+    """A leased goal or a renewal that is not well formed; the message says why."""
+
+
+@dataclass(frozen=True)
+class LeasedGoal:
+    text: str  # the goal itself ("follow the red ball")
+    lease_id: str | None = None  # None: no lease
+    lease_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Renewal:
+    lease_id: str
+    lease_s: float
+
+
+def _seconds(v: object, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise LeaseError(f"{what} is not a number of seconds: {v!r}")
+    if not MIN_LEASE_S <= v <= MAX_LEASE_S:
+        raise LeaseError(f"{what} = {v:g} s is outside {MIN_LEASE_S:g}..{MAX_LEASE_S:g} s")
+    return float(v)
+
+
+def _lease_id(v: object) -> str:
+    if not isinstance(v, str) or not _ID.fullmatch(v):
+        raise LeaseError(f"a lease id is 1-64 letters, digits or _.:- ; got {str(v)[:80]!r}")
+    return v
+
+
+def _json_object(text: str, what: str) -> dict[str, object]:
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise LeaseError(f"{what} is not JSON: {str(exc)[:80]}") from None
+    if not isinstance(doc, dict):
+        raise LeaseError(f"{what} is not a JSON object")
+    return doc
+
+
+def parse_goal(text: str) -> LeasedGoal:
+    """A /goal message: plain text (no lease), or a JSON object {"goal": ..., "lease": {"id", "s"}}."""
+    if len(text) > MAX_GOAL_CHARS:
+        raise LeaseError(f"a goal of {len(text)} characters; at most {MAX_GOAL_CHARS}")
+    if not text.lstrip().startswith("{"):
+        return LeasedGoal(text)
+    doc = _json_object(text, "a goal that starts with '{'")
+    goal, lease = doc.get("goal"), doc.get("lease")
+    if not isinstance(goal, str) or not goal.strip() or goal.lstrip().startswith("{"):
+        raise LeaseError("a JSON goal needs 'goal': the goal's text")
+    if lease is None:
+        return LeasedGoal(goal)
+    if not isinstance(lease, dict):
+        raise LeaseError("'lease' is not {'id': ..., 's': seconds}")
+    return LeasedGoal(goal, _lease_id(lease.get("id")), _seconds(lease.get("s"), "the lease"))
+
+
+def parse_renewal(text: str) -> Renewal:
+    """A /goal/lease message: {"id": ..., "s": seconds}."""
+    if len(text) > MAX_GOAL_CHARS:
+        raise LeaseError(f"a renewal of {len(text)} characters")
+    doc = _json_object(text, "a renewal")
+    return Renewal(_lease_id(doc.get("id")), _seconds(doc.get("s"), "the renewal"))
+
+
+@dataclass
+class Lease:
+    """One goal's lease: it lasts until `until` unless renewed."""
+
+    lease_id: str
+    until: float
+    renewals: int = 0
+
+    @classmethod
+    def grant(cls, lease_id: str, lease_s: float, now: float) -> Lease:
+        return cls(lease_id, now + min(max(lease_s, MIN_LEASE_S), MAX_LEASE_S))
+
+    def renew(self, r: Renewal, now: float) -> bool:
+        """Extend the lease to now + r.lease_s if the renewal is this lease's; never past MAX_LEASE_S."""
+        if r.lease_id != self.lease_id:
+            return False
+        self.until = now + min(max(r.lease_s, MIN_LEASE_S), MAX_LEASE_S)
+        self.renewals += 1
+        return True
+
+    def left(self, now: float) -> float:
+        return max(0.0, self.until - now)
+
+    def expired(self, now: float) -> str | None:
+        if now < self.until:
+            return None
+        return f"the goal's lease {self.lease_id!r} expired: its owner stopped renewing it"
+
+
+def overdue(started: float, now: float, max_goal_s: float) -> str | None:
+    """A reason to end a goal that has run longer than max_goal_s (0 = no limit), or None."""
+    if max_goal_s <= 0 or now - started < max_goal_s:
+        return None
+    return f"the goal ran {now - started:.0f} s, the limit is max_goal_s = {max_goal_s:g} s"
+
+
+def too_far(kind: str | None, distance_m: float | None, max_go_to_m: float) -> str | None:
+    """A reason to refuse a go to whose object is farther than max_go_to_m (0 = no limit), or None."""
+    if kind != "go_to" or distance_m is None or max_go_to_m <= 0 or not math.isfinite(distance_m):
+        return None
+    if distance_m <= max_go_to_m:
+        return None
+    return f"refused: the object is {distance_m:.1f} m away, beyond max_go_to_m = {max_go_to_m:g} m"

@@ -1,0 +1,80 @@
+"""Attack: a peer on the bus asks the object memory to write or read a file where it should not
+(docs/safety.md, the attack table). The object_memory node runs as a real process and is asked over
+its real /object_memory/memory_file service, as any DDS peer can.
+
+- Path escapes: an absolute path elsewhere (~/.bashrc), `..`, and a symlink inside the state directory
+  that leads out: refused with the reason, nothing written, the file outside untouched.
+- A FIFO and an oversized (and growing) file to load: refused at once (the node never blocks), and the
+  memory keeps what it had.
+- A deeply nested JSON file and one with an id `ball_²`: refused, nothing half-loaded.
+- An existing file is never replaced without overwrite=true.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import pytest
+from busutil import Procs
+
+from go2vlm.bus.service import ServiceClient
+from go2vlm.msgs.go2vlm_msgs import MemoryFile
+
+
+def _call(client: ServiceClient, command: str, path: str, overwrite: bool = False) -> tuple[object, float]:
+    t0 = time.monotonic()
+    rep = client.call(MemoryFile.Request(command=command, path=path, overwrite=overwrite), 30)
+    return rep, time.monotonic() - t0
+
+
+def test_memory_file_escapes_fifos_and_bombs_are_refused(
+    procs: Procs, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    home = tmp_path / "home"
+    home.mkdir()
+    bashrc = home / ".bashrc"
+    bashrc.write_text("# mine\n")
+    state = tmp_path / "state" / "go2vlm"  # conftest: XDG_STATE_HOME = tmp_path/state
+    folder = state / "objects"
+    folder.mkdir(parents=True)
+    (folder / "out.json").symlink_to(bashrc)
+    (folder / "dir").symlink_to(home)
+    os.mkfifo(folder / "fifo.json")
+    with open(folder / "big.json", "wb") as f:
+        f.truncate(64 << 20)  # sparse: 64 MiB of zeros, over the 16 MiB bound
+    (folder / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    doc = {"format": "go2vlm-object-memory", "version": 1, "world": "", "frame_id": "odom", "saved_at": 1.0,
+           "objects": [{"id": "ball_\u00b2", "label": "red ball", "x": 1.0, "y": 0.0, "z": 0.1,
+                        "cov": [0.01, 0.0, 0.01], "size": [0.2, 0.2, 0.2], "logodds": 2.0, "seen": 3,
+                        "refused": 0, "missed": 0, "first_seen": 0.5, "last_seen": 0.9}]}  # fmt: skip
+    (folder / "id.json").write_text(json.dumps(doc))
+    monkeypatch.setenv("HOME", str(home))  # the node's ~ (and ~/.bashrc) is this one
+    p = procs.start("run", "object_memory", "--param", "image_topic=", "--param", "scan_topic=")
+    found: dict[str, float] = {}
+    with ServiceClient(MemoryFile, "/object_memory/memory_file") as client:
+        assert client.wait_for_service(60), "no object memory"
+        rep, _ = _call(client, "save", "first")
+        assert rep.success, rep.message  # type: ignore[attr-defined]
+        before = sorted(str(x) for x in tmp_path.rglob("*"))
+        for name, path in (("absolute", str(bashrc)), ("tilde", "~/.bashrc"), ("dotdot", "../../../home/.bashrc"),
+                           ("symlink", "out.json"), ("symlink dir", str(folder / "dir" / ".bashrc"))):  # fmt: skip
+            for command in ("save", "load"):
+                rep, spent = _call(client, command, path, overwrite=True)
+                assert not rep.success and "refused" in rep.message, (name, command, rep)  # type: ignore[attr-defined]
+                found[f"{name} {command}"] = spent
+        assert bashrc.read_text() == "# mine\n"
+        assert sorted(str(x) for x in tmp_path.rglob("*")) == before, "a refused request created a file"
+        for name, says in (("fifo", "not a regular file"), ("big", "more than"), ("deep", "not JSON"),
+                           ("id", "ball_")):  # fmt: skip
+            rep, spent = _call(client, "load", name)
+            assert not rep.success and says in rep.message, (name, rep)  # type: ignore[attr-defined]
+            found[f"load {name}"] = spent
+        rep, _ = _call(client, "save", "first")
+        assert not rep.success and "overwrite=true" in rep.message  # type: ignore[attr-defined]
+        rep, _ = _call(client, "load", "first")
+        assert rep.success, rep.message  # type: ignore[attr-defined]  # the node kept serving throughout
+    print("memory_file attacks refused (wall s per request): " + ", ".join(f"{k} {v:.3f}" for k, v in found.items()))
+    assert p.poll() is None, "the object memory died"
