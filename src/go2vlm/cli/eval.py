@@ -47,6 +47,16 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="run the suite once per added answer latency in sim seconds, e.g. 0,1,2.5,5 (oracle: the ground "
         "truth delivered late; vlm: the model's answers held back)",
     )
+    p.add_argument(
+        "--drift",
+        type=float,
+        nargs="?",
+        const=1.0,
+        default=None,
+        metavar="GAIN",
+        help="the sim's leg odometry drifts (/odom, /tf) as a Go2's does (GAIN 1, the default; 2 twice as much): "
+        "the drift variant, a row of its own in the report",
+    )
     p.add_argument("--out", type=Path, default=None, help="the eval folder (results.jsonl, summary.json, report.md)")
     p.add_argument("--resume", action="store_true", help="finish an interrupted run in --out, skipping done episodes")
     speed = p.add_mutually_exclusive_group()
@@ -149,6 +159,7 @@ def run(args: argparse.Namespace) -> int:
         progress=args.progress,
         log_level=args.log_level or "error",
         ray=args.ray,
+        odom_drift=args.drift,
     )
     runs = [dataclasses.replace(base, latency=lat) for lat in latencies]
     try:  # every latency's suite, episodes and graphs are checked before the first episode runs
@@ -189,6 +200,7 @@ def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval
     rate = 3600 * outcome.done / outcome.wall_s if outcome.wall_s > 0 else 0.0
     how = f"{args.workers} worker(s)" if opts.ray is None else f"Ray ({opts.ray})"
     lat = "" if opts.latency is None else f", answers {opts.latency:g} s late"
+    lat += "" if opts.odom_drift is None else f", odometry drift {opts.odom_drift:g}"
     print(
         f"go2vlm eval: run {outcome.run_id}: {outcome.done_before + outcome.done}/{outcome.total} episodes "
         f"({outcome.done} now, {rate:.0f} per hour with {how}{lat})"

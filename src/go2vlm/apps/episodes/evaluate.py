@@ -32,6 +32,10 @@ runs it again); the eval goes on.
 Latency (`--latency L`, `EvalOptions.latency`): every episode's grounding answers are held back L sim
 seconds (Episode.answer_latency_s), and a goal's timeout grows with it (episode.latency_timeout): a run
 of its own per latency, side by side in the report.
+
+Odometry drift (`--drift [GAIN]`, `EvalOptions.odom_drift`): every episode's sim reports a drifting
+leg odometry on /odom and /tf (the sim node's `odom_drift`, sim/odometry_drift.py: gain 1 is a Go2's
+size); the metrics stay on the ground truth. A run of its own, a row of its own in the report.
 """
 
 from __future__ import annotations
@@ -86,6 +90,7 @@ class EvalOptions:
     progress: bool = True
     latency: float | None = None  # sim seconds every grounding answer is held back (None: no latency axis)
     ray: str | None = None  # None: worker processes; "local": a Ray of this machine; "auto" or an address: a cluster
+    odom_drift: float | None = None  # the sim's leg-odometry drift gain (1: a Go2's); None: perfect odometry
 
 
 @dataclass
@@ -178,6 +183,8 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
     }
     if opts.latency is not None:  # only then, so that the ids of runs without a latency axis stay as they were
         decides["answer_latency_s"] = opts.latency
+    if opts.odom_drift is not None:  # likewise
+        decides["odom_drift"] = opts.odom_drift
     digest = hashlib.sha256(json.dumps(decides, sort_keys=True).encode()).hexdigest()[:10]
     return {
         "run_id": f"{suite.name}-{opts.perception}-{digest}",
@@ -201,6 +208,8 @@ def _episodes(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict
         merged = {name: dict(p) for name, p in ep.params.items()}
         for name, p in params.items():
             merged.setdefault(name, {}).update(p)
+        if opts.odom_drift is not None:
+            merged.setdefault("sim", {})["odom_drift"] = opts.odom_drift
         values = ep.to_dict()
         values.update(params=merged)
         if opts.mode is not None:
@@ -283,6 +292,8 @@ def prepare(opts: EvalOptions) -> _Prepared:
         raise EvalError(f"--latency: {opts.latency:g} s is not in 0..60")
     if opts.latency is not None and opts.perception == "color":
         raise EvalError("--latency is for --perception oracle and vlm (the colour grounder runs in the tracker)")
+    if opts.odom_drift is not None and not (math.isfinite(opts.odom_drift) and 0 < opts.odom_drift <= 10):
+        raise EvalError(f"--drift: {opts.odom_drift:g} is not a gain in (0, 10] (1: a Go2's odometry drift)")
     suite = load_suite(opts.suite)
     seed = suite.seed if opts.seed is None else opts.seed
     params = _vlm_params(opts)
@@ -319,8 +330,9 @@ def run_eval(
             line["config"].get("model"),
             line["config"]["seed"],
             line["config"].get("answer_latency_s"),
+            line["config"].get("odom_drift"),
         )
-        == (suite.name, opts.perception, opts.model, seed, opts.latency)
+        == (suite.name, opts.perception, opts.model, seed, opts.latency, opts.odom_drift)
     }
     if clash:
         raise EvalError(

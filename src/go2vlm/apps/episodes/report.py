@@ -1,6 +1,7 @@
 """summary.json, report.md and the plots of an eval folder, from its results.jsonl.
 
-Groups: one row per (suite, perception variant, model, added answer latency). Confidence intervals, 95 %:
+Groups: one row per (suite, perception variant, model, added answer latency); a run with odometry
+drift (`--drift`) is a suite of its own ("rooms (odometry drift 1)"). Confidence intervals, 95 %:
   rates (success, grounding precision and recall at IoU 0.5)  Wilson score interval;
   means (SPL, time to goal)                                   percentile bootstrap, 10,000 resamples
                                                               of the episodes, seeded (reproducible).
@@ -56,11 +57,17 @@ def _ci(ci: tuple[float, float] | None) -> list[float] | None:
     return None if ci is None else [round(ci[0], 4), round(ci[1], 4)]
 
 
+def suite_label(run: dict[str, Any]) -> str:
+    """The suite's name, with the odometry drift of a drift run (`go2vlm eval --drift`): a row of its own."""
+    drift = run.get("odom_drift")
+    return run["suite"] if not drift else f"{run['suite']} (odometry drift {drift:g})"
+
+
 def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
-    """(suite, variant, model, added answer latency; -1: no latency axis)."""
+    """(suite with its drift, variant, model, added answer latency; -1: no latency axis)."""
     run = line["config"]
     lat = run.get("answer_latency_s")
-    return run["suite"], run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
+    return suite_label(run), run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
 
 
 def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -96,6 +103,7 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "perception": perception,
                 "model": model or None,
                 "answer_latency_s": None if latency < 0 else latency,
+                "odom_drift": cfg.get("odom_drift"),
                 "episodes": n,
                 "success": wins,
                 "success_rate": _r(wins / n),

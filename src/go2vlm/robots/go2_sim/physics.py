@@ -24,6 +24,7 @@ from go2vlm.bus import Clock, Logger, Timer
 from go2vlm.robots.go2_sim.publishers import SimPublishers
 from go2vlm.robots.go2_sim.render_thread import RenderThread, Snapshot
 from go2vlm.sim import Go2Sim
+from go2vlm.sim.odometry_drift import OdometryDrift
 from go2vlm.sim.state import RobotState
 
 __all__ = ["CATCH_UP_S", "PhysicsHost", "PhysicsThread"]
@@ -50,6 +51,7 @@ class PhysicsHost(Protocol):
     outputs: SimPublishers
     renderer: RenderThread
     bridge: Any  # UnitreeSimBridge or None
+    odometry: OdometryDrift  # what /odom and rt/sportmodestate report of the true state
 
     def count(self, key: str) -> int: ...
 
@@ -141,6 +143,7 @@ class PhysicsThread:
         hist: list[tuple[float, float]] = [(wall0, sim0)]
         next_status, next_log = wall0, wall0 + LOG_PERIOD_S
         state = self.state = sim.state()
+        reported = state
         while not self.stopping.is_set():
             t_busy = time.perf_counter()
             self._run_calls()
@@ -153,7 +156,8 @@ class PhysicsThread:
             due = self._due(timers, t)
             if "state" in due:
                 state = self.state = sim.state()
-                out.state(state, stamp_t)
+                reported = node.odometry.reported(state)  # the truth unless odom_drift
+                out.state(reported, stamp_t)
             out.sim_clock(t)
             if "head" in due or "world" in due:
                 if cfg.fast:  # as fast as the host renders too: every frame due in sim time is drawn
@@ -171,7 +175,7 @@ class PhysicsThread:
                 self.fell_reported = True
                 node.log.error(f"the robot fell at sim time {t:.2f} s")
             if node.bridge is not None:
-                node.bridge.on_step(state if "state" in due else None)
+                node.bridge.on_step(reported if "state" in due else None)
             if viewer is not None and time.monotonic() >= next_viewer:
                 next_viewer = time.monotonic() + 1 / 60
                 if viewer.is_running():

@@ -80,7 +80,12 @@ drills; robots/go2_sim/lowstate.py): fault_motor_temp_c (> 0: the FR calf motor 
 fault_battery_pct (>= 0: the battery reports it), fault_tilt_deg (added to the reported roll),
 fault_lowstate_silent (true: /lowstate stops, a lost state stream). A real tilt: /sim/push.
 
-Frames: odom coincides with the world frame (perfect odometry from the simulator).
+Frames: odom coincides with the world frame (perfect odometry from the simulator), unless
+`odom_drift` > 0: then /odom, /tf (odom -> base_link) and rt/sportmodestate (position, IMU yaw,
+velocity) report the pose a Go2's leg odometry would, drifting with the distance walked
+(sim/odometry_drift.py, sized from published Go2 figures, drawn from `seed`); world -> odom stays the
+identity it was at the start, /imu's gyro and accelerometer stay true, and /sim/ground_truth keeps
+the true pose (gt/go2).
 Rates: state topics, cameras and ground truth are due in sim time; `rtf` paces sim time against the
 wall clock (a lag under 2 s is caught up, a longer stall re-anchors and counts an overrun). Camera
 frames are rendered from a snapshot taken at their sim time; if rendering falls behind, the newest
@@ -132,6 +137,7 @@ from go2vlm.robots.go2_sim.physics import PhysicsThread
 from go2vlm.robots.go2_sim.publishers import SimPublishers
 from go2vlm.robots.go2_sim.render_thread import CameraSetup, RenderThread
 from go2vlm.sim import Go2Sim, SimConfig
+from go2vlm.sim.odometry_drift import OdometryDrift
 
 
 @dataclass
@@ -190,6 +196,13 @@ class SimNodeConfig(SimConfig, RobotEndConfig):
         0.0, help="fault: added to the roll /lowstate reports (degrees)", min=-180.0, max=180.0, live=True
     )
     fault_lowstate_silent: bool = param(False, help="fault: stop publishing /lowstate", live=True)
+    odom_drift: float = param(
+        0.0,
+        help="leg-odometry drift of /odom, /tf and rt/sportmodestate: 0 = the truth, 1 = a Go2's size "
+        "(1.5 % of the distance, 0.03 deg/m of heading; sim/odometry_drift.py), drawn from `seed`",
+        min=0.0,
+        max=10.0,
+    )
 
     def validate(self) -> None:
         SimConfig.validate(self)
@@ -237,6 +250,7 @@ class SimNode(RobotEnd):
             raise ParamError(f"node {self.node_name!r}: {exc}") from None
         self._cmd_timed_out = True
         self._started = False
+        self.odometry = OdometryDrift(cfg.odom_drift, cfg.seed)  # what /odom reports of the true pose
         self.bridge: Any = None
         self.webrtc: Any = None  # the Go2's WebRTC service (robots/go2_sim/webrtc_server.py), with `webrtc`
         SIM_PUSH.subscription(self, self._on_push)
@@ -262,7 +276,9 @@ class SimNode(RobotEnd):
                 raise RuntimeError(
                     f"unitree: true needs go2vlm.robots.go2_sim.unitree_bridge, which cannot be imported: {exc}"
                 ) from exc
-            self.bridge = UnitreeSimBridge(self, self.sim, estop=lambda: self.estop.engaged)
+            self.bridge = UnitreeSimBridge(
+                self, self.sim, estop=lambda: self.estop.engaged, odometry=self.odometry.reported
+            )
         if cfg.webrtc:
             from go2vlm.robots.go2_sim.webrtc_server import SimWebRtcServer
 
@@ -342,6 +358,7 @@ class SimNode(RobotEnd):
             "motor_temp_max_c": round(float(self.outputs.thermal.temps.max()), 1),
             "battery_pct": round(self.outputs.battery.soc_pct, 2),
             "lidar": cfg.lidar,
+            "odom_drift": cfg.odom_drift,
             "counters": dict(self.counters),
         }
         if self.webrtc is not None:

@@ -38,7 +38,8 @@ Stops are never dropped (unlike a real Go2, whose queue we cannot see, the sim p
 
 Threading: requests arrive on the node's executor thread; everything that touches the `Go2Sim`
 runs on the physics thread, which calls `on_step(state)` after each physics chunk (SimNode does;
-any other owner of a Go2Sim must do the same). Camera frames are rendered on the bridge's own
+any other owner of a Go2Sim must do the same), with the state as the robot's odometry reports it
+(`odometry`: the sim node's `odom_drift`; the truth by default). Camera frames are rendered on the bridge's own
 render thread from a snapshot, so a camera request never stalls the physics.
 
 Time: the Move timeout, the rt/sportmodestate rate and its stamps are on the owning node's clock:
@@ -92,6 +93,7 @@ class UnitreeSimBridge:
         camera_height: int | None = None,
         move_timeout_s: float = 1.0,
         estop: Callable[[], bool] = lambda: False,
+        odometry: Callable[[RobotState], RobotState] = lambda s: s,
     ) -> None:
         if not state_rate_hz > 0:
             raise ValueError(f"state_rate_hz must be positive, got {state_rate_hz}")
@@ -107,6 +109,7 @@ class UnitreeSimBridge:
         )
         self.move_timeout_s = move_timeout_s
         self.estop = estop
+        self.odometry = odometry  # the state as the robot's odometry reports it (the sim node's odom_drift)
         self._lock = threading.Lock()
         self._stops: list[_Call] = []  # the priority lane
         self._calls: deque[_Call] = deque()  # postures, in order, at most MAX_PENDING_POSTURES
@@ -265,7 +268,7 @@ class UnitreeSimBridge:
             self._render.submit(d.qpos.copy(), d.mocap_pos.copy(), d.mocap_quat.copy())
         if now >= self._next_state:
             self._next_state = max(self._next_state + self.state_period, now)
-            self.pub_state.publish(self.sport_state(state if state is not None else self.sim.state()))
+            self.pub_state.publish(self.sport_state(state if state is not None else self.odometry(self.sim.state())))
 
     tick = on_step
 
