@@ -7,9 +7,11 @@ from __future__ import annotations
 import json
 import math
 import threading
+from collections.abc import Callable
 
 import numpy as np
 from busutil import wait_for
+from maputil import BINS, room_scan
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
 from go2vlm.geometry.rotations import yaw_quat
@@ -22,33 +24,30 @@ from go2vlm.world.map_msg import Grid, grid_of
 from go2vlm.world.occupancy import FREE, INSCRIBED, LETHAL, UNKNOWN
 from go2vlm.world.poses import Pose2D
 
-ROOM = (3.0, 2.0)  # half sizes of the room about the origin (m)
-BINS = 180
+ROOM = (3.01, 2.02)  # half sizes of the room about the origin (m)
 
 
 def room_ranges(pose: Pose2D) -> list[float]:
-    a = pose.yaw - math.pi + (2 * math.pi / BINS) * np.arange(BINS)
-    dx, dy = np.cos(a), np.sin(a)
-    with np.errstate(divide="ignore"):
-        tx = np.where(dx > 0, (ROOM[0] - pose.x) / dx, np.where(dx < 0, (-ROOM[0] - pose.x) / dx, np.inf))
-        ty = np.where(dy > 0, (ROOM[1] - pose.y) / dy, np.where(dy < 0, (-ROOM[1] - pose.y) / dy, np.inf))
-    return np.minimum(tx, ty).astype(np.float32).tolist()
+    return room_scan(pose, room=ROOM).ranges.tolist()
 
 
 class Lidar(Node):
-    """A robot stand-in: /odom at 50 Hz as it drives along x at `vx`, and what it publishes by hand."""
+    """A robot stand-in: /odom at 50 Hz as it drives along x at `vx` (odometry off the truth by
+    `odom_dx` and `odom_dyaw`), scans of the room at the true pose, and what the map node says."""
 
     name = "fake_lidar"
 
     def __init__(self, **kw: object) -> None:
         super().__init__(**kw)
         self.lock = threading.Lock()
-        self.x, self.vx = -1.0, 0.0
+        self.x, self.vx, self.odom_dx, self.odom_dyaw = -1.0, 0.0, 0.0, 0.0
         self.odom = self.create_publisher(Odometry, "/odom", QOS_DEFAULT)
         self.scan = self.create_publisher(LaserScan, "/scan", QOS_SENSOR)
         self.maps: list[OccupancyGrid] = []
         self.costmaps: list[OccupancyGrid] = []
         self.status: list[dict] = []
+        self.corrected: list[Odometry] = []
+        self.create_subscription(Odometry, "/map/odom", lambda m: self._keep(self.corrected, m), QOS_DEFAULT)
         self.create_subscription(OccupancyGrid, "/map", lambda m: self._keep(self.maps, m), QOS_LATCHED)
         self.create_subscription(OccupancyGrid, "/map/costmap", lambda m: self._keep(self.costmaps, m), QOS_LATCHED)
         self.create_subscription(String, "/map/status", lambda m: self._keep(self.status, json.loads(m.data)),
@@ -67,6 +66,7 @@ class Lidar(Node):
         with self.lock:
             self.x = min(self.x + self.vx * 0.02, 1.5)
         p = self.pose()
+        p = Pose2D(p.x + self.odom_dx, p.y, p.yaw + self.odom_dyaw)
         q = yaw_quat(p.yaw)
         msg = Odometry(header=Header(stamp=self.stamp(), frame_id="odom"), child_frame_id="base_link")
         msg.pose.pose = Pose(position=Point(x=p.x, y=p.y), orientation=Quaternion(z=float(q[3]), w=float(q[0])))
@@ -139,3 +139,64 @@ def test_scans_become_a_latched_map_and_costmap_and_bad_scans_a_reason() -> None
         late.create_subscription(OccupancyGrid, "/map", heard.append, QOS_LATCHED)
         with running(late):
             assert wait_for(lambda: len(heard) >= 1, 10)
+
+
+def test_an_odometry_jump_loses_the_map_until_a_scan_fits_it_again() -> None:
+    """Picked up and put down where it was, odometry turned 60 degrees: the scans do not fit the map
+    there, so nothing is written (lost) until odometry comes back; lost long enough, a new map."""
+    node = make_node("map", params={"publish_period_s": 0.2, "status_period_s": 0.2, "lost_reset_s": 3.0})
+    lidar = Lidar()
+    with running(lidar, node):
+        assert wait_for(lambda: lidar.scan.matched >= 1 and lidar.last_status().get("poses_s", 0) > 0.3, 10)
+
+        def scans(until: Callable[[dict], bool]) -> bool:
+            lidar.send_scan(room_ranges(lidar.pose()))
+            return until(lidar.last_status())
+
+        assert wait_for(lambda: scans(lambda st: st.get("integrated", 0) >= 10), 10, 0.05)
+        assert wait_for(lambda: lidar.last(lidar.maps) is not None, 10)
+        cells = lidar.last_status()["cells"]["occupied"]
+        lidar.odom_dyaw = math.radians(60)  # the jump
+        assert wait_for(lambda: scans(lambda st: st.get("state") == "lost"), 10, 0.05)
+        st = lidar.last_status()
+        assert st["odom_jumps"] == 1 and "turned 60 deg" in st["last_jump"] and st["refused"]["lost"] >= 1
+        integrated = st["integrated"]
+        assert wait_for(lambda: scans(lambda st: st["refused"].get("lost", 0) >= 5), 10, 0.05)
+        assert lidar.last_status()["integrated"] == integrated, "a scan was written while lost"
+        lidar.odom_dyaw = 0.0  # put back: odometry agrees with the map again
+        assert wait_for(lambda: scans(lambda st: st.get("state") == "mapping" and st["integrated"] > integrated), 10,
+                        0.05)  # fmt: skip
+        st = lidar.last_status()
+        assert st["odom_jumps"] == 2 and st["resets"] == 0 and st["cells"]["occupied"] >= cells * 0.9
+        lidar.odom_dyaw = math.radians(-45)  # lost for good: after lost_reset_s of scans, a new map
+        assert wait_for(lambda: scans(lambda st: st.get("resets", 0) == 1), 15, 0.05)
+        st = lidar.last_status()
+        assert st["state"] == "mapping" and "lost for" in st["last_reset"]
+
+
+def test_scan_matching_corrects_drifting_odometry_on_map_odom() -> None:
+    node = make_node("map", params={"scan_matching": True, "publish_period_s": 0.2, "status_period_s": 0.2})
+    lidar = Lidar()
+    with running(lidar, node):
+        assert wait_for(lambda: lidar.scan.matched >= 1 and lidar.last_status().get("poses_s", 0) > 0.3, 10)
+        assert wait_for(lambda: len(lidar.corrected) > 5, 10)
+        lidar.vx = 0.5
+
+        def drive() -> bool:  # odometry overshoots: 10 % more than the robot moves
+            lidar.odom_dx = 0.1 * (lidar.pose().x + 1.0)
+            lidar.send_scan(room_ranges(lidar.pose()))
+            return lidar.pose().x >= 1.5
+
+        assert wait_for(drive, 20, 0.05)
+        assert wait_for(lambda: lidar.last_status().get("matches", {}).get("ok", 0) >= 10, 10)
+        for _ in range(5):
+            lidar.send_scan(room_ranges(lidar.pose()))
+        assert wait_for(lambda: lidar.last_status().get("newest_scan", 0) > lidar.now() - 0.3, 5)
+        with lidar.lock:
+            last = lidar.corrected[-1]
+        assert last.header.frame_id == "map" and last.child_frame_id == "base_link"
+        assert abs(lidar.odom_dx) > 0.2
+        assert abs(last.pose.pose.position.x - lidar.pose().x) < 0.08, (last.pose.pose.position.x, lidar.pose())
+        grid = lidar.last(lidar.maps)
+        assert grid is not None and grid.frame_id == "map"
+        assert _near_wall(grid, grid.resolution * 2.5), "walls smeared: scans placed on the drifting odometry"

@@ -122,6 +122,8 @@ OBJECT_MARKERS = Topic("/objects/markers", MarkerArray, qos.QOS_LATCHED)
 # The occupancy map (world/map_node.py) and its costmap, inflated by the footprint: latched, at most 1 Hz.
 MAP = Topic("/map", OccupancyGrid, qos.QOS_LATCHED)
 MAP_COSTMAP = Topic("/map/costmap", OccupancyGrid, qos.QOS_LATCHED)
+# The robot's pose corrected by scan matching against the map (the map node's scan_matching), frame map.
+MAP_ODOM = Topic("/map/odom", Odometry, qos.QOS_DEFAULT)
 
 # Behaviour.
 GOAL = Topic("/goal", String, qos.QOS_DEFAULT)

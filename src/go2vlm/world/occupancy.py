@@ -103,6 +103,14 @@ class Beams:
     range_max: float
     origin: tuple[float, float] = (0.0, 0.0)
 
+    def returns(self) -> np.ndarray:
+        """The returns (finite ranges within [0, range_max]) as (N, 2) points in the base frame."""
+        r = np.asarray(self.ranges, dtype=np.float64).reshape(-1)
+        with np.errstate(invalid="ignore"):
+            hit = np.isfinite(r) & (r >= 0) & (r <= self.range_max)
+        a = self.angle_min + self.angle_increment * np.nonzero(hit)[0]
+        return np.column_stack([self.origin[0] + r[hit] * np.cos(a), self.origin[1] + r[hit] * np.sin(a)])
+
 
 class ScanRefused(ValueError):
     """A scan the map took nothing from; `reason`: bad_geometry | beyond_cap."""

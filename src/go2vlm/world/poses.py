@@ -26,7 +26,7 @@ from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
-__all__ = ["Pose2D", "PoseHistory", "PoseUnavailable", "PoseWait", "wrap_angle"]
+__all__ = ["IDENTITY", "Pose2D", "PoseHistory", "PoseUnavailable", "PoseWait", "odometry_jump", "wrap_angle"]
 
 T = TypeVar("T")
 
@@ -54,6 +54,34 @@ class Pose2D:
         dx, dy = wx - self.x, wy - self.y
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return c * dx + s * dy, -s * dx + c * dy
+
+    def compose(self, other: Pose2D) -> Pose2D:
+        """`other` (a pose in this pose's frame) in the world: self * other."""
+        x, y = self.to_world(other.x, other.y)
+        return Pose2D(x, y, wrap_angle(self.yaw + other.yaw))
+
+    def inverse(self) -> Pose2D:
+        """The world in this pose's frame: self.compose(self.inverse()) is the identity."""
+        x, y = self.to_local(0.0, 0.0)
+        return Pose2D(x, y, wrap_angle(-self.yaw))
+
+
+IDENTITY = Pose2D(0.0, 0.0, 0.0)
+
+
+def odometry_jump(dt: float, a: Pose2D, b: Pose2D, max_speed: float, max_turn: float, min_m: float = 0.25,
+                  min_rad: float = 0.35) -> str:  # fmt: skip
+    """'' when odometry can have gone from `a` to `b` in `dt` seconds, else what it did instead: a move
+    or a turn more than 1.5 times what the robot's ceilings allow (and more than min_m / min_rad,
+    so sample jitter is never a jump) is a teleport, or a robot picked up and put down."""
+    d = math.hypot(b.x - a.x, b.y - a.y)
+    turn = abs(wrap_angle(b.yaw - a.yaw))
+    dt = max(dt, 0.0)
+    if d > max(min_m, 1.5 * max_speed * dt):
+        return f"odometry moved {d:.2f} m in {dt:.3f} s (the robot reaches {max_speed:g} m/s)"
+    if turn > max(min_rad, 1.5 * max_turn * dt):
+        return f"odometry turned {math.degrees(turn):.0f} deg in {dt:.3f} s (the robot turns {max_turn:g} rad/s)"
+    return ""
 
 
 class PoseUnavailable(LookupError):
