@@ -16,11 +16,12 @@ for a map made on the true poses (the reference): the pose error at the end and 
 (position and heading, against the truth), and the map error: each occupied cell's distance to the
 nearest occupied cell of the reference map (mean, 95th percentile, and the share over 0.1 m).
 
-node: a map node in this process (scan_matching on, real DDS publishers), its callbacks called
-directly with the walk's /odom and /scan in their own stamps, /map and /map/costmap built every
-second of them (publish_period_s 1). Reported: CPU time per scan (the callback: the pose, the match,
-the integration), the CPU of a /map + /map/costmap, the process's resident memory before and after,
-and the Python memory the node holds (tracemalloc). With --cap the map is then grown to its cap (60 x
+node: a map node alone in a process of its own (scan_matching on, real DDS publishers), its callbacks
+called directly with the walk's /odom and /scan in their own stamps (sent from this process, which
+casts the rays), /map and /map/costmap built every second of them (publish_period_s 1). Reported:
+CPU time per scan (the callback: the pose, the match, the integration), the CPU of a /map +
+/map/costmap, and the process's resident memory: idle (the node made, nothing mapped: Python, NumPy,
+SciPy, cyclonedds), after the walk and its peak. With --cap the map is then grown to its cap (60 x
 60 m at 5 cm) and published once more: the worst case.
 """
 
@@ -31,11 +32,9 @@ import json
 import math
 import os
 import random
-import resource
 import statistics
 import sys
 import time
-import tracemalloc
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -43,24 +42,31 @@ from typing import Any
 os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(110, 200)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 
-import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import ndimage  # noqa: E402
 
 from go2vlm.geometry.rotations import yaw_quat  # noqa: E402
 from go2vlm.geometry.scan import cloud_to_ranges, to_base  # noqa: E402
 from go2vlm.robot_profile.go2 import GO2  # noqa: E402
-from go2vlm.sim.lidar import Lidar  # noqa: E402
-from go2vlm.sim.odometry_drift import OdometryDrift  # noqa: E402
-from go2vlm.sim.worlds import world_model  # noqa: E402
 from go2vlm.world.occupancy import Beams, OccupancyMap  # noqa: E402
 from go2vlm.world.poses import Pose2D, wrap_angle  # noqa: E402
 from go2vlm.world.scan_match import Corrector  # noqa: E402
 
 # Loops through both rooms of the household world, clear of the furniture (x, y in m).
 ROUTES = {
-    "household": [(-4.0, -1.2), (-1.5, -1.2), (-1.0, 0.0), (1.2, 0.0), (2.5, -1.5), (4.0, -1.8), (4.0, 0.3),
-                  (2.0, 0.0), (-1.0, 0.0), (-2.0, 1.3), (-4.0, 1.2)],  # fmt: skip
+    "household": [
+        (-4.0, -1.2),
+        (-1.5, -1.2),
+        (-1.0, 0.0),
+        (1.2, 0.0),
+        (2.5, -1.5),
+        (4.0, -1.8),
+        (4.0, 0.3),
+        (2.0, 0.0),
+        (-1.0, 0.0),
+        (-2.0, 1.3),
+        (-4.0, 1.2),
+    ],  # fmt: skip
 }
 SPEED, TURN_RATE, ODOM_HZ, SCAN_EVERY = 0.6, 1.0, 50.0, 5  # m/s, rad/s, Hz, odometry samples per scan
 
@@ -95,6 +101,12 @@ class WorldLidar:
     """The sim's /scan at a pose in a world: the L1 lidar's rays cast in MuJoCo, ranges as the sim makes them."""
 
     def __init__(self, world: str) -> None:
+        import mujoco  # here: the node's own process (section node) must not hold MuJoCo
+
+        from go2vlm.sim.lidar import Lidar
+        from go2vlm.sim.worlds import world_model
+
+        self.mj = mujoco
         self.model, _ = world_model(world)
         self.data = mujoco.MjData(self.model)
         base = self.model.body("base")
@@ -106,7 +118,7 @@ class WorldLidar:
     def beams(self, pose: Pose2D) -> Beams:
         self.data.qpos[self.qadr : self.qadr + 3] = (pose.x, pose.y, GO2.stand_height)
         self.data.qpos[self.qadr + 3 : self.qadr + 7] = yaw_quat(pose.yaw)
-        mujoco.mj_kinematics(self.model, self.data)
+        self.mj.mj_kinematics(self.model, self.data)
         ranges = cloud_to_ranges(to_base(self.lidar.scan(self.data), self.tf), self.spec)
         s = self.spec
         return Beams(ranges, s.angle_min, s.angle_increment, s.range_min, s.range_max)
@@ -132,6 +144,8 @@ def _p95(values: Any) -> float:
 
 
 def section_walk(args: argparse.Namespace) -> dict[str, Any]:
+    from go2vlm.sim.odometry_drift import OdometryDrift  # go2vlm.sim brings MuJoCo
+
     lidar = WorldLidar(args.world)
     drift = OdometryDrift(args.drift, seed=args.seed)
     runs = {"reference": (OccupancyMap(), Corrector()), "odometry": (OccupancyMap(), Corrector()),
@@ -179,15 +193,19 @@ def section_walk(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def _rss_mb() -> float:
+def _proc_mb(key: str) -> float:
+    """VmRSS or VmHWM (the peak) of this process, MB."""
     with open("/proc/self/status") as f:
         for line in f:
-            if line.startswith("VmRSS:"):
+            if line.startswith(key + ":"):
                 return int(line.split()[1]) / 1024
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return float("nan")
 
 
-def section_node(args: argparse.Namespace) -> dict[str, Any]:
+def _node_child(conn: Any, cap: bool) -> None:
+    """The map node alone in a process (no MuJoCo, no benchmark): fed through `conn`, it reports its
+    CPU per callback and its memory."""
+    from go2vlm.geometry.rotations import yaw_quat
     from go2vlm.launch.registry import make_node
     from go2vlm.msgs.builtin_interfaces import Time
     from go2vlm.msgs.geometry_msgs import Quaternion
@@ -195,28 +213,27 @@ def section_node(args: argparse.Namespace) -> dict[str, Any]:
     from go2vlm.msgs.sensor_msgs import LaserScan
     from go2vlm.msgs.std_msgs import Header
 
-    lidar = WorldLidar(args.world)
-    drift = OdometryDrift(args.drift, seed=args.seed)
-    rss0 = _rss_mb()
-    tracemalloc.start()
     node = make_node("map", params={"scan_matching": True})
-    scan_ms, publish_ms = [], []
-    n, next_pub = 0, 1.0
-    for t, truth in walk(ROUTES[args.world], args.walk_m):
-        x, y, yaw = drift.update(truth.x, truth.y, truth.yaw)
+    idle = _proc_mb("VmRSS")
+    scan_ms: list[float] = []
+    publish_ms: list[float] = []
+    next_pub = 1.0
+    while True:
+        item = conn.recv()
+        if item is None:
+            break
+        t, (x, y, yaw), beams = item
         q = yaw_quat(yaw)
         odom = Odometry(header=Header(stamp=Time.from_sec(t), frame_id="odom"), child_frame_id="base_link")
         odom.pose.pose.position.x, odom.pose.pose.position.y = x, y
         odom.pose.pose.orientation = Quaternion(x=0.0, y=0.0, z=float(q[3]), w=float(q[0]))
         node.on_odom(odom)
-        n += 1
-        if n % SCAN_EVERY:
+        if beams is None:
             continue
-        b = lidar.beams(truth)
-        scan = LaserScan(header=Header(stamp=Time.from_sec(t), frame_id="base_link"), angle_min=b.angle_min,
-                         angle_max=b.angle_min + (len(b.ranges) - 1) * b.angle_increment,
-                         angle_increment=b.angle_increment, range_min=b.range_min, range_max=b.range_max,
-                         ranges=b.ranges.tolist())  # fmt: skip
+        angle_min, inc, rmin, rmax, ranges = beams
+        scan = LaserScan(header=Header(stamp=Time.from_sec(t), frame_id="base_link"), angle_min=angle_min,
+                         angle_max=angle_min + (len(ranges) - 1) * inc, angle_increment=inc, range_min=rmin,
+                         range_max=rmax, ranges=ranges)  # fmt: skip
         t0 = time.thread_time()
         node.on_scan(scan)
         scan_ms.append((time.thread_time() - t0) * 1e3)
@@ -226,34 +243,51 @@ def section_node(args: argparse.Namespace) -> dict[str, Any]:
             node.publish_map()
             publish_ms.append((time.thread_time() - t0) * 1e3)
     status = node.status()
-    py_mb = tracemalloc.get_traced_memory()[1] / 2**20
     out: dict[str, Any] = {
-        "world": args.world,
         "scans": len(scan_ms),
         "scan_cpu_ms": {"mean": round(statistics.fmean(scan_ms), 3), "p95": _p95(scan_ms)},
-        "publish_cpu_ms": {"mean": round(statistics.fmean(publish_ms), 2), "max": round(max(publish_ms), 2)}
-        if publish_ms else None,
+        "publish_cpu_ms": {"mean": round(statistics.fmean(publish_ms), 2), "max": round(max(publish_ms), 2)},
         "map_m": status["size_m"],
         "matches": status["matches"],
-        "rss_mb": {"before": round(rss0, 1), "after": round(_rss_mb(), 1)},
-        "python_peak_mb": round(py_mb, 1),
+        "rss_mb": {"idle": round(idle, 1), "after": round(_proc_mb("VmRSS"), 1), "peak": round(_proc_mb("VmHWM"), 1)},
     }  # fmt: skip
-    if args.cap:
+    if cap:  # grown to its cap: rings of returns across the whole 60 x 60 m, then one publish
         grid = node.grid
         ring = Beams(np.full(180, 3.0, np.float32), -math.pi, 2 * math.pi / 180, 0.05, 10.0)
         half = grid.params.max_size_m / 2 - 4.0
-        for x in np.linspace(-half, half, 6):
-            for y in np.linspace(-half, half, 6):
-                grid.integrate(ring, Pose2D(float(x), float(y), 0.0))
+        for gx in np.linspace(-half, half, 6):
+            for gy in np.linspace(-half, half, 6):
+                grid.integrate(ring, Pose2D(float(gx), float(gy), 0.0))
         node._dirty = True
         t0 = time.thread_time()
         node.publish_map()
-        out["cap"] = {"map_m": [round(s * grid.resolution, 1) for s in grid.shape[::-1]],
-                      "publish_cpu_ms": round((time.thread_time() - t0) * 1e3, 1),
-                      "rss_mb": round(_rss_mb(), 1),
-                      "python_peak_mb": round(tracemalloc.get_traced_memory()[1] / 2**20, 1)}  # fmt: skip
-    tracemalloc.stop()
+        rss = {"after": round(_proc_mb("VmRSS"), 1), "peak": round(_proc_mb("VmHWM"), 1)}
+        out["cap"] = {"map_m": [round(v * grid.resolution, 1) for v in grid.shape[::-1]],
+                      "publish_cpu_ms": round((time.thread_time() - t0) * 1e3, 1), "rss_mb": rss}  # fmt: skip
     node.close()
+    conn.send(out)
+
+
+def section_node(args: argparse.Namespace) -> dict[str, Any]:
+    import multiprocessing as mp
+
+    from go2vlm.sim.odometry_drift import OdometryDrift
+
+    lidar = WorldLidar(args.world)
+    drift = OdometryDrift(args.drift, seed=args.seed)
+    ctx = mp.get_context("spawn")
+    ours, theirs = ctx.Pipe()
+    child = ctx.Process(target=_node_child, args=(theirs, args.cap))
+    child.start()
+    for n, (t, truth) in enumerate(walk(ROUTES[args.world], args.walk_m), 1):
+        beams = None
+        if n % SCAN_EVERY == 0:
+            b = lidar.beams(truth)
+            beams = (b.angle_min, b.angle_increment, b.range_min, b.range_max, b.ranges.tolist())
+        ours.send((t, drift.update(truth.x, truth.y, truth.yaw), beams))
+    ours.send(None)
+    out: dict[str, Any] = {"world": args.world, **ours.recv()}
+    child.join(60)
     return out
 
 

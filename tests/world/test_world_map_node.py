@@ -8,20 +8,24 @@ import json
 import math
 import threading
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 from busutil import wait_for
 from maputil import BINS, room_scan
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
+from go2vlm.bus.service import ServiceClient
 from go2vlm.geometry.rotations import yaw_quat
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Point, Pose, Quaternion
+from go2vlm.msgs.go2vlm_msgs import MemoryFile
 from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.world.map_file import dumps, loads
 from go2vlm.world.map_msg import Grid, grid_of
-from go2vlm.world.occupancy import FREE, INSCRIBED, LETHAL, UNKNOWN
+from go2vlm.world.occupancy import FREE, INSCRIBED, LETHAL, UNKNOWN, GridParams, OccupancyMap
 from go2vlm.world.poses import Pose2D
 
 ROOM = (3.01, 2.02)  # half sizes of the room about the origin (m)
@@ -200,3 +204,40 @@ def test_scan_matching_corrects_drifting_odometry_on_map_odom() -> None:
         grid = lidar.last(lidar.maps)
         assert grid is not None and grid.frame_id == "map"
         assert _near_wall(grid, grid.resolution * 2.5), "walls smeared: scans placed on the drifting odometry"
+
+
+def test_the_map_is_saved_and_loaded_all_or_nothing(tmp_path: Path) -> None:
+    node = make_node("map", params={"world": "home", "publish_period_s": 0.2, "status_period_s": 0.2})
+    lidar = Lidar()
+    with running(lidar, node), ServiceClient(MemoryFile, "/map/map_file", lidar.participant) as files:
+        assert wait_for(lambda: lidar.scan.matched >= 1 and lidar.last_status().get("poses_s", 0) > 0.3, 10)
+
+        def mapped() -> bool:
+            lidar.send_scan(room_ranges(lidar.pose()))
+            return lidar.last_status().get("integrated", 0) >= 10
+
+        assert wait_for(mapped, 10, 0.05)
+        memory = tmp_path / "home.json"  # the object memory's file: the map goes beside it
+        rep = files.call(MemoryFile.Request(command="save", path=str(memory)), 10)
+        assert rep.success and rep.objects > 100 and (tmp_path / "home.map.npz").exists(), rep.message
+        saved = loads((tmp_path / "home.map.npz").read_bytes(), "home", "odom", GridParams())
+        cells = lidar.last_status()["cells"]
+        # Refused, one line each, and the map stays as it was.
+        other = OccupancyMap()
+        other.integrate(room_scan(Pose2D(0, 0, 0), room=(1.51, 1.02)), Pose2D(0, 0, 0))
+        (tmp_path / "office.map.npz").write_bytes(dumps(other, "office", "odom", 1.0))
+        (tmp_path / "broken.map.npz").write_bytes((tmp_path / "home.map.npz").read_bytes()[:300])
+        for name, says in (("office.json", "world 'office'"), ("broken.json", "not a map file")):
+            for command in ("check", "load"):
+                rep = files.call(MemoryFile.Request(command=command, path=str(tmp_path / name)), 10)
+                assert not rep.success and says in rep.message and "\n" not in rep.message, rep.message
+        rep = files.call(MemoryFile.Request(command="load", path=str(tmp_path / "none.json")), 10)
+        assert rep.success and "no map file" in rep.message
+        assert lidar.last_status()["cells"] == cells
+        # A map of this world loads whole: the smaller room replaces the one mapped.
+        (tmp_path / "small.map.npz").write_bytes(dumps(other, "home", "odom", 1.0))
+        rep = files.call(MemoryFile.Request(command="load", path=str(tmp_path / "small.json")), 10)
+        assert rep.success and rep.objects == other.counts()["occupied"], rep.message
+        assert wait_for(lambda: lidar.last_status()["cells"] == other.counts(), 5), lidar.last_status()
+        assert wait_for(lambda: (g := lidar.last(lidar.maps)) is not None and g.cells.shape == other.shape, 5)
+        assert saved.counts()["occupied"] == cells["occupied"]

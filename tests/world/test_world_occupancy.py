@@ -14,6 +14,7 @@ from maputil import BINS, INC, ROOM, room_scan, wall_distance
 
 from go2vlm.world.occupancy import (
     FREE,
+    GAP_BEAMS,
     INSCRIBED,
     LETHAL,
     UNKNOWN,
@@ -199,3 +200,26 @@ def test_the_costmap_bands_follow_the_footprint() -> None:
     assert (cost[(d > params.inflation_m) & (values == FREE)] == FREE).all()
     assert (cost[values == UNKNOWN] == UNKNOWN).all()
     assert (inflate(np.full((5, 5), UNKNOWN, np.int8), 0.05, params) == UNKNOWN).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(pose=poses, holes=st.sets(st.integers(0, BINS - 1), max_size=40))
+def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, holes: set[int]) -> None:
+    """Bins a cloud left empty (+inf between two returns) clear only to their neighbours' walls; more
+    in a row than GAP_BEAMS (with far returns round them) are an opening and clear to range_max."""
+    beams = room_scan(pose)
+    ranges = beams.ranges.copy()
+    lone = {i for i in holes if (i - 1) % BINS not in holes and (i + 1) % BINS not in holes}
+    ranges[sorted(lone)] = np.inf
+    grid = OccupancyMap()
+    grid.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    rows, cols = np.nonzero(grid.values() == FREE)
+    cx = (cols + grid.offset[0] + 0.5) * grid.resolution
+    cy = (rows + grid.offset[1] + 0.5) * grid.resolution
+    tol = grid.resolution * math.sqrt(2) / 2  # the wall's own cells may be half free
+    assert (np.abs(cx) < ROOM[0] + tol).all() and (np.abs(cy) < ROOM[1] + tol).all(), "free space past a wall"
+    opening = ranges.copy()
+    far = int(np.argmax(beams.ranges))  # an open door in the farthest wall
+    opening[np.arange(far - 1, far + GAP_BEAMS) % BINS] = np.inf
+    grid.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    assert (grid.values() == FREE).sum() > len(rows)

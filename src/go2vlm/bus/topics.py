@@ -174,6 +174,8 @@ SIM_STATUS = _status("/sim/status")
 # The object memory's services (bus/service.py; the srv type carries request and reply).
 WHERE_IS_SERVICE = "/object_memory/where_is"
 MEMORY_FILE_SERVICE = "/object_memory/memory_file"
+# The map node's: its map file beside a memory file (the same srv type: save | load | check).
+MAP_FILE_SERVICE = "/map/map_file"
 
 # Every topic above, by name.
 TOPICS: dict[str, Topic[Any]] = {t.name: t for t in list(globals().values()) if isinstance(t, Topic)}

@@ -22,6 +22,16 @@ Topics
               /map/odom         nav_msgs/Odometry (reliable), only with scan_matching: every /odom
                                 sample corrected by the newest scan match, frame map_frame, child
                                 base_link, the twist as /odom's
+              /tf               tf2_msgs/TFMessage (reliable), only with scan_matching: map_frame ->
+                                odom_frame (the correction) at each scan, so that rviz2 and Foxglove
+                                show the map under the robot
+  services    /map/map_file     go2vlm_msgs/srv/MemoryFile: save | load | check the map file beside a
+                                memory file (path = the memory file: home.json -> home.map.npz, a path
+                                on this node's machine; world/map_file.py). A load (and a check) reads
+                                and checks the whole file first: a file of another world, frame or
+                                resolution, larger than the cap, or corrupt is refused with one line
+                                and the map stays as it was. `go2vlm objects --save/--load` calls it
+                                with the object memory's, all or nothing
               /map/status       std_msgs/String, latched JSON: state (mapping | lost), frame, size,
                                 cells (occupied, free, unknown), scans (integrated, refused.<reason>,
                                 dropped beams and the last drop), matches, the correction, odometry
@@ -32,7 +42,10 @@ Parameters
   scan_topic (/scan), odom_topic (/odom), odom_frame ("odom"), map_frame ("map"), resolution_m
   (0.05 m), max_size_m (60.0 m: the cap, a side), padding_m (0.05 m), inflation_m (0.8 m), history_s
   (10.0 s of poses), pose_wait_s (0.5 s: a scan newer than the newest pose waits this long),
-  scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), publish_period_s (1.0 s),
+  scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), world ("": the place the map
+  is of; a map file of another world is refused), map_file ("": a memory file whose map to load at
+  start; one that is corrupt, of another world, frame or resolution stops the node with one line,
+  exit 2; a missing one starts empty), save_on_exit (false), publish_period_s (1.0 s),
   status_period_s (1.0 s).
 
 Refused scans, counted on the status (refused.<reason>), never integrated: wrong_frame (not in
@@ -69,19 +82,27 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from go2vlm.bus import Node, param
-from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_ODOM, MAP_STATUS, ODOM, SCAN
+from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_FILE_SERVICE, MAP_ODOM, MAP_STATUS, ODOM, SCAN, TF
+from go2vlm.errors import ConfigError
 from go2vlm.geometry.rotations import quat_yaw, yaw_quat
+from go2vlm.msgs.base_state import transform_stamped
 from go2vlm.msgs.geometry_msgs import Quaternion
+from go2vlm.msgs.go2vlm_msgs import MemoryFile, MemoryFile_Request, MemoryFile_Response
 from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.map_file import MAX_FILE_BYTES, MapFileError, dumps, loads, map_file_for
 from go2vlm.world.map_msg import grid_msg
 from go2vlm.world.occupancy import Beams, CostmapParams, GridParams, OccupancyMap, ScanRefused, inflate
 from go2vlm.world.poses import Pose2D, PoseHistory, PoseUnavailable, PoseWait, odometry_jump
@@ -111,6 +132,9 @@ class MapConfig:
                                   max=30.0)  # fmt: skip
     lost_reset_s: float = param(10.0, help="lost this long after an odometry jump: a new map (s; 0 = never)",
                                 min=0.0, max=3600.0)  # fmt: skip
+    world: str = param("", help="the place this map is of; a map file of another world is refused")
+    map_file: str = param("", help="the memory file whose map (NAME.map.npz beside it) to load at start ('' = none)")
+    save_on_exit: bool = param(False, help="write map_file's map when the node stops")
     publish_period_s: float = param(1.0, help="/map and /map/costmap at most this often (s)", min=0.1, max=60.0)
     status_period_s: float = param(1.0, help="/map/status period besides on a new refusal", min=0.1, max=60.0)
 
@@ -151,12 +175,16 @@ class MapNode(Node):
         self.dropped: dict[str, int] = {"nan": 0, "invalid": 0, "beyond_cap": 0}
         self.last_refusal = self.last_drop = self.last_jump = self.last_reset = ""
         self._dirty = False
+        if cfg.map_file:
+            self._load_at_start(map_file_for(Path(cfg.map_file).expanduser()))
         self.pub_map = MAP.publisher(self)
         self.pub_costmap = MAP_COSTMAP.publisher(self)
         self.pub_status = MAP_STATUS.publisher(self)
         self.pub_odom = MAP_ODOM.publisher(self) if cfg.scan_matching else None
+        self.pub_tf = TF.publisher(self) if cfg.scan_matching else None
         ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
         SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
+        self.create_service(MemoryFile, MAP_FILE_SERVICE, self.map_file)
         self.create_timer(cfg.publish_period_s, self.publish_map)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.publish_status()
@@ -227,6 +255,7 @@ class MapNode(Node):
         pose, m = self.corrector.locate(self.grid, points, odom, self.config.scan_matching)
         if m is not None:
             self.count(f"match.{m.reason or 'ok'}")
+            self._publish_tf(msg.header)
         if self._check and not self._agrees(points, pose, stamp):
             return
         try:
@@ -296,6 +325,13 @@ class MapNode(Node):
         out.pose.pose.orientation = Quaternion(x=0.0, y=0.0, z=float(q[3]), w=float(q[0]))
         self.pub_odom.publish(out)
 
+    def _publish_tf(self, scan: Header) -> None:
+        assert self.pub_tf is not None
+        c = self.corrector.correction
+        head = Header(stamp=scan.stamp, frame_id=self.config.map_frame)
+        self.pub_tf.publish(TFMessage(transforms=[transform_stamped(head, self.config.odom_frame, (c.x, c.y, 0.0),
+                                                                    yaw_quat(c.yaw))]))  # fmt: skip
+
     def publish_map(self) -> None:
         """/map and /map/costmap, when a scan changed the grid since the last ones."""
         if not self._dirty or self.grid.empty:
@@ -307,6 +343,79 @@ class MapNode(Node):
         self.pub_map.publish(grid_msg(values, grid.origin, grid.resolution, self.frame, self.newest_scan))
         self.pub_costmap.publish(grid_msg(cost, grid.origin, grid.resolution, self.frame, self.newest_scan))
         self.count("published")
+
+    # -- the map file ------------------------------------------------------------------------
+    def map_file(self, req: MemoryFile_Request) -> MemoryFile_Response:
+        """save | load | check the map beside the memory file `req.path`; `objects` = occupied cells."""
+        path = map_file_for(Path(str(req.path)).expanduser())
+        if req.command == "save":
+            try:
+                n = self.save(path)
+            except OSError as exc:
+                return MemoryFile.Response(False, f"cannot write {path}: {exc.strerror or exc}", 0)
+            return MemoryFile.Response(True, f"saved the map ({n} occupied cells) to {path}", n)
+        if req.command in ("load", "check"):
+            if not path.exists():
+                return MemoryFile.Response(True, f"no map file {path}: the map stays as it is", 0)
+            try:
+                grid = self._read(path)
+            except (MapFileError, OSError) as exc:
+                return MemoryFile.Response(False, f"refused {path}: {_one_line(exc)}", 0)
+            n = grid.counts()["occupied"]
+            if req.command == "load":
+                self._replace(grid)
+                self.log.info(f"loaded the map from {path}")
+            return MemoryFile.Response(True, f"{req.command}ed the map ({n} occupied cells) from {path}", n)
+        return MemoryFile.Response(False, f"unknown command {str(req.command)[:20]!r}: use save, load or check", 0)
+
+    def _read(self, path: Path) -> OccupancyMap:
+        cfg = self.config
+        with open(path, "rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
+        return loads(data, cfg.world, self.frame, self.grid.params)
+
+    def _replace(self, grid: OccupancyMap) -> None:
+        """A whole new map (checked): the correction and any jump check are of the old one."""
+        self.grid = grid
+        self.corrector.reset()
+        self._check, self._lost_since = False, None
+        self._dirty = True
+        self.publish_map()
+        self.publish_status()
+
+    def _load_at_start(self, path: Path) -> None:
+        if not path.exists():
+            self.log.info(f"no map file {path} yet: starting empty")
+            return
+        try:
+            self.grid = self._read(path)
+        except (MapFileError, OSError) as exc:
+            raise ConfigError(f"map_file {path}: {_one_line(exc)}") from None
+        self._dirty = True
+
+    def save(self, path: Path) -> int:
+        """Write the map to `path` atomically; the number of occupied cells written."""
+        data = dumps(self.grid, self.config.world, self.frame, self.newest_scan)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return self.grid.counts()["occupied"] if not self.grid.empty else 0
+
+    def close(self) -> None:
+        cfg = self.config
+        if cfg.save_on_exit and cfg.map_file:
+            path = map_file_for(Path(cfg.map_file).expanduser())
+            try:
+                self.save(path)
+                self.log.info(f"saved the map to {path}")
+            except OSError as exc:
+                self.log.error(f"cannot save the map to {path}: {exc}")
 
     def status(self) -> dict[str, Any]:
         g = self.grid
@@ -340,3 +449,7 @@ class MapNode(Node):
 
     def publish_status(self) -> None:
         self.pub_status.publish(String(data=json.dumps(self.status(), ensure_ascii=False)))
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())

@@ -19,10 +19,14 @@ Rules
 - Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
   the cells before it on the ray lose `miss` (a range under range_min is a hit with no free ray: too
   close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
-  space up to range_max and marks nothing. NaN ranges are dropped and counted (`nan`); -inf and
-  negative ranges too (`invalid`). A cell gains or loses once per scan, and a cell hit by this scan
-  is not cleared by another of its rays grazing it. Log-odds are clamped to [min_logodds,
-  max_logodds], so a moved object is cleared after a few scans.
+  space up to range_max and marks nothing; but a run of at most GAP_BEAMS of them between two beams
+  with returns (NEAR_GAP_BEAMS when one of them is within NEAR_GAP_M) is a gap in the sampling,
+  not an opening (a /scan binned from a cloud leaves such holes: along walls, and wide ones beside a
+  near object, as the lidar sits ahead of the base): it clears only up to the nearer of the two
+  returns, less a cell, never through a wall. NaN ranges are
+  dropped and counted (`nan`); -inf and negative ranges too (`invalid`). A cell gains or loses once
+  per scan, and a cell hit by this scan is not cleared by another of its rays grazing it. Log-odds
+  are clamped to [min_logodds, max_logodds], so a moved object is cleared after a few scans.
 - Rays are sampled every half cell (a vectorised walk; corner-clipped cells may be skipped).
 - Grows with what it sees, `grow_margin_m` at a time, up to `max_size_m` a side; beyond that cap the
   part of a scan outside is dropped (`beyond_cap`, counted per beam), and a scan whose origin is
@@ -183,8 +187,14 @@ class OccupancyMap:
         ox, oy = pose.to_world(*beams.origin)
         wa = angles + pose.yaw
         dx, dy = np.cos(wa), np.sin(wa)
-        # Free rays: to the return (not for one under range_min), or to range_max without one.
+        # Free rays: to the return (not for one under range_min), or to range_max without one; but a
+        # lone beam without a return between two with one is a gap in the sampling (a scan binned
+        # from a cloud leaves such holes in a wall), not a hole in the wall: it clears only as far as
+        # the nearer of its neighbours' returns.
         free_len = np.where(hit, np.where(r >= beams.range_min, r, 0.0), np.where(no_return, beams.range_max, 0.0))
+        wraps = len(r) * beams.angle_increment > 2 * math.pi - 1.5 * beams.angle_increment
+        gap, bound = _gaps(np.where(hit, r, np.inf), no_return, wraps)
+        free_len[gap] = np.maximum(bound[gap] - self.resolution, 0.0)
         res = self.resolution
         hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
         step = res / 2.0
@@ -281,6 +291,34 @@ class OccupancyMap:
         v = self.values()
         return {"occupied": int((v == LETHAL).sum()), "free": int((v == FREE).sum()),
                 "unknown": int((v == UNKNOWN).sum())}  # fmt: skip
+
+
+GAP_BEAMS = 2  # a run of this many beams without a return between two with one is a gap ...
+NEAR_GAP_BEAMS = 12  # ... and of this many, when one of the two returns is within NEAR_GAP_M
+NEAR_GAP_M = 1.5  # (a lidar ahead of the base leaves wide holes in the bins of a near object)
+
+
+def _gaps(r_hit: np.ndarray, no_return: np.ndarray, wraps: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Beams without a return that are gaps in the sampling, not openings (see `OccupancyMap.integrate`),
+    and for each the nearer of the two returns round its run."""
+    n = len(r_hit)
+    gap, bound = np.zeros(n, dtype=bool), np.full(n, np.inf)
+    hits = np.nonzero(np.isfinite(r_hit))[0]
+    if len(hits) < 2 or not no_return.any():
+        return gap, bound
+    # Each run lies between two consecutive returns (round the turn when the scan wraps).
+    a, b = hits[:-1], hits[1:]
+    if wraps:
+        a, b = np.append(a, hits[-1]), np.append(b, hits[0] + n)
+    length = b - a - 1
+    near = np.minimum(r_hit[a % n], r_hit[b % n]) <= NEAR_GAP_M
+    short = (length >= 1) & ((length <= GAP_BEAMS) | (near & (length <= NEAR_GAP_BEAMS)))
+    for lo, hi in zip(a[short], b[short], strict=True):
+        idx = np.arange(lo + 1, hi) % n
+        idx = idx[no_return[idx]]
+        gap[idx] = True
+        bound[idx] = min(r_hit[lo % n], r_hit[hi % n])
+    return gap, bound
 
 
 def _check_geometry(b: Beams) -> None:
