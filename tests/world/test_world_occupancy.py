@@ -218,8 +218,12 @@ def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, 
     cy = (rows + grid.offset[1] + 0.5) * grid.resolution
     tol = grid.resolution * math.sqrt(2) / 2  # the wall's own cells may be half free
     assert (np.abs(cx) < ROOM[0] + tol).all() and (np.abs(cy) < ROOM[1] + tol).all(), "free space past a wall"
-    opening = ranges.copy()
-    far = int(np.argmax(beams.ranges))  # an open door in the farthest wall
-    opening[np.arange(far - 1, far + GAP_BEAMS) % BINS] = np.inf
-    grid.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
-    assert (grid.values() == FREE).sum() > len(rows)
+    near = int(np.argmin(beams.ranges))  # an open door in the nearest wall (within no_return_m) ...
+    opening = beams.ranges.copy()
+    opening[np.arange(near - 1, near + GAP_BEAMS) % BINS] = np.inf
+    fresh = OccupancyMap()
+    fresh.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    rows, cols = np.nonzero(fresh.values() == FREE)
+    cx = (cols + fresh.offset[0] + 0.5) * fresh.resolution
+    cy = (rows + fresh.offset[1] + 0.5) * fresh.resolution
+    assert ((np.abs(cx) > ROOM[0] + tol) | (np.abs(cy) > ROOM[1] + tol)).any(), "... clears past it"

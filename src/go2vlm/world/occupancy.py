@@ -19,12 +19,12 @@ Rules
 - Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
   the cells before it on the ray lose `miss` (a range under range_min is a hit with no free ray: too
   close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
-  space up to range_max and marks nothing; but a run of at most GAP_BEAMS of them between two beams
-  with returns (NEAR_GAP_BEAMS when one of them is within NEAR_GAP_M) is a gap in the sampling,
-  not an opening (a /scan binned from a cloud leaves such holes: along walls, and wide ones beside a
-  near object, as the lidar sits ahead of the base): it clears only up to the nearer of the two
-  returns, less a cell, never through a wall. NaN ranges are
-  dropped and counted (`nan`); -inf and negative ranges too (`invalid`). A cell gains or loses once
+  space up to range_max, at most `no_return_m`, and marks nothing; but a run of them between two
+  beams with returns that is at most GAP_BEAMS long, or no wider than 1.2 x atan(parallax_m / the
+  nearer return), is a gap in the sampling, not an opening (a /scan binned from a cloud leaves such
+  holes: along walls, and wide ones beside a near object, as the Go2's lidar sits 0.29 m ahead of
+  the base): it clears only up to the nearer of the two returns, less a cell, never through a wall.
+  NaN ranges are dropped and counted (`nan`); -inf and negative ranges too (`invalid`). A cell gains or loses once
   per scan, and a cell hit by this scan is not cleared by another of its rays grazing it. Log-odds
   are clamped to [min_logodds, max_logodds], so a moved object is cleared after a few scans.
 - Rays are sampled every half cell (a vectorised walk; corner-clipped cells may be skipped).
@@ -75,6 +75,7 @@ class GridParams:
     miss: float = 0.4  # log-odds a ray through a cell takes
     min_logodds: float = -2.0
     max_logodds: float = 3.5
+    no_return_m: float = 4.0  # a beam without a return clears free space this far at most
     occupied_logodds: float = 0.5  # /map: occupied at or above (one hit) ...
     free_logodds: float = -0.3  # ... free at or below (one ray through)
 
@@ -106,6 +107,7 @@ class Beams:
     range_min: float
     range_max: float
     origin: tuple[float, float] = (0.0, 0.0)
+    parallax_m: float = 0.0  # how far the sensor sits from `origin` (its rays are binned from there)
 
     def returns(self) -> np.ndarray:
         """The returns (finite ranges within [0, range_max]) as (N, 2) points in the base frame."""
@@ -191,9 +193,10 @@ class OccupancyMap:
         # lone beam without a return between two with one is a gap in the sampling (a scan binned
         # from a cloud leaves such holes in a wall), not a hole in the wall: it clears only as far as
         # the nearer of its neighbours' returns.
-        free_len = np.where(hit, np.where(r >= beams.range_min, r, 0.0), np.where(no_return, beams.range_max, 0.0))
+        clear = min(beams.range_max, p.no_return_m)
+        free_len = np.where(hit, np.where(r >= beams.range_min, r, 0.0), np.where(no_return, clear, 0.0))
         wraps = len(r) * beams.angle_increment > 2 * math.pi - 1.5 * beams.angle_increment
-        gap, bound = _gaps(np.where(hit, r, np.inf), no_return, wraps)
+        gap, bound = _gaps(np.where(hit, r, np.inf), no_return, wraps, beams.angle_increment, beams.parallax_m)
         free_len[gap] = np.maximum(bound[gap] - self.resolution, 0.0)
         res = self.resolution
         hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
@@ -293,12 +296,12 @@ class OccupancyMap:
                 "unknown": int((v == UNKNOWN).sum())}  # fmt: skip
 
 
-GAP_BEAMS = 2  # a run of this many beams without a return between two with one is a gap ...
-NEAR_GAP_BEAMS = 12  # ... and of this many, when one of the two returns is within NEAR_GAP_M
-NEAR_GAP_M = 1.5  # (a lidar ahead of the base leaves wide holes in the bins of a near object)
+GAP_BEAMS = 5  # a run of this many beams (10 degrees at 2) without a return between two with one is a gap ...
 
 
-def _gaps(r_hit: np.ndarray, no_return: np.ndarray, wraps: bool) -> tuple[np.ndarray, np.ndarray]:
+def _gaps(
+    r_hit: np.ndarray, no_return: np.ndarray, wraps: bool, increment: float, parallax_m: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Beams without a return that are gaps in the sampling, not openings (see `OccupancyMap.integrate`),
     and for each the nearer of the two returns round its run."""
     n = len(r_hit)
@@ -311,8 +314,11 @@ def _gaps(r_hit: np.ndarray, no_return: np.ndarray, wraps: bool) -> tuple[np.nda
     if wraps:
         a, b = np.append(a, hits[-1]), np.append(b, hits[0] + n)
     length = b - a - 1
-    near = np.minimum(r_hit[a % n], r_hit[b % n]) <= NEAR_GAP_M
-    short = (length >= 1) & ((length <= GAP_BEAMS) | (near & (length <= NEAR_GAP_BEAMS)))
+    near = np.minimum(r_hit[a % n], r_hit[b % n])
+    # ... so is one no wider than what a sensor parallax_m off the scan's origin leaves beside a return
+    # at that range (a lidar ahead of the base casts its rays round a near object's edge).
+    widest = np.maximum(GAP_BEAMS, 1.2 * np.arctan2(parallax_m, near) / increment + 1)
+    short = (length >= 1) & (length <= widest)
     for lo, hi in zip(a[short], b[short], strict=True):
         idx = np.arange(lo + 1, hi) % n
         idx = idx[no_return[idx]]
