@@ -4,6 +4,7 @@ odometry drift, with and without scan matching, what a scan costs, and what the 
     .venv/bin/python benchmarks/bench_map.py --sections walk --walk-m 100          # the drift walk
     .venv/bin/python benchmarks/bench_map.py --sections node --walk-m 100 --cap    # CPU per scan, memory
     .venv/bin/python benchmarks/bench_map.py --sections walk,node --walk-m 10      # a tiny setting
+    .venv/bin/python benchmarks/bench_map.py --sections icp --walk-m 100           # with small_gicp installed
 
 walk: a robot walks loops through a world (household by default: both rooms, through the doorway;
 0.6 m/s, turning on the spot at 1 rad/s at each corner) until it has walked --walk-m metres. Its
@@ -15,6 +16,9 @@ does per scan) maps it twice: on the odometry alone, and with scan matching. Rep
 for a map made on the true poses (the reference): the pose error at the end and over the walk
 (position and heading, against the truth), and the map error: each occupied cell's distance to the
 nearest occupied cell of the reference map (mean, 95th percentile, and the share over 0.1 m).
+
+icp: the walk matched by small_gicp's ICP beside our matcher (CPU per scan, pose error), for the
+choice of matcher; small_gicp is not a go2vlm dependency: `pip install small_gicp` first.
 
 node: a map node alone in a process of its own (scan_matching on, real DDS publishers), its callbacks
 called directly with the walk's /odom and /scan in their own stamps (sent from this process, which
@@ -194,6 +198,54 @@ def section_walk(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def section_icp(args: argparse.Namespace) -> dict[str, Any]:
+    """The walk matched by small_gicp's point-to-point ICP (against the map's occupied cells within 6 m,
+    from the same corrected guess) beside our matcher: what a maintained library would give. Needs
+    `pip install small_gicp` (not a go2vlm dependency)."""
+    import small_gicp
+
+    from go2vlm.sim.odometry_drift import OdometryDrift
+
+    lidar = WorldLidar(args.world)
+    drift = OdometryDrift(args.drift, seed=args.seed)
+    grids = {"small_gicp": OccupancyMap(), "ours": OccupancyMap()}
+    ours, correction = Corrector(), Pose2D(0.0, 0.0, 0.0)
+    cpu: dict[str, list[float]] = {k: [] for k in grids}
+    err: dict[str, list[float]] = {k: [] for k in grids}
+    for n, (_, truth) in enumerate(walk(ROUTES[args.world], args.walk_m), 1):
+        odom = Pose2D(*drift.update(truth.x, truth.y, truth.yaw))
+        if n % SCAN_EVERY:
+            continue
+        beams = lidar.beams(truth)
+        points = beams.returns()
+        grid = grids["small_gicp"]
+        pose = correction.compose(odom)
+        t0 = time.thread_time()
+        occ = grid.occupied_points() if not grid.empty else np.zeros((0, 2))
+        near = occ[np.hypot(occ[:, 0] - pose.x, occ[:, 1] - pose.y) < 6.0]
+        if len(near) > 50:
+            c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+            init = np.array([[c, -s, 0, pose.x], [s, c, 0, pose.y], [0, 0, 1, 0], [0, 0, 0, 1]])
+            flat = np.zeros((len(near), 1)), np.zeros((len(points), 1))
+            got = small_gicp.align(np.hstack([near, flat[0]]), np.hstack([points, flat[1]]), init_T_target_source=init,
+                                   registration_type="ICP", max_correspondence_distance=0.3, num_threads=1)  # fmt: skip
+            m = got.T_target_source
+            pose = Pose2D(float(m[0, 3]), float(m[1, 3]), math.atan2(m[1, 0], m[0, 0]))
+            correction = pose.compose(odom.inverse())
+            cpu["small_gicp"].append((time.thread_time() - t0) * 1e3)
+        grid.integrate(beams, pose)
+        err["small_gicp"].append(math.hypot(pose.x - truth.x, pose.y - truth.y))
+        t0 = time.thread_time()
+        mine, _ = ours.locate(grids["ours"], points, odom, True)
+        cpu["ours"].append((time.thread_time() - t0) * 1e3)
+        grids["ours"].integrate(beams, mine)
+        ours.integrated()
+        err["ours"].append(math.hypot(mine.x - truth.x, mine.y - truth.y))
+    return {k: {"cpu_ms": {"mean": round(statistics.fmean(cpu[k]), 3), "p95": _p95(cpu[k])},
+                "end_position_error_m": round(err[k][-1], 3), "max_position_error_m": round(max(err[k]), 3),
+                "mean_position_error_m": round(statistics.fmean(err[k]), 3)} for k in grids}  # fmt: skip
+
+
 def _proc_mb(key: str) -> float:
     """VmRSS or VmHWM (the peak) of this process, MB."""
     with open("/proc/self/status") as f:
@@ -304,7 +356,7 @@ def main() -> int:
     args = ap.parse_args()
     results: dict[str, Any] = {"machine": {"cpus": os.cpu_count(), "load": os.getloadavg()}, "args": vars(args)}
     for name in args.sections.split(","):
-        results[name] = {"walk": section_walk, "node": section_node}[name](args)
+        results[name] = {"walk": section_walk, "node": section_node, "icp": section_icp}[name](args)
         print(json.dumps({name: results[name]}, indent=1), flush=True)
     if args.out is not None:
         args.out.write_text(json.dumps(results, indent=1, default=str) + "\n")

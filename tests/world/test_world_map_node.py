@@ -137,6 +137,7 @@ def test_scans_become_a_latched_map_and_costmap_and_bad_scans_a_reason() -> None
         ranges[:10] = [math.nan] * 10
         lidar.send_scan(ranges)
         assert wait_for(lambda: lidar.last_status().get("dropped", {}).get("nan", 0) >= 10, 10)
+        assert "10 NaN" in lidar.last_status()["last_drop"] and lidar.last_status()["refused"].get("nan") is None
         # A late subscriber hears the last map at once (latched).
         late = Node(node_name="late_listener")
         heard: list[OccupancyGrid] = []
