@@ -82,9 +82,10 @@ class LikelihoodField:
         self.known = known  # cells the map has seen
         self.origin = origin  # world x, y of cell (0, 0)'s outer corner
         self.resolution = resolution
-        # A zero border round it: a lookup outside the window clips onto the border and reads 0.
-        self._padded = np.pad(field, 1).reshape(-1)
-        self._width = field.shape[1] + 2 if field.size else 0
+        # A zero border two cells wide round it: a lookup outside the window clips onto the border and
+        # reads 0, also for the second cell of a bilinear one.
+        self._padded = np.pad(field, 2).reshape(-1)
+        self._width = field.shape[1] + 4 if field.size else 0
 
     @staticmethod
     def around(grid: OccupancyMap, x: float, y: float, half_size_m: float, sigma_m: float) -> LikelihoodField:
@@ -127,20 +128,22 @@ class LikelihoodField:
     def lookup(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """The field at cells (0 outside the window)."""
         h, w = self.field.shape
-        r = np.clip(rows + 1, 0, h + 1)
-        c = np.clip(cols + 1, 0, w + 1)
+        r = np.minimum(np.maximum(rows + 2, 0), h + 3)
+        c = np.minimum(np.maximum(cols + 2, 0), w + 3)
         return self._padded[r * self._width + c]
 
     def bilinear(self, wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The field at world points, interpolated between cell centres, and its x and y gradients."""
+        h, w = self.field.shape
         fx = (wx - self.origin[0]) / self.resolution - 0.5
         fy = (wy - self.origin[1]) / self.resolution - 0.5
-        c0, r0 = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+        c0, r0 = np.floor(fx), np.floor(fy)
         ax, ay = fx - c0, fy - r0
-        v00 = self.lookup(r0, c0)
-        v01 = self.lookup(r0, c0 + 1)
-        v10 = self.lookup(r0 + 1, c0)
-        v11 = self.lookup(r0 + 1, c0 + 1)
+        base = (np.minimum(np.maximum(r0.astype(np.int64) + 2, 0), h + 2) * self._width
+                + np.minimum(np.maximum(c0.astype(np.int64) + 2, 0), w + 2))  # fmt: skip
+        f = self._padded
+        v00, v01 = f[base], f[base + 1]
+        v10, v11 = f[base + self._width], f[base + self._width + 1]
         value = (1 - ay) * ((1 - ax) * v00 + ax * v01) + ay * ((1 - ax) * v10 + ax * v11)
         gx = ((1 - ay) * (v01 - v00) + ay * (v11 - v10)) / self.resolution
         gy = ((1 - ax) * (v10 - v00) + ax * (v11 - v01)) / self.resolution
