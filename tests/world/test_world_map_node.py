@@ -11,11 +11,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 from busutil import wait_for
 from maputil import BINS, room_scan
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, running
 from go2vlm.bus.service import ServiceClient
+from go2vlm.errors import ConfigError
 from go2vlm.geometry.rotations import yaw_quat
 from go2vlm.launch.registry import make_node
 from go2vlm.msgs.geometry_msgs import Point, Pose, Quaternion
@@ -242,3 +244,11 @@ def test_the_map_is_saved_and_loaded_all_or_nothing(tmp_path: Path) -> None:
         assert wait_for(lambda: lidar.last_status()["cells"] == other.counts(), 5), lidar.last_status()
         assert wait_for(lambda: (g := lidar.last(lidar.maps)) is not None and g.cells.shape == other.shape, 5)
         assert saved.counts()["occupied"] == cells["occupied"]
+    # At start: the map beside memory_file's name is loaded; a bad one stops the node with one line.
+    again = make_node("map", params={"world": "home", "map_file": str(memory)})
+    try:
+        assert again.grid.counts() == saved.counts() and again.grid.origin == saved.origin
+    finally:
+        again.shutdown()
+    with pytest.raises(ConfigError, match="world 'office'"):
+        make_node("map", params={"world": "home", "map_file": str(tmp_path / "office.json")})
