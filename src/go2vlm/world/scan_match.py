@@ -10,7 +10,8 @@ How
   distance from its centre to the nearest occupied cell (a distance transform); cells the map has
   never seen are marked unknown.
 - A coarse correlative search first: every yaw within +-search_yaw_rad (yaw_step_rad apart) and every
-  whole-cell shift within +-search_xy_m, scored by the mean field under the scan's returns. Then
+  whole-cell shift within +-search_xy_m, scored by the mean field under the scan's returns (the
+  Corrector skips it while its matches hold: odometry is then off by millimetres a scan). Then
   Gauss-Newton on the bilinear field (as Hector SLAM does on its map) refines the best one below a
   cell, with a weak pull back to the guess (prior_weight) so that a corridor, which fixes only the
   sideways position, does not slide the pose along itself. The step is held within the search window.
@@ -29,7 +30,7 @@ which the map node's odometry-jump check uses too), needs no compiled dependency
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
@@ -243,9 +244,13 @@ class Corrector:
 
     def __init__(self, params: MatchParams | None = None, window_m: float = 6.0, field_every: int = 5) -> None:
         self.params = params or MatchParams()
+        # While matches hold, odometry is off by millimetres a scan: Gauss-Newton alone (its window a
+        # cell and a yaw step), the coarse search only after a match that did not hold.
+        self.tracking_params = replace(self.params, search_xy_m=0.0, search_yaw_rad=0.0)
         self.window_m = window_m
         self.field_every = field_every
         self.correction = IDENTITY
+        self.tracking = False
         self._field: LikelihoodField | None = None
         self._age = 0
 
@@ -264,9 +269,10 @@ class Corrector:
         guess = self.correction.compose(odom)
         if not matching or grid.empty:
             return guess, None
-        m = match(self.field(grid, guess), points, guess, self.params)
+        m = match(self.field(grid, guess), points, guess, self.tracking_params if self.tracking else self.params)
         if m.ok:
             self.correction = m.pose.compose(odom.inverse())  # map <- odom
+        self.tracking = m.ok
         return m.pose, m
 
     def integrated(self) -> None:
@@ -275,4 +281,5 @@ class Corrector:
 
     def reset(self) -> None:
         self.correction = IDENTITY
+        self.tracking = False
         self._field, self._age = None, 0
