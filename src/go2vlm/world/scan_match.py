@@ -20,8 +20,8 @@ How
   fits nowhere, keeps the guess (reason few_points or weak).
 
 Why our own and not a library (measured, docs/benchmarks.md, `bench_map.py --sections icp`): on a
-100 m walk with a Go2's drift small_gicp's ICP is as accurate and twice as fast (0.8 ms a scan
-against 2.0 ms), but it follows whatever correspondences it finds as far as they lead and says
+100 m walk with a Go2's drift small_gicp's ICP is as accurate and nearly twice as fast (0.8 ms a
+scan against 1.4 ms), but it follows whatever correspondences it finds as far as they lead and says
 nothing of whether a match holds; this matcher stays within its window, refuses a weak match (`fit`,
 which the map node's odometry-jump check uses too), needs no compiled dependency, and fits the
 5 ms budget. `Corrector.locate` is the one place to swap it.
