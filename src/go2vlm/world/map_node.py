@@ -341,8 +341,8 @@ class MapNode(Node):
         self._dirty = False
         grid = self.grid
         values = grid.values()
-        cost = inflate(values, grid.resolution, self.costmap_params)
         self.pub_map.publish(grid_msg(values, grid.origin, grid.resolution, self.frame, self.newest_scan))
+        cost = inflate(values, grid.resolution, self.costmap_params)  # one big message alive at a time
         self.pub_costmap.publish(grid_msg(cost, grid.origin, grid.resolution, self.frame, self.newest_scan))
         self.count("published")
 

@@ -366,11 +366,12 @@ def inflate(values: np.ndarray, resolution: float, params: CostmapParams) -> np.
     cost = np.where(values == UNKNOWN, UNKNOWN, FREE).astype(np.int8)
     if not occupied.any():
         return cost
-    d = ndimage.distance_transform_edt(~occupied) * resolution
-    near = d <= params.inflation_m
+    d = ndimage.distance_transform_edt(~occupied)  # in cells; only the cells near an obstacle go on
+    near = np.nonzero(d <= params.inflation_m / resolution)
+    dn = d[near] * resolution
+    del d
     span = max(params.inflation_m - params.circumscribed_m, 1e-9)
-    falling = 1 + np.floor(97.0 * np.clip((params.inflation_m - d) / span, 0.0, 1.0)).astype(np.int16)
-    cost[near] = np.minimum(falling[near], 98).astype(np.int8)
-    cost[d <= params.circumscribed_m] = INSCRIBED
-    cost[d <= params.inscribed_m] = LETHAL
+    falling = 1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0))
+    band = np.where(dn <= params.inscribed_m, LETHAL, np.where(dn <= params.circumscribed_m, INSCRIBED, 0))
+    cost[near] = np.where(band > 0, band, np.minimum(falling, 98)).astype(np.int8)
     return cost
