@@ -227,3 +227,12 @@ def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, 
     cx = (cols + fresh.offset[0] + 0.5) * fresh.resolution
     cy = (rows + fresh.offset[1] + 0.5) * fresh.resolution
     assert ((np.abs(cx) > ROOM[0] + tol) | (np.abs(cy) > ROOM[1] + tol)).any(), "... clears past it"
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), band=st.integers(1, 40))
+def test_the_costmap_in_bands_is_the_costmap_whole(seed: int, band: int) -> None:
+    rng = np.random.default_rng(seed)
+    values = rng.choice(np.array([UNKNOWN, FREE, LETHAL], np.int8), size=(60, 45), p=[0.3, 0.68, 0.02])
+    params = CostmapParams.for_footprint(0.70, 0.31)
+    assert np.array_equal(inflate(values, 0.05, params, band_rows=band), inflate(values, 0.05, params, band_rows=10**6))

@@ -360,18 +360,24 @@ class CostmapParams:
         return CostmapParams(inscribed, circumscribed, max(inflation_m, circumscribed))
 
 
-def inflate(values: np.ndarray, resolution: float, params: CostmapParams) -> np.ndarray:
-    """The costmap of an OccupancyGrid's cells (see the module docstring), int8, same shape."""
+def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_rows: int = 256) -> np.ndarray:
+    """The costmap of an OccupancyGrid's cells (see the module docstring), int8, same shape. Computed
+    in bands of rows (each with the inflation radius of rows round it), so that a map at the cap
+    needs a band's distance transform at a time, not the whole grid's."""
     occupied = values == LETHAL
     cost = np.where(values == UNKNOWN, UNKNOWN, FREE).astype(np.int8)
-    if not occupied.any():
-        return cost
-    d = ndimage.distance_transform_edt(~occupied)  # in cells; only the cells near an obstacle go on
-    near = np.nonzero(d <= params.inflation_m / resolution)
-    dn = d[near] * resolution
-    del d
+    reach = int(math.ceil(params.inflation_m / resolution)) + 1
     span = max(params.inflation_m - params.circumscribed_m, 1e-9)
-    falling = 1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0))
-    band = np.where(dn <= params.inscribed_m, LETHAL, np.where(dn <= params.circumscribed_m, INSCRIBED, 0))
-    cost[near] = np.where(band > 0, band, np.minimum(falling, 98)).astype(np.int8)
+    rows = values.shape[0]
+    for r0 in range(0, rows, band_rows):
+        lo, hi = max(0, r0 - reach), min(rows, r0 + band_rows + reach)
+        occ = occupied[lo:hi]
+        if not occ.any():
+            continue
+        d = ndimage.distance_transform_edt(~occ)[r0 - lo : r0 - lo + band_rows]  # in cells
+        near = np.nonzero(d <= params.inflation_m / resolution)
+        dn = d[near] * resolution
+        falling = np.minimum(1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0)), 98)
+        band = np.where(dn <= params.inscribed_m, LETHAL, np.where(dn <= params.circumscribed_m, INSCRIBED, falling))
+        cost[r0 + near[0], near[1]] = band.astype(np.int8)
     return cost
