@@ -38,6 +38,7 @@ SMALLEST: dict[str, Smallest] = {
     "bench_demo": Smallest(("--duration", "1", "--fast-duration", "1", "--no-video", "--json", "{json}")),
     "bench_guard": Smallest(("--trials", "1", "--json", "{json}"), slow="three 8 s drives of the sim at a wall"),
     "bench_images": Smallest(("--sizes", "640x480", "--frames", "3", "--json", "{json}")),
+    "bench_map": Smallest(("--sections", "walk,node", "--walk-m", "10", "--json", "{json}")),
     "bench_mcp": Smallest(
         ("--runs", "1", "--idle", "1", "--json", "{json}"),
         slow="starts the sim graph three times and drives one go-to goal",

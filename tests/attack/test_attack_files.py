@@ -78,3 +78,37 @@ def test_memory_file_escapes_fifos_and_bombs_are_refused(
         assert rep.success, rep.message  # type: ignore[attr-defined]  # the node kept serving throughout
     print("memory_file attacks refused (wall s per request): " + ", ".join(f"{k} {v:.3f}" for k, v in found.items()))
     assert p.poll() is None, "the object memory died"
+
+
+def test_map_file_escapes_are_refused(procs: Procs, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The map node's /map/map_file takes the memory file's name under the same rule: no escape writes or
+    reads outside the state directory, and a map-file symlink planted beside a memory file is replaced,
+    never written through."""
+    home = tmp_path / "home"
+    home.mkdir()
+    bashrc = home / ".bashrc"
+    bashrc.write_text("# mine\n")
+    folder = tmp_path / "state" / "go2vlm" / "objects"  # conftest: XDG_STATE_HOME = tmp_path/state
+    folder.mkdir(parents=True)
+    (folder / "out.json").symlink_to(bashrc)
+    (folder / "planted.map.npz").symlink_to(bashrc)
+    monkeypatch.setenv("HOME", str(home))
+    p = procs.start("run", "map", "--param", "world=home")
+    with ServiceClient(MemoryFile, "/map/map_file") as client:
+        assert client.wait_for_service(60), "no map node"
+        before = sorted(str(x) for x in tmp_path.rglob("*"))
+        for name, path in (("absolute", str(home / "x.json")), ("tilde", "~/.bashrc"),
+                           ("dotdot", "../../../home/.bashrc"), ("symlink", "out.json")):  # fmt: skip
+            for command in ("save", "load", "check"):
+                rep, _ = _call(client, command, path, overwrite=True)
+                assert not rep.success and "refused" in rep.message, (name, command, rep)  # type: ignore[attr-defined]
+        assert sorted(str(x) for x in tmp_path.rglob("*")) == before, "a refused request created a file"
+        rep, _ = _call(client, "load", "planted")
+        assert not rep.success, rep  # type: ignore[attr-defined]  # a symlink is no map file to read
+        rep, _ = _call(client, "save", "planted")
+        assert not rep.success and "overwrite=true" in rep.message, rep  # type: ignore[attr-defined]
+        rep, _ = _call(client, "save", "planted", overwrite=True)
+        assert rep.success, rep  # type: ignore[attr-defined]
+        assert not (folder / "planted.map.npz").is_symlink()
+    assert bashrc.read_text() == "# mine\n"
+    assert p.poll() is None, "the map node died"

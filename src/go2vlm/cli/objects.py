@@ -2,9 +2,10 @@
 
     go2vlm objects                          the running object memory's objects (/objects, latched)
     go2vlm objects --where "blue cylinder"  ask it: /object_memory/where_is
-    go2vlm objects --save home              it writes its memory to a file (on its machine)
-    go2vlm objects --save home --overwrite  ... replacing the one saved before
+    go2vlm objects --save home              it writes its memory to a file (on its machine), the map too
+    go2vlm objects --save home --overwrite  ... replacing the ones saved before
     go2vlm objects --load home              it loads a memory file, all or nothing
+                                            (with a map node: the map beside it too, home.map.npz)
     go2vlm objects --file runs/goal-.../objects.json [--where X]   a saved memory, no robot needed
 
 Like `ros2 topic echo /objects`, but readable: one line per object, the most confident first, with
@@ -29,10 +30,13 @@ import argparse
 import json
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from go2vlm.cli.args import positive
 from go2vlm.errors import ConfigError, UsageError
+
+if TYPE_CHECKING:
+    from go2vlm.msgs.go2vlm_msgs import MemoryFile_Request, MemoryFile_Response
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -122,15 +126,21 @@ def cmd_objects(args: argparse.Namespace) -> int:
         if args.load is not None:
             _check_local(args.load)
         command, path = ("save", args.save) if args.save is not None else ("load", args.load)
-        with ServiceClient(MemoryFile, MEMORY_FILE_SERVICE) as client:
+        wire = _wire_path(path)
+        with ServiceClient(MemoryFile, MEMORY_FILE_SERVICE) as client, MapFiles(wire) as maps:
+            if command == "load":
+                maps.call("check", args.timeout)  # a bad map file: nothing is loaded, the memory neither
             try:
-                req = MemoryFile.Request(command=command, path=_wire_path(path), overwrite=args.overwrite)
+                req = MemoryFile.Request(command=command, path=wire, overwrite=args.overwrite)
                 rep = client.call(req, args.timeout)
             except ServiceError as exc:
                 raise RuntimeError(f"no object memory answers: {exc}") from None
-        if not rep.success:
-            raise ConfigError(rep.message)
-        print(rep.message)
+            if not rep.success:
+                raise ConfigError(rep.message)
+            print(rep.message)
+            said = maps.call(command, args.timeout, args.overwrite)
+        if said:
+            print(said)
         return 0
     if args.where is not None:
         with ServiceClient(WhereIs, WHERE_IS_SERVICE) as where_client:
@@ -172,6 +182,43 @@ def _wire_path(text: str) -> str:
     if "/" not in text and not text.startswith("~"):
         return text
     return str(Path(text).expanduser().resolve())
+
+
+class MapFiles:
+    """The map node's file beside the memory's (world/map_file.py: home.json -> home.map.npz), saved
+    and loaded with it: checked before the memory loads, so that a bad map file loads nothing. Without
+    a map node the memory's file goes alone."""
+
+    def __init__(self, path: str) -> None:
+        from go2vlm.bus.service import ServiceClient
+        from go2vlm.bus.topics import MAP_FILE_SERVICE
+        from go2vlm.msgs.go2vlm_msgs import MemoryFile
+
+        self.path = path
+        self.client: ServiceClient[MemoryFile_Request, MemoryFile_Response]
+        self.client = ServiceClient(MemoryFile, MAP_FILE_SERVICE)
+
+    def __enter__(self) -> MapFiles:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.client.close()
+
+    def call(self, command: str, timeout: float, overwrite: bool = False) -> str:
+        """What the map node did ('' when none answers); ConfigError when it refused."""
+        from go2vlm.bus.service import ServiceError
+        from go2vlm.msgs.go2vlm_msgs import MemoryFile
+
+        if not self.client.wait_for_service(min(timeout, 2.0)):
+            return "(no map node: the memory's file alone)" if command != "check" else ""
+        try:
+            req = MemoryFile.Request(command=command, path=self.path, overwrite=overwrite)
+            rep = self.client.call(req, timeout)
+        except ServiceError as exc:
+            raise RuntimeError(f"the map node does not answer: {exc}") from None
+        if not rep.success:
+            raise ConfigError(rep.message + (" (nothing loaded)" if command == "check" else ""))
+        return str(rep.message)
 
 
 def _check_local(text: str) -> None:

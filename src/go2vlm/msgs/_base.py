@@ -8,6 +8,7 @@ object makes Cyclone 0.10.x peers, the Go2's own DDS stack among them, segfault 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import field
 from typing import Any
 
@@ -38,6 +39,45 @@ def _describe_bytes_as_octet_sequence() -> None:
 
 
 _describe_bytes_as_octet_sequence()
+
+
+def _pack_byte_sequences_in_one_block() -> None:
+    """A sequence of 1-byte numbers (nav_msgs/OccupancyGrid's int8[] data: 1.44 M cells at the map's
+    cap) is (de)serialized by cyclonedds 11 with one struct call whose arguments are the whole list: a
+    tuple of every value, 55 MB of transient memory for one map. Its bytes on the wire are the
+    numbers themselves, so write and read them as one block (array.array), the same bytes."""
+    from array import array
+
+    from cyclonedds.idl._machinery import PlainCdrV2SequenceOfPrimitiveMachine as Seq
+    from cyclonedds.idl._support import Buffer
+
+    if getattr(Seq.serialize, "_go2vlm_block", False):
+        return
+    serialize, deserialize = Seq.serialize, Seq.deserialize
+
+    def block_serialize(self: Seq, buffer: Buffer, value: Sequence[int], *args: object, **kwargs: object) -> None:
+        if self.size != 1 or self.code not in ("b", "B"):
+            return serialize(self, buffer, value, *args, **kwargs)
+        assert self.max_length is None or len(value) <= self.max_length
+        buffer.align(4)
+        buffer.write("I", 4, len(value))
+        if len(value):
+            buffer.write_bytes(array(self.code, value).tobytes())
+        return None
+
+    def block_deserialize(self: Seq, buffer: Buffer, *args: object, **kwargs: object) -> object:
+        if self.size != 1 or self.code not in ("b", "B"):
+            return deserialize(self, buffer, *args, **kwargs)
+        buffer.align(4)
+        length = buffer.read("I", 4)
+        return array(self.code, buffer.read_bytes(length)).tolist() if length else []
+
+    block_serialize._go2vlm_block = True  # type: ignore[attr-defined]
+    Seq.serialize = block_serialize  # type: ignore[method-assign]
+    Seq.deserialize = block_deserialize  # type: ignore[method-assign]
+
+
+_pack_byte_sequences_in_one_block()
 
 
 def ros_typename(ros_type: str) -> str:

@@ -32,11 +32,12 @@ from go2vlm.errors import ConfigError
 from go2vlm.world.labels import MAX_LABEL, normalize_label
 from go2vlm.world.memory import MemoryObject
 
-__all__ = ["FORMAT", "VERSION", "MemoryFileError", "dumps", "header", "loads"]
+__all__ = ["FORMAT", "STATE_KIND", "VERSION", "MemoryFileError", "dumps", "header", "loads"]
 
 FORMAT = "go2vlm-object-memory"
 VERSION = 1
 MAX_FILE_BYTES = 16 * 1024 * 1024
+STATE_KIND = "objects"  # the memory files (and the maps beside them): $XDG_STATE_HOME/go2vlm/objects/
 MAX_COORD_M = 1000.0  # an object farther from the odometry origin than this is no object in a home
 _ID_NUMBER = re.compile(r"_([0-9]{1,9})\Z")
 

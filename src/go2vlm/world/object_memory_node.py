@@ -123,14 +123,13 @@ from go2vlm.robot_profile import go2 as spec
 from go2vlm.statefiles import StateFileError, read_bounded, state_file, write_atomic
 from go2vlm.world.labels import normalize_label
 from go2vlm.world.memory import MemoryParams, ObjectMemory, View
-from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, dumps, loads
+from go2vlm.world.memory_file import MAX_FILE_BYTES, STATE_KIND, MemoryFileError, dumps, loads
 from go2vlm.world.objects_msg import detection_of, markers_of, objects_array
 from go2vlm.world.placement import CameraMount, Placed, PlacementError, PlacementParams, place, rebase
 from go2vlm.world.poses import Pose2D, PoseHistory, PoseUnavailable
 
 __all__ = ["ObjectMemoryConfig", "ObjectMemoryNode"]
 
-STATE_KIND = "objects"  # the memory files: $XDG_STATE_HOME/go2vlm/objects/<name>.json
 SMALL_WIDTH = 160  # px: frames kept for the colour check
 SCAN_WINDOW_S = 0.15  # a scan this close in time to the frame covers it
 FRAME_WINDOW_S = 0.06  # a small frame this close in time is the answer's frame

@@ -13,16 +13,22 @@ Rules
   newest by more than `max_extrapolation_s` (`newer_than_pose`: wait for the pose to catch up), or
   between two samples more than `max_gap_s` apart (`pose_gap`: the robot may have done anything).
 - It keeps `horizon_s` of samples (and at most `max_samples`): bounded whatever the rate.
+
+An input stamped newer than the newest pose may wait for it (`PoseWait`): at most `wait_s` after it
+arrived, at most `max_items` of them, retried on each new pose.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass, field
+from typing import Generic, TypeVar
 
-__all__ = ["Pose2D", "PoseHistory", "PoseUnavailable", "wrap_angle"]
+__all__ = ["IDENTITY", "Pose2D", "PoseHistory", "PoseUnavailable", "PoseWait", "odometry_jump", "wrap_angle"]
+
+T = TypeVar("T")
 
 
 def wrap_angle(a: float) -> float:
@@ -48,6 +54,34 @@ class Pose2D:
         dx, dy = wx - self.x, wy - self.y
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return c * dx + s * dy, -s * dx + c * dy
+
+    def compose(self, other: Pose2D) -> Pose2D:
+        """`other` (a pose in this pose's frame) in the world: self * other."""
+        x, y = self.to_world(other.x, other.y)
+        return Pose2D(x, y, wrap_angle(self.yaw + other.yaw))
+
+    def inverse(self) -> Pose2D:
+        """The world in this pose's frame: self.compose(self.inverse()) is the identity."""
+        x, y = self.to_local(0.0, 0.0)
+        return Pose2D(x, y, wrap_angle(-self.yaw))
+
+
+IDENTITY = Pose2D(0.0, 0.0, 0.0)
+
+
+def odometry_jump(dt: float, a: Pose2D, b: Pose2D, max_speed: float, max_turn: float, min_m: float = 0.25,
+                  min_rad: float = 0.35) -> str:  # fmt: skip
+    """'' when odometry can have gone from `a` to `b` in `dt` seconds, else what it did instead: a move
+    or a turn more than 1.5 times what the robot's ceilings allow (and more than min_m / min_rad,
+    so sample jitter is never a jump) is a teleport, or a robot picked up and put down."""
+    d = math.hypot(b.x - a.x, b.y - a.y)
+    turn = abs(wrap_angle(b.yaw - a.yaw))
+    dt = max(dt, 0.0)
+    if d > max(min_m, 1.5 * max_speed * dt):
+        return f"odometry moved {d:.2f} m in {dt:.3f} s (the robot reaches {max_speed:g} m/s)"
+    if turn > max(min_rad, 1.5 * max_turn * dt):
+        return f"odometry turned {math.degrees(turn):.0f} deg in {dt:.3f} s (the robot turns {max_turn:g} rad/s)"
+    return ""
 
 
 class PoseUnavailable(LookupError):
@@ -127,3 +161,30 @@ class PoseHistory:
         a = (t - t0) / (t1 - t0)
         (x0, y0, w0), (x1, y1, w1) = self._p[i - 1], self._p[i]
         return Pose2D(x0 + a * (x1 - x0), y0 + a * (y1 - y0), wrap_angle(w0 + a * wrap_angle(w1 - w0)))
+
+
+class PoseWait(Generic[T]):
+    """Inputs whose pose has not come yet: `pose_for` gives the pose at a stamp, or keeps the input
+    (None) while the pose may still come, or raises PoseUnavailable; `due()` hands the kept ones back
+    (with when they arrived) for another try after a new pose."""
+
+    def __init__(self, wait_s: float, max_items: int = 16) -> None:
+        self.wait_s = wait_s
+        self._items: deque[tuple[float, T]] = deque(maxlen=max_items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def pose_for(self, history: PoseHistory, stamp: float, item: T, arrived: float, now: float) -> Pose2D | None:
+        try:
+            return history.at(stamp)
+        except PoseUnavailable as exc:
+            if exc.reason in ("newer_than_pose", "no_pose") and now - arrived <= self.wait_s:
+                self._items.append((arrived, item))  # the pose will catch up
+                return None
+            raise
+
+    def due(self) -> list[tuple[float, T]]:
+        items = list(self._items)
+        self._items.clear()
+        return items

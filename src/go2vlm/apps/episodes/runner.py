@@ -41,6 +41,7 @@ from go2vlm.apps.episodes.metrics import END_STATES, Context, compute_metrics
 from go2vlm.apps.episodes.outputs import atomic, write_json
 from go2vlm.apps.episodes.recorder import EpisodeRecorder, Recording
 from go2vlm.bus import Node, ShutdownRequested
+from go2vlm.bus.topics import MAP_ODOM
 
 __all__ = ["EpisodeResult", "RunOptions", "cpu_by_thread", "run_episode"]
 
@@ -105,6 +106,15 @@ def cpu_by_thread() -> dict[str, float]:
     return out
 
 
+# With odometry drift (the sim's odom_drift): the map node matches scans against its map and
+# publishes the corrected pose (/map/odom, frame map); the object memory and the commander read it.
+_CORRECTED: dict[str, dict[str, str | bool]] = {
+    "map": {"scan_matching": True},
+    "object_memory": {"odom_topic": MAP_ODOM.name, "world_frame": "map"},
+    "commander": {"odom_topic": MAP_ODOM.name},
+}
+
+
 def episode_entries(ep: Episode, opts: RunOptions) -> list[Any]:
     """The launch entries of the episode's graph, with the episode's parameters, on sim time."""
     from go2vlm.launch.launcher import LaunchEntry, load_launch, with_overrides
@@ -113,9 +123,16 @@ def episode_entries(ep: Episode, opts: RunOptions) -> list[Any]:
     if opts.foxglove is not None:
         entries.append(LaunchEntry("view", "foxglove_view", dict(opts.foxglove)))
     overrides = node_overrides(ep, opts.rtf, opts.fast)
-    for e in entries:  # an object memory is of the episode's world (its memory files say so)
-        if e.kind == "object_memory":
-            overrides[e.name] = {"world": ep.world, **overrides.get(e.name, {})}
+    drifts = any(e.kind == "sim" and overrides.get(e.name, {}).get("odom_drift", 0.0) for e in entries)
+    corrected = drifts and any(e.kind == "map" for e in entries)
+    for e in entries:
+        extra: dict[str, str | bool] = {}
+        if e.kind in ("object_memory", "map"):  # of the episode's world (their files say so)
+            extra["world"] = ep.world
+        if corrected:  # odometry drifts: the map corrects it, the world is read in the map's frame
+            extra.update(_CORRECTED.get(e.kind, {}))
+        if extra:
+            overrides[e.name] = {**extra, **overrides.get(e.name, {})}
     return with_overrides(entries, overrides, every={"use_sim_time": True})
 
 

@@ -1,0 +1,238 @@
+"""The occupancy map's pure core: scans place the world's walls where they are from any pose, free rays
+never mark anything occupied, bad beams are dropped and counted, the grid holds its cap and never
+moves a mapped cell, and the costmap's bands follow the footprint."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from maputil import BINS, INC, ROOM, room_scan, wall_distance
+
+from go2vlm.world.occupancy import (
+    FREE,
+    GAP_BEAMS,
+    INSCRIBED,
+    LETHAL,
+    UNKNOWN,
+    Beams,
+    CostmapParams,
+    GridParams,
+    OccupancyMap,
+    ScanRefused,
+    inflate,
+)
+from go2vlm.world.poses import Pose2D
+
+poses = st.builds(
+    Pose2D,
+    st.floats(-ROOM[0] + 0.5, ROOM[0] - 0.5),
+    st.floats(-ROOM[1] + 0.5, ROOM[1] - 0.5),
+    st.floats(-math.pi, math.pi),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(pose=poses)
+def test_a_scan_from_any_pose_puts_the_walls_where_they_are(pose: Pose2D) -> None:
+    grid = OccupancyMap()
+    got = grid.integrate(room_scan(pose), pose)
+    assert got.hits == BINS and got.nan == got.invalid == got.beyond_cap == 0
+    occ = grid.occupied_points()
+    half_diag = grid.resolution * math.sqrt(2) / 2 + 1e-6
+    # Every occupied cell holds a wall point (its centre within half a diagonal of a wall) ...
+    assert len(occ) > 0 and (wall_distance(occ[:, 0], occ[:, 1]) <= half_diag).all()
+    # ... and every free cell is inside the room.
+    rows, cols = np.nonzero(grid.values() == FREE)
+    cx = (cols + grid.offset[0] + 0.5) * grid.resolution
+    cy = (rows + grid.offset[1] + 0.5) * grid.resolution
+    assert (np.abs(cx) < ROOM[0] + half_diag).all() and (np.abs(cy) < ROOM[1] + half_diag).all()
+    # The robot's own cell is free: it stands in the room.
+    row, col = grid.cell_of(pose.x, pose.y)
+    assert grid.values()[row, col] == FREE
+
+
+@settings(max_examples=40, deadline=None)
+@given(pose=poses, turn=st.floats(-math.pi, math.pi))
+def test_the_same_beams_turned_in_the_scan_and_back_in_the_pose_give_the_same_cells(pose: Pose2D, turn: float) -> None:
+    """A scan whose angles start `turn` later, at a pose turned `turn` back, sees the same world:
+    the occupied cells agree but for beams whose end lies on a cell's edge (float rounding)."""
+    beams = room_scan(pose)
+    turned = Beams(beams.ranges, beams.angle_min + turn, INC, beams.range_min, beams.range_max)
+    a, b = OccupancyMap(), OccupancyMap()
+    a.integrate(beams, pose)
+    b.integrate(turned, Pose2D(pose.x, pose.y, pose.yaw - turn))
+    pa = {tuple(p) for p in np.round(a.occupied_points(), 6)}
+    pb = {tuple(p) for p in np.round(b.occupied_points(), 6)}
+    assert len(pa ^ pb) <= 4, (len(pa), len(pb), len(pa ^ pb))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    pose=poses,
+    kinds=st.lists(st.sampled_from(["inf", "nan", "far", "-inf", "neg"]), min_size=BINS, max_size=BINS),
+)
+def test_free_rays_never_mark_anything_occupied(pose: Pose2D, kinds: list[str]) -> None:
+    grid = OccupancyMap()
+    grid.integrate(room_scan(Pose2D(0.0, 0.0, 0.0)), Pose2D(0.0, 0.0, 0.0))  # a map with walls
+    before, offset = grid.logodds.copy(), grid.offset
+    value = {"inf": np.inf, "nan": np.nan, "far": 25.0, "-inf": -np.inf, "neg": -1.0}
+    r = np.array([value[k] for k in kinds], dtype=np.float32)
+    got = grid.integrate(Beams(r, -math.pi, INC, 0.05, 10.0), pose)
+    assert got.hits == 0 and got.no_return == kinds.count("inf") + kinds.count("far")
+    assert got.nan == kinds.count("nan") and got.invalid == kinds.count("-inf") + kinds.count("neg")
+    after = _window(grid, offset, before.shape)  # the grid may have grown round the old one
+    assert (after <= before + 1e-6).all(), "a free ray raised a cell"
+    assert (grid.values() == LETHAL).sum() <= (before >= grid.params.occupied_logodds).sum()
+
+
+def _window(grid: OccupancyMap, offset: tuple[int, int], shape: tuple[int, ...]) -> np.ndarray:
+    """The part of the grid that was a grid of `shape` at lattice `offset`."""
+    r0, c0 = offset[1] - grid.offset[1], offset[0] - grid.offset[0]
+    return grid.logodds[r0 : r0 + shape[0], c0 : c0 + shape[1]]
+
+
+def walks(reach_m: float, n: int) -> st.SearchStrategy[list[Pose2D]]:
+    """Up to `n` poses anywhere within `reach_m` of the origin."""
+    xy = st.floats(-reach_m, reach_m)
+    return st.lists(st.builds(Pose2D, xy, xy, st.floats(-math.pi, math.pi)), min_size=1, max_size=n)
+
+
+@settings(max_examples=30, deadline=None)
+@given(steps=walks(120.0, 8))
+def test_the_grid_holds_its_cap(steps: list[Pose2D]) -> None:
+    params = GridParams(resolution_m=0.1, max_size_m=30.0)
+    grid = OccupancyMap(params)
+    for pose in steps:
+        ranges = np.full(BINS, 2.0, dtype=np.float32)  # a ring of returns 2 m round the robot
+        before = grid.logodds.copy()
+        try:
+            got = grid.integrate(Beams(ranges, -math.pi, INC, 0.05, 10.0), pose)
+        except ScanRefused as exc:
+            assert exc.reason == "beyond_cap"
+            assert np.array_equal(grid.logodds, before), "a refused scan changed the grid"
+        else:
+            assert got.hits == BINS
+            row, col = grid.cell_of(pose.x, pose.y)
+            assert 0 <= row < grid.shape[0] and 0 <= col < grid.shape[1]
+        assert grid.shape[0] <= params.max_cells and grid.shape[1] <= params.max_cells
+
+
+def _cells(grid: OccupancyMap) -> dict[tuple[int, int], float]:
+    """Lattice cell -> log-odds, for every cell the grid has a word on."""
+    rows, cols = np.nonzero(grid.logodds)
+    return {(int(c) + grid.offset[0], int(r) + grid.offset[1]): float(grid.logodds[r, c])
+            for r, c in zip(rows, cols, strict=True)}  # fmt: skip
+
+
+@settings(max_examples=25, deadline=None)
+@given(steps=walks(25.0, 6))
+def test_growing_never_moves_a_cell(steps: list[Pose2D]) -> None:
+    """Two grids that grow by different steps hold the same log-odds on the same world cells."""
+    a = OccupancyMap(GridParams(resolution_m=0.1, max_size_m=100.0, grow_margin_m=0.3))
+    b = OccupancyMap(GridParams(resolution_m=0.1, max_size_m=100.0, grow_margin_m=7.0))
+    for pose in steps:
+        ranges = np.full(BINS, 2.0, dtype=np.float32)
+        ranges[::7] = np.inf
+        for grid in (a, b):
+            grid.integrate(Beams(ranges, -math.pi, INC, 0.05, 4.0), pose)
+    assert _cells(a) == _cells(b)
+
+
+def test_a_scan_that_reaches_past_the_cap_keeps_what_is_inside() -> None:
+    grid = OccupancyMap(GridParams(resolution_m=0.1, max_size_m=10.0))
+    grid.integrate(room_scan(Pose2D(0, 0, 0), room=(2.0, 2.0)), Pose2D(0, 0, 0))
+    got = grid.integrate(room_scan(Pose2D(0, 0, 0), room=(9.0, 1.0)), Pose2D(0, 0, 0))
+    assert got.beyond_cap > 0 and grid.shape[1] == 100
+    with pytest.raises(ScanRefused, match="beyond_cap"):
+        grid.integrate(room_scan(Pose2D(0, 0, 0)), Pose2D(30.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize(
+    "beams",
+    [
+        Beams(np.ones(BINS, np.float32), math.nan, INC, 0.05, 10.0),
+        Beams(np.ones(BINS, np.float32), -math.pi, 0.0, 0.05, 10.0),
+        Beams(np.ones(BINS, np.float32), -math.pi, INC, 5.0, 1.0),
+        Beams(np.ones(0, np.float32), -math.pi, INC, 0.05, 10.0),
+        Beams(np.ones(400, np.float32), -math.pi, INC, 0.05, 10.0),
+    ],
+)
+def test_a_bad_geometry_is_refused_whole(beams: Beams) -> None:
+    grid = OccupancyMap()
+    grid.integrate(room_scan(Pose2D(0, 0, 0)), Pose2D(0, 0, 0))
+    before = grid.logodds.copy()
+    with pytest.raises(ScanRefused, match="bad_geometry"):
+        grid.integrate(beams, Pose2D(0, 0, 0))
+    assert np.array_equal(grid.logodds, before)
+
+
+def test_a_moved_object_is_cleared_after_a_few_scans() -> None:
+    grid = OccupancyMap()
+    near = room_scan(Pose2D(0, 0, 0), room=(1.0, 3.0))  # a wall 1 m ahead ...
+    for _ in range(20):
+        grid.integrate(near, Pose2D(0, 0, 0))
+    assert grid.values()[grid.cell_of(1.0, 0.02)] == LETHAL
+    far = room_scan(Pose2D(0, 0, 0))  # ... taken away: the rays pass through
+    for _ in range(10):  # (max_logodds - free_logodds) / miss: one second of a 10 Hz lidar
+        grid.integrate(far, Pose2D(0, 0, 0))
+    assert grid.values()[grid.cell_of(1.0, 0.02)] == FREE
+
+
+def test_the_costmap_bands_follow_the_footprint() -> None:
+    params = CostmapParams.for_footprint(0.70, 0.31, padding_m=0.0, inflation_m=0.8)
+    assert params.inscribed_m == pytest.approx(0.155) and params.circumscribed_m == pytest.approx(0.3828, abs=1e-4)
+    values = np.full((81, 81), FREE, dtype=np.int8)
+    values[:, :5] = UNKNOWN
+    values[40, 40] = LETHAL
+    cost = inflate(values, 0.05, params)
+    rows, cols = np.indices(values.shape)
+    d = np.hypot(rows - 40, cols - 40) * 0.05
+    assert (cost[d <= params.inscribed_m] == LETHAL).all()
+    assert (cost[(d > params.inscribed_m) & (d <= params.circumscribed_m)] == INSCRIBED).all()
+    falling = (d > params.circumscribed_m) & (d <= params.inflation_m)
+    assert ((cost[falling] >= 1) & (cost[falling] <= 98)).all()
+    order = np.argsort(d[falling])
+    assert (np.diff(cost[falling][order].astype(int)) <= 0).all(), "the cost must fall with distance"
+    assert (cost[(d > params.inflation_m) & (values == FREE)] == FREE).all()
+    assert (cost[values == UNKNOWN] == UNKNOWN).all()
+    assert (inflate(np.full((5, 5), UNKNOWN, np.int8), 0.05, params) == UNKNOWN).all()
+
+
+@settings(max_examples=40, deadline=None)
+@given(pose=poses, holes=st.sets(st.integers(0, BINS - 1), max_size=40))
+def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, holes: set[int]) -> None:
+    """Bins a cloud left empty (+inf between two returns) clear only to their neighbours' walls; more
+    in a row than GAP_BEAMS (with far returns round them) are an opening and clear to range_max."""
+    beams = room_scan(pose)
+    ranges = beams.ranges.copy()
+    lone = {i for i in holes if (i - 1) % BINS not in holes and (i + 1) % BINS not in holes}
+    ranges[sorted(lone)] = np.inf
+    grid = OccupancyMap()
+    grid.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    rows, cols = np.nonzero(grid.values() == FREE)
+    cx = (cols + grid.offset[0] + 0.5) * grid.resolution
+    cy = (rows + grid.offset[1] + 0.5) * grid.resolution
+    tol = grid.resolution * math.sqrt(2) / 2  # the wall's own cells may be half free
+    assert (np.abs(cx) < ROOM[0] + tol).all() and (np.abs(cy) < ROOM[1] + tol).all(), "free space past a wall"
+    near = int(np.argmin(beams.ranges))  # an open door in the nearest wall (within no_return_m) ...
+    opening = beams.ranges.copy()
+    opening[np.arange(near - 1, near + GAP_BEAMS) % BINS] = np.inf
+    fresh = OccupancyMap()
+    fresh.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    rows, cols = np.nonzero(fresh.values() == FREE)
+    cx = (cols + fresh.offset[0] + 0.5) * fresh.resolution
+    cy = (rows + fresh.offset[1] + 0.5) * fresh.resolution
+    assert ((np.abs(cx) > ROOM[0] + tol) | (np.abs(cy) > ROOM[1] + tol)).any(), "... clears past it"
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), band=st.integers(1, 40))
+def test_the_costmap_in_bands_is_the_costmap_whole(seed: int, band: int) -> None:
+    rng = np.random.default_rng(seed)
+    values = rng.choice(np.array([UNKNOWN, FREE, LETHAL], np.int8), size=(60, 45), p=[0.3, 0.68, 0.02])
+    params = CostmapParams.for_footprint(0.70, 0.31)
+    assert np.array_equal(inflate(values, 0.05, params, band_rows=band), inflate(values, 0.05, params, band_rows=10**6))
