@@ -42,7 +42,7 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
 Goals and states
   follow    tracking | waiting | lost | searching(self mode only)   never ends by itself
   go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface);
-            detouring while the local planner (behavior/planner.py) steers round an obstacle on /scan
+            detouring while the local planner (behavior/planner/local.py) steers round an obstacle on /scan
   look for  searching -> aligning -> found (target centred), or not_found after search_timeout_s
   turn      turning (in place at decision_turn_rate, |angle| <= 30 deg) -> done
   stop      stopped (zero velocity); sit / stand -> done; text it cannot parse -> rejected: reason on

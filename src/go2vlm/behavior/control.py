@@ -1,6 +1,6 @@
 """The behaviours' control laws, pure: how a target's place becomes a velocity. Which law runs, and
 when, is decided elsewhere (the follower node; the commander's Mission, behavior/mission.py, with its
-local planner, behavior/planner.py), as Nav2 keeps the planner and the controller apart.
+local planner, behavior/planner/local.py), as Nav2 keeps the planner and the controller apart.
 
 - `follow_command`: the article's follower (behavior/follower_node.py, section 5.3): turn towards the
   normalised offset x, walk while aligned, slower as the target grows.
