@@ -154,6 +154,25 @@ def main() -> None:
 
     med, best, cost = bench(csgraph, max(1, args.repeats // 2))
     rows.append(("scipy csgraph dijkstra", f"median {med:7.1f} ms  best {best:7.1f} ms  cost {cost:8.1f}"))
+    from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, plan_path
+
+    cm = Costmap(np.where(np.isfinite(c), np.clip((c - 1.0) / 49.0 * 98, 0, 98), 100).astype(np.int8), RES, (0.0, 0.0))
+    sxy = (float((start[1] + 0.5) * RES), float((start[0] + 0.5) * RES))
+    gxy = (float((goal[1] + 0.5) * RES), float((goal[0] + 0.5) * RES))
+    for name, gp in (
+        ("go2vlm plan_path (coarsened)", GlobalParams()),
+        ("go2vlm plan_path (full res)", GlobalParams(max_cells=SIZE * SIZE)),
+    ):
+
+        def ours(gp: GlobalParams = gp) -> float:
+            plan = plan_path(cm, sxy, [gxy], gp)
+            assert plan.ok, plan.reason
+            return plan.cost / RES
+
+        med, best, cost = bench(ours, args.repeats)
+        rows.append(
+            (name, f"median {med:7.1f} ms  best {best:7.1f} ms  cost {cost:8.1f} (int8 costs, waypoints included)")
+        )
     print(f"{SIZE} x {SIZE} cells at {RES} m, corner to corner, {args.repeats} repeats")
     for name, row in rows:
         print(f"{name:30s} {row}")

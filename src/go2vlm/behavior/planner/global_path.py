@@ -134,25 +134,25 @@ class Plan:
     cells: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # dense (row, col) path, fine grid
 
 
-def cell_costs(cm: Costmap, p: GlobalParams) -> np.ndarray:
-    """float64 cost of entering each cell (inf: never)."""
-    d = cm.data.astype(np.int16)
-    c = 1.0 + p.cost_scale * np.clip(d, 0, 100) / 100.0
-    c[d >= p.lethal] = np.inf
-    c[d == UNKNOWN] = p.unknown_cost
-    c[d < UNKNOWN] = np.inf  # not a ROS occupancy value: never entered
+def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
+    """float64 cost of entering each cell (inf: never), on the grid coarsened by `k`: each k x k
+    block as costly as its costliest cell (unknown counted where any is; the edge padded lethal)."""
+    d = cm.data
+    unknown = d == UNKNOWN
+    if k > 1:
+        h, w = d.shape
+        hh, ww = -(-h // k) * k, -(-w // k) * k
+        pad = np.full((hh, ww), 100, np.int8)
+        pad[:h, :w] = d
+        blocks = pad.reshape(hh // k, k, ww // k, k)
+        d = blocks.max(axis=3).max(axis=1)  # int8 reductions: -1 (unknown) loses to any known value
+        unknown = blocks.min(axis=3).min(axis=1) == UNKNOWN
+    v = d.astype(np.int16)
+    c = 1.0 + p.cost_scale * np.clip(v, 0, 100) / 100.0
+    c[unknown] = np.maximum(c[unknown], p.unknown_cost) if k > 1 else p.unknown_cost
+    c[v >= p.lethal] = np.inf
+    c[v < UNKNOWN] = np.inf  # not a ROS occupancy value: never entered
     return c
-
-
-def coarsen(c: np.ndarray, k: int) -> np.ndarray:
-    """Each k x k block as costly as its costliest cell (the edge padded with inf)."""
-    if k == 1:
-        return c
-    h, w = c.shape
-    hh, ww = -(-h // k) * k, -(-w // k) * k
-    pad = np.full((hh, ww), np.inf)
-    pad[:h, :w] = c
-    return pad.reshape(hh // k, k, ww // k, k).max(axis=(1, 3))
 
 
 def stride_for(shape: tuple[int, int], max_cells: int) -> int:
@@ -242,7 +242,7 @@ def plan_path(
     if not all(math.isfinite(v) for v in start) or not all(math.isfinite(v) for g in goal_list for v in g):
         return Plan(False, "start or goal is not a finite point")
     k = stride_for(cm.shape, p.max_cells)
-    c = coarsen(cell_costs(cm, p), k)
+    c = cell_costs(cm, p, k)
     res = cm.resolution * k
     cm_k = Costmap(np.zeros((1, 1), np.int8), res, cm.origin)
 
