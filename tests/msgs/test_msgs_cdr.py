@@ -40,6 +40,8 @@ TYPES = [
     "sensor_msgs/msg/PointCloud2",
     "sensor_msgs/msg/LaserScan",
     "nav_msgs/msg/Odometry",
+    "nav_msgs/msg/MapMetaData",
+    "nav_msgs/msg/OccupancyGrid",
     "vision_msgs/msg/Point2D",
     "vision_msgs/msg/Pose2D",
     "vision_msgs/msg/BoundingBox2D",
@@ -181,3 +183,21 @@ def test_marker_constants_are_jazzys() -> None:
     consts = [(name, typ, value) for name, typ, value in typestore().fielddefs["visualization_msgs/msg/Marker"][0]]
     assert [(n, t, v) for t, n, v in Marker.__ros_constants__] == consts  # type: ignore[attr-defined]
     assert (Marker.CYLINDER, Marker.TEXT_VIEW_FACING, Marker.DELETEALL) == (3, 9, 3)
+
+
+@pytest.mark.parametrize("n", [0, 1, 3, 7, 1201])
+def test_occupancy_grid_of_every_cell_value(n: int) -> None:
+    """A map's int8 cells (-1 unknown, 0 free, 1..100 occupied) in odd lengths, after a float32."""
+    info = {
+        "map_load_time": {"sec": 3, "nanosec": 4},
+        "resolution": 0.0625,  # exact in float32
+        "width": n,
+        "height": 1,
+        "origin": {
+            "position": {"x": -30.0, "y": -0.5, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+        },
+    }
+    data = [(i % 102) - 1 for i in range(n)]  # -1 .. 100
+    check("nav_msgs/msg/OccupancyGrid", {"header": {"stamp": {"sec": 1, "nanosec": 2}, "frame_id": "odom"},
+                                         "info": info, "data": data})  # fmt: skip

@@ -28,7 +28,7 @@ from go2vlm.bus import qos
 from go2vlm.bus.qos import QosProfile
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import TrackedTarget
-from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu, JointState, LaserScan, PointCloud2
 from go2vlm.msgs.std_msgs import Bool, String
@@ -119,6 +119,9 @@ DETECTED_TARGET = Topic("/detected_target", PointStamped, qos.QOS_DEFAULT)
 SIM_DETECTIONS = Topic("/sim/detections", Detection2DArray, qos.QOS_DEFAULT)
 OBJECTS = Topic("/objects", Detection3DArray, qos.QOS_LATCHED)
 OBJECT_MARKERS = Topic("/objects/markers", MarkerArray, qos.QOS_LATCHED)
+# The occupancy map (world/map_node.py) and its costmap, inflated by the footprint: latched, at most 1 Hz.
+MAP = Topic("/map", OccupancyGrid, qos.QOS_LATCHED)
+MAP_COSTMAP = Topic("/map/costmap", OccupancyGrid, qos.QOS_LATCHED)
 
 # Behaviour.
 GOAL = Topic("/goal", String, qos.QOS_DEFAULT)
@@ -160,6 +163,7 @@ SAFETY_STATUS = _status("/safety/status")
 COMMANDER_STATUS = _status("/commander/status")
 TRACKER_STATUS = _status("/target_tracker/status")
 OBJECT_MEMORY_STATUS = _status("/object_memory/status")
+MAP_STATUS = _status("/map/status")
 VLM_STATUS = _status("/vlm/status")
 ANSWER_DELAY_STATUS = _status("/answer_delay/status")
 GO2_STATUS = _status("/go2/status")

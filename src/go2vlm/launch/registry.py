@@ -15,6 +15,7 @@ NODES: dict[str, str] = {
     "target_tracker": "go2vlm.perception.tracker_node:TargetTrackerNode",
     "answer_delay": "go2vlm.perception.answer_delay_node:AnswerDelayNode",
     "object_memory": "go2vlm.world.object_memory_node:ObjectMemoryNode",
+    "map": "go2vlm.world.map_node:MapNode",
     "follower": "go2vlm.behavior.follower_node:FollowerNode",
     "commander": "go2vlm.behavior.commander_node:CommanderNode",
     "safety": "go2vlm.safety.gate_node:SafetyGateNode",

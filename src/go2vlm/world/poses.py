@@ -13,16 +13,22 @@ Rules
   newest by more than `max_extrapolation_s` (`newer_than_pose`: wait for the pose to catch up), or
   between two samples more than `max_gap_s` apart (`pose_gap`: the robot may have done anything).
 - It keeps `horizon_s` of samples (and at most `max_samples`): bounded whatever the rate.
+
+An input stamped newer than the newest pose may wait for it (`PoseWait`): at most `wait_s` after it
+arrived, at most `max_items` of them, retried on each new pose.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass, field
+from typing import Generic, TypeVar
 
-__all__ = ["Pose2D", "PoseHistory", "PoseUnavailable", "wrap_angle"]
+__all__ = ["Pose2D", "PoseHistory", "PoseUnavailable", "PoseWait", "wrap_angle"]
+
+T = TypeVar("T")
 
 
 def wrap_angle(a: float) -> float:
@@ -127,3 +133,30 @@ class PoseHistory:
         a = (t - t0) / (t1 - t0)
         (x0, y0, w0), (x1, y1, w1) = self._p[i - 1], self._p[i]
         return Pose2D(x0 + a * (x1 - x0), y0 + a * (y1 - y0), wrap_angle(w0 + a * wrap_angle(w1 - w0)))
+
+
+class PoseWait(Generic[T]):
+    """Inputs whose pose has not come yet: `pose_for` gives the pose at a stamp, or keeps the input
+    (None) while the pose may still come, or raises PoseUnavailable; `due()` hands the kept ones back
+    (with when they arrived) for another try after a new pose."""
+
+    def __init__(self, wait_s: float, max_items: int = 16) -> None:
+        self.wait_s = wait_s
+        self._items: deque[tuple[float, T]] = deque(maxlen=max_items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def pose_for(self, history: PoseHistory, stamp: float, item: T, arrived: float, now: float) -> Pose2D | None:
+        try:
+            return history.at(stamp)
+        except PoseUnavailable as exc:
+            if exc.reason in ("newer_than_pose", "no_pose") and now - arrived <= self.wait_s:
+                self._items.append((arrived, item))  # the pose will catch up
+                return None
+            raise
+
+    def due(self) -> list[tuple[float, T]]:
+        items = list(self._items)
+        self._items.clear()
+        return items

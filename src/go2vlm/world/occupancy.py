@@ -1,0 +1,324 @@
+"""The occupancy map without any I/O: laser scans in, a log-odds grid in the odom frame out, and the
+costmap a planner reads from it.
+
+    grid = OccupancyMap(GridParams())
+    result = grid.integrate(beams, pose)          # one scan at the pose of its stamp (world/poses.py)
+    values = grid.values()                        # ROS OccupancyGrid cells: -1 unknown, 0 free, 100 occupied
+    cost = inflate(values, grid.resolution, CostmapParams.for_footprint(0.70, 0.31))
+
+Frame and cells
+- Cells are squares of `resolution_m` on a fixed world lattice: the cell of world (x, y) is
+  (floor(x / res), floor(y / res)) whatever the grid's extent, so growing the grid never moves a cell.
+- Arrays are indexed [row, col] = [y, x]; `origin` is the world x, y of cell (0, 0)'s outer corner
+  (its lowest x and y), as nav_msgs/MapMetaData.origin (yaw 0). Row-major, row 0 first: the ROS
+  OccupancyGrid data order.
+
+Rules
+- A scan is placed at a pose (x, y, yaw in odom) with its rays starting at the scan frame's origin
+  (`Beams.origin`, in the base frame: /scan is in base_link and its ranges are from the base origin).
+- Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
+  the cells before it on the ray lose `miss` (a range under range_min is a hit with no free ray: too
+  close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
+  space up to range_max and marks nothing. NaN ranges are dropped and counted (`nan`); -inf and
+  negative ranges too (`invalid`). A cell gains or loses once per scan, and a cell hit by this scan
+  is not cleared by another of its rays grazing it. Log-odds are clamped to [min_logodds,
+  max_logodds], so a moved object is cleared after a few scans.
+- Rays are sampled every half cell (a vectorised walk; corner-clipped cells may be skipped).
+- Grows with what it sees, `grow_margin_m` at a time, up to `max_size_m` a side; beyond that cap the
+  part of a scan outside is dropped (`beyond_cap`, counted per beam), and a scan whose origin is
+  outside is refused whole (ScanRefused("beyond_cap")). A bad scan geometry is refused whole
+  (ScanRefused("bad_geometry")). Nothing is written until the whole scan has been checked: a refused
+  scan leaves the grid as it was.
+- `values()`: log-odds >= occupied_logodds -> 100, <= free_logodds -> 0, between (and never seen) -> -1.
+- `inflate`: 100 on an occupied cell and wherever the robot's centre puts its footprint on it whatever
+  its heading (within the inscribed radius), 99 where it may, by heading (within the circumscribed
+  radius), then a cost falling from 98 to 1 out to `inflation_m`; 0 free; -1 unknown (unless inflated).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from go2vlm.world.poses import Pose2D
+
+__all__ = [
+    "FREE",
+    "INSCRIBED",
+    "LETHAL",
+    "UNKNOWN",
+    "Beams",
+    "CostmapParams",
+    "GridParams",
+    "Integrated",
+    "OccupancyMap",
+    "ScanRefused",
+    "inflate",
+]
+
+UNKNOWN, FREE, INSCRIBED, LETHAL = -1, 0, 99, 100
+
+
+@dataclass(frozen=True)
+class GridParams:
+    resolution_m: float = 0.05
+    max_size_m: float = 60.0  # the cap, a side
+    grow_margin_m: float = 2.0  # the grid grows this much past what a scan needs
+    hit: float = 0.9  # log-odds a return adds to its cell
+    miss: float = 0.4  # log-odds a ray through a cell takes
+    min_logodds: float = -2.0
+    max_logodds: float = 3.5
+    occupied_logodds: float = 0.5  # /map: occupied at or above (one hit) ...
+    free_logodds: float = -0.3  # ... free at or below (one ray through)
+
+    def __post_init__(self) -> None:
+        if not (0.005 <= self.resolution_m <= 1.0):
+            raise ValueError(f"resolution_m must be in [0.005, 1.0], got {self.resolution_m}")
+        if not (self.resolution_m * 8 <= self.max_size_m <= 1000.0):
+            raise ValueError(f"max_size_m must be in [8 cells, 1000 m], got {self.max_size_m}")
+        if not (self.hit > 0 and self.miss > 0 and self.min_logodds < self.free_logodds < 0):
+            raise ValueError("need hit > 0, miss > 0 and min_logodds < free_logodds < 0")
+        if not (0 < self.occupied_logodds <= self.hit <= self.max_logodds):
+            raise ValueError("need 0 < occupied_logodds <= hit <= max_logodds: one return must mark a cell")
+        if self.free_logodds < -self.miss:
+            raise ValueError("need free_logodds >= -miss: one ray must clear a cell")
+
+    @property
+    def max_cells(self) -> int:
+        return int(round(self.max_size_m / self.resolution_m))
+
+
+@dataclass(frozen=True)
+class Beams:
+    """A planar scan in numbers (a sensor_msgs/LaserScan's fields): ranges from `origin` (the scan
+    frame's origin in the base frame), beam i at angle_min + i * angle_increment."""
+
+    ranges: np.ndarray
+    angle_min: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    origin: tuple[float, float] = (0.0, 0.0)
+
+
+class ScanRefused(ValueError):
+    """A scan the map took nothing from; `reason`: bad_geometry | beyond_cap."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        super().__init__(f"{reason}: {detail}")
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class Integrated:
+    """What one scan gave: beams with a return, beams without (free rays only), and those dropped."""
+
+    hits: int
+    no_return: int
+    nan: int
+    invalid: int
+    beyond_cap: int
+    grew: bool
+
+
+class OccupancyMap:
+    """A growing log-odds grid (see the module docstring)."""
+
+    def __init__(self, params: GridParams | None = None) -> None:
+        self.params = params or GridParams()
+        self.logodds = np.zeros((0, 0), dtype=np.float32)
+        self.offset = (0, 0)  # lattice index (ix, iy) of cell (0, 0)
+        self.scans = 0
+
+    # -- geometry --------------------------------------------------------------------------
+    @property
+    def resolution(self) -> float:
+        return self.params.resolution_m
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols) = (cells along y, cells along x)."""
+        return self.logodds.shape
+
+    @property
+    def origin(self) -> tuple[float, float]:
+        """World x, y of cell (0, 0)'s outer corner."""
+        return self.offset[0] * self.resolution, self.offset[1] * self.resolution
+
+    @property
+    def empty(self) -> bool:
+        return self.logodds.size == 0
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """(row, col) of world (x, y); may be outside the grid."""
+        return (math.floor(y / self.resolution) - self.offset[1], math.floor(x / self.resolution) - self.offset[0])
+
+    def center_of(self, row: int, col: int) -> tuple[float, float]:
+        """World x, y of a cell's centre."""
+        return (col + self.offset[0] + 0.5) * self.resolution, (row + self.offset[1] + 0.5) * self.resolution
+
+    # -- integration ------------------------------------------------------------------------
+    def integrate(self, beams: Beams, pose: Pose2D) -> Integrated:
+        """One scan at `pose`; ScanRefused (and the grid unchanged) when nothing of it can be used."""
+        p = self.params
+        _check_geometry(beams)
+        r = np.asarray(beams.ranges, dtype=np.float64).reshape(-1)
+        nan = np.isnan(r)
+        invalid = ~nan & ((r == -np.inf) | (r < 0))
+        usable = ~nan & ~invalid
+        hit = usable & np.isfinite(r) & (r <= beams.range_max)
+        no_return = usable & ~hit
+        angles = beams.angle_min + beams.angle_increment * np.arange(len(r))
+        ox, oy = pose.to_world(*beams.origin)
+        wa = angles + pose.yaw
+        dx, dy = np.cos(wa), np.sin(wa)
+        # Free rays: to the return (not for one under range_min), or to range_max without one.
+        free_len = np.where(hit, np.where(r >= beams.range_min, r, 0.0), np.where(no_return, beams.range_max, 0.0))
+        res = self.resolution
+        hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
+        step = res / 2.0
+        n = np.ceil(free_len / step).astype(np.int64)
+        total = int(n.sum())
+        ray = np.repeat(np.arange(len(r)), n)
+        t = (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * step
+        fx, fy = ox + t * dx[ray], oy + t * dy[ray]
+        # Lattice indices of everything this scan touches, then the window it may write.
+        o_ix, o_iy = math.floor(ox / res), math.floor(oy / res)
+        h_ix, h_iy = np.floor(hx / res).astype(np.int64), np.floor(hy / res).astype(np.int64)
+        f_ix, f_iy = np.floor(fx / res).astype(np.int64), np.floor(fy / res).astype(np.int64)
+        xs = [o_ix, *(a.min() for a in (h_ix, f_ix) if a.size), *(a.max() for a in (h_ix, f_ix) if a.size)]
+        ys = [o_iy, *(a.min() for a in (h_iy, f_iy) if a.size), *(a.max() for a in (h_iy, f_iy) if a.size)]
+        x_lo, x_hi = self._window(0, o_ix, int(min(xs)), int(max(xs)))
+        y_lo, y_hi = self._window(1, o_iy, int(min(ys)), int(max(ys)))
+        if not (x_lo <= o_ix <= x_hi and y_lo <= o_iy <= y_hi):
+            raise ScanRefused("beyond_cap", f"the scan's origin ({ox:.2f}, {oy:.2f}) m is outside the "
+                              f"{p.max_size_m:g} m map the grid may hold")  # fmt: skip
+        h_in = (h_ix >= x_lo) & (h_ix <= x_hi) & (h_iy >= y_lo) & (h_iy <= y_hi)
+        f_in = (f_ix >= x_lo) & (f_ix <= x_hi) & (f_iy >= y_lo) & (f_iy <= y_hi)
+        beyond = np.zeros(len(r), dtype=bool)
+        beyond[np.nonzero(hit)[0][~h_in]] = True
+        beyond[ray[~f_in]] = True
+        # Checked: now write (grow, then free rays, then hits over them).
+        grew = self._grow(x_lo, x_hi, y_lo, y_hi)
+        ix0, iy0 = self.offset
+        flat_w = self.logodds.shape[1]
+        lo = self.logodds.reshape(-1)
+        h_flat = (h_iy[h_in] - iy0) * flat_w + (h_ix[h_in] - ix0)
+        f_flat = (f_iy[f_in] - iy0) * flat_w + (f_ix[f_in] - ix0)
+        before = lo[h_flat]
+        lo[f_flat] = np.maximum(lo[f_flat] - p.miss, p.min_logodds)
+        lo[h_flat] = np.minimum(before + p.hit, p.max_logodds)
+        self.scans += 1
+        return Integrated(int(hit.sum()), int(no_return.sum()), int(nan.sum()), int(invalid.sum()),
+                          int(beyond.sum()), grew)  # fmt: skip
+
+    def _window(self, axis: int, origin: int, need_lo: int, need_hi: int) -> tuple[int, int]:
+        """The lattice range [lo, hi] along `axis` the grid will span: the current one grown over
+        what a scan needs (plus a margin), at most max_cells, never dropping a mapped cell."""
+        cap = self.params.max_cells
+        margin = int(round(self.params.grow_margin_m / self.resolution))
+        if self.empty:
+            lo, hi = need_lo - margin, need_hi + margin
+            if hi - lo + 1 <= cap:
+                return lo, hi
+            lo = max(need_lo, origin - cap // 2)
+            return lo, lo + cap - 1
+        size = self.logodds.shape[1 - axis]
+        cur_lo = self.offset[axis]
+        cur_hi = cur_lo + size - 1
+        if need_lo >= cur_lo and need_hi <= cur_hi:
+            return cur_lo, cur_hi
+        lo, hi = min(cur_lo, need_lo - margin), max(cur_hi, need_hi + margin)
+        if hi - lo + 1 <= cap:
+            return lo, hi
+        lo, hi = min(cur_lo, need_lo), max(cur_hi, need_hi)
+        if hi - lo + 1 <= cap:  # fits without the margin: take what is left of the cap
+            spare = cap - (hi - lo + 1)
+            return (lo - spare, hi) if need_lo < cur_lo else (lo, hi + spare)
+        if need_hi > cur_hi and origin >= cur_lo:
+            return cur_lo, cur_lo + cap - 1
+        return cur_hi - cap + 1, cur_hi
+
+    def _grow(self, x_lo: int, x_hi: int, y_lo: int, y_hi: int) -> bool:
+        rows, cols = y_hi - y_lo + 1, x_hi - x_lo + 1
+        if not self.empty and (x_lo, y_lo) == self.offset and (rows, cols) == self.shape:
+            return False
+        new = np.zeros((rows, cols), dtype=np.float32)
+        if not self.empty:
+            r0, c0 = self.offset[1] - y_lo, self.offset[0] - x_lo
+            h, w = self.shape
+            new[r0 : r0 + h, c0 : c0 + w] = self.logodds
+        self.logodds, self.offset = new, (x_lo, y_lo)
+        return True
+
+    # -- reading ----------------------------------------------------------------------------
+    def values(self) -> np.ndarray:
+        """The grid as ROS OccupancyGrid cells (int8, [rows = y, cols = x]): -1, 0 or 100."""
+        p = self.params
+        out = np.full(self.shape, UNKNOWN, dtype=np.int8)
+        out[self.logodds <= p.free_logodds] = FREE
+        out[self.logodds >= p.occupied_logodds] = LETHAL
+        return out
+
+    def occupied_points(self) -> np.ndarray:
+        """World x, y of every occupied cell's centre, (N, 2)."""
+        rows, cols = np.nonzero(self.logodds >= self.params.occupied_logodds)
+        res = self.resolution
+        return np.column_stack([(cols + self.offset[0] + 0.5) * res, (rows + self.offset[1] + 0.5) * res])
+
+    def counts(self) -> dict[str, int]:
+        v = self.values()
+        return {"occupied": int((v == LETHAL).sum()), "free": int((v == FREE).sum()),
+                "unknown": int((v == UNKNOWN).sum())}  # fmt: skip
+
+
+def _check_geometry(b: Beams) -> None:
+    geo = (b.angle_min, b.angle_increment, b.range_min, b.range_max, *b.origin)
+    n = int(np.size(b.ranges))
+    if not all(math.isfinite(v) for v in geo) or b.angle_increment <= 0 or not 0 <= b.range_min < b.range_max:
+        raise ScanRefused("bad_geometry", f"angle_min, angle_increment, range_min, range_max = {geo[:4]}")
+    if n == 0:
+        raise ScanRefused("bad_geometry", "the scan has no beams")
+    if n * b.angle_increment > 2 * math.pi + 1e-3:
+        raise ScanRefused("bad_geometry", f"{n} beams x {b.angle_increment:g} rad is more than a turn")
+    if b.range_max > 100.0:
+        raise ScanRefused("bad_geometry", f"range_max {b.range_max:g} m: a planar lidar of a house reaches 100 m")
+
+
+@dataclass(frozen=True)
+class CostmapParams:
+    """Radii of the robot's footprint about its centre (m): the costmap's bands."""
+
+    inscribed_m: float
+    circumscribed_m: float
+    inflation_m: float
+
+    def __post_init__(self) -> None:
+        if not (0 < self.inscribed_m <= self.circumscribed_m <= self.inflation_m <= 5.0):
+            raise ValueError("need 0 < inscribed_m <= circumscribed_m <= inflation_m <= 5 m")
+
+    @staticmethod
+    def for_footprint(length: float, width: float, padding_m: float = 0.05, inflation_m: float = 0.8) -> CostmapParams:
+        """A rectangle's inscribed and circumscribed circles, both `padding_m` wider."""
+        inscribed = min(length, width) / 2 + padding_m
+        circumscribed = math.hypot(length / 2, width / 2) + padding_m
+        return CostmapParams(inscribed, circumscribed, max(inflation_m, circumscribed))
+
+
+def inflate(values: np.ndarray, resolution: float, params: CostmapParams) -> np.ndarray:
+    """The costmap of an OccupancyGrid's cells (see the module docstring), int8, same shape."""
+    occupied = values == LETHAL
+    cost = np.where(values == UNKNOWN, UNKNOWN, FREE).astype(np.int8)
+    if not occupied.any():
+        return cost
+    d = ndimage.distance_transform_edt(~occupied) * resolution
+    near = d <= params.inflation_m
+    span = max(params.inflation_m - params.circumscribed_m, 1e-9)
+    falling = 1 + np.floor(97.0 * np.clip((params.inflation_m - d) / span, 0.0, 1.0)).astype(np.int16)
+    cost[near] = np.minimum(falling[near], 98).astype(np.int8)
+    cost[d <= params.circumscribed_m] = INSCRIBED
+    cost[d <= params.inscribed_m] = LETHAL
+    return cost
