@@ -1,8 +1,14 @@
 """The commander's logic without any I/O: a language goal, the target_tracker's sightings and the VLM's
 scene decisions in; a velocity intent, posture commands, the query for the tracker and a state with
-its reason out. Driven by explicit timestamps so it can be tested exhaustively. It orchestrates:
-the control laws it runs (approach, align, face, search) are behavior/control.py's, beside the
-follower's, and its local planner is behavior/planner.py.
+its reason out. Driven by explicit timestamps so it can be tested exhaustively.
+
+This module is the goal state machine: it parses goals, takes in the observations, and each step
+asks its strategies (behavior/strategies/, each a pure module with its own property tests) in order
+what to do: strategies/decide.py (a VLM decision or a turn goal overrides all), approach.py (the
+tracker's confirmed target, and a detour that hides it), remembered.py (a remembered object), then
+lost, then the search chain (`Mission.searches`, the hook `Mission.search`: search.py's
+turn-and-look first; a new search strategy is appended there). The control laws they run are
+behavior/control.py's, the local planner behavior/planner/local.py.
 
     mission = Mission(MissionParams())
     mission.set_goal("go to the blue cylinder", now)
@@ -31,7 +37,7 @@ Rules
   |angle| / rate seconds, sit sends "sit" and ends the goal. Text never becomes a velocity.
 - Terminal states (idle, stopped, rejected, done, reached, found, not_found, sat) output zero: a
   burst of zeros for ZERO_BURST_S, then /behavior/cmd_vel goes quiet.
-- Obstacles (`avoid_obstacles`, behavior/planner.py): go to and follow (self) steer round what the
+- Obstacles (`avoid_obstacles`, behavior/planner/local.py): go to and follow (self) steer round what the
   newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
   the target (`detouring`). With the pose (`observe_pose`, odometry, fresh for `pose_timeout_s`) the
   target's last confirmed place is kept in the odometry frame; a detour that takes the target out of
@@ -59,107 +65,32 @@ Rules
   answer latency + 1 s, or `look_timeout_s` before any answer), then turn `search_step_deg` at
   `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
   `search_yaw_rate`, as before. With stop and look, `not_found` also needs one whole turn looked at.
+  Once turn-and-look is exhausted the next search strategy in the chain is asked; none left: `not_found`.
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular (never backwards).
 """
 
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
-from dataclasses import dataclass, field
+from collections import Counter
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from go2vlm.behavior.control import (
-    ApproachParams,
-    align_command,
-    approach_command,
-    face_command,
-    search_command,
-)
-from go2vlm.behavior.decisions import DecisionRejected, parse_decision
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
-from go2vlm.behavior.planner import PlannerParams, Steer, steer
-from go2vlm.robot_profile import go2 as spec
-from go2vlm.world.labels import label_fits
+from go2vlm.behavior.strategies.approach import Approach
+from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
+from go2vlm.behavior.strategies.decide import Decisions
+from go2vlm.behavior.strategies.params import MissionParams
+from go2vlm.behavior.strategies.remembered import GoToRemembered, relative
+from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["TERMINAL", "Intent", "Mission", "MissionParams", "Sighting"]
+__all__ = ["TERMINAL", "ZERO_BURST_S", "Intent", "Mission", "MissionParams", "Sighting"]
 
 TERMINAL = ("idle", "stopped", "rejected", "done", "reached", "found", "not_found", "sat")
 ZERO_BURST_S = 0.5  # zeros sent after a goal ends, then /behavior/cmd_vel goes quiet
-
-
-@dataclass(frozen=True)
-class MissionParams:
-    follow_control: str = "follower"  # follower: /detected_target for the follower; self: own control
-    stop_distance_m: float = 0.8  # go to: base -> surface
-    follow_distance_m: float = 1.2  # follow_control=self
-    distance_tolerance_m: float = 0.05
-    max_linear: float = 0.4
-    max_angular: float = 0.8
-    kp_linear: float = 0.8
-    kp_angular: float = 1.5
-    search_yaw_rate: float = 0.5
-    search_timeout_s: float = 30.0
-    search_on_loss: bool = True
-    lost_timeout_s: float = 1.0
-    camera_forward_m: float = spec.HEAD_CAMERA_POS[0]  # camera ahead of the base centre
-    decision_hold_s: float = 3.0
-    decision_turn_rate: float = 0.5
-    max_turn_deg: float = 30.0
-    avoid_obstacles: bool = True
-    scan_timeout_s: float = 0.5  # a scan older than this is no scan: no planning
-    pose_timeout_s: float = 0.5  # an odometry pose older than this places nothing
-    detour_memory_s: float = 8.0  # a detour out of the target's view lasts this long after the last sighting
-    planner: PlannerParams = field(default_factory=PlannerParams)
-    use_memory: bool = True  # go to / look for the object memory's remembered objects
-    memory_min_confidence: float = 0.3  # worth turning to (one sighting: 0.5; then three empty looks: 0.32)
-    memory_confirm_confidence: float = 0.7  # ... and this sure worth walking to (two that agree: 0.73)
-    reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
-    confirm_looks: int = 3  # answered looks without the object before it is given up
-    search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
-    search_view_per_answer: float = 0.5  # turning on would turn more of the view than this per answer: stop and look
-    search_step_rate: float = 0.5  # stop and look: rad/s of the turn between two looks
-    look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
-    look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
-
-    def __post_init__(self) -> None:
-        if self.follow_control not in ("follower", "self"):
-            raise ValueError(f"follow_control {self.follow_control!r} is not follower or self")
-        if not 0.0 <= self.max_turn_deg <= 30.0:
-            raise ValueError(f"max_turn_deg {self.max_turn_deg} must be within 0..30")
-        if not 0.0 < self.memory_min_confidence <= self.memory_confirm_confidence <= 1.0:
-            raise ValueError("need 0 < memory_min_confidence <= memory_confirm_confidence <= 1")
-
-    def approach(self, stop_distance: float) -> ApproachParams:
-        return ApproachParams(
-            stop_distance=stop_distance,
-            tolerance=self.distance_tolerance_m,
-            kp_linear=self.kp_linear,
-            kp_angular=self.kp_angular,
-            max_linear=self.max_linear,
-            max_angular=self.max_angular,
-        )
-
-
-@dataclass(frozen=True)
-class Sighting:
-    """One target_tracker report (a TrackedTarget), as it arrived."""
-
-    t: float  # arrival time on the node's clock
-    label: str  # what the tracker tracks
-    state: str  # idle | searching | tracking | lost | ungroundable
-    x: float = math.nan  # box centre, -1..1 from the image centre (geometry/target.py); NaN without a box
-    distance: float | None = None  # camera -> near surface (m)
-    range_method: str = "none"
-    bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
-    hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
-
-    @property
-    def tracked(self) -> bool:
-        return self.state == "tracking" and math.isfinite(self.x) and abs(self.x) <= 2.0
 
 
 @dataclass(frozen=True)
@@ -176,93 +107,131 @@ class Intent:
     reason: str = ""
 
 
-@dataclass
 class Mission:
-    params: MissionParams = field(default_factory=MissionParams)
+    """The goal state machine over its strategies (module docstring). `searches` is the search chain:
+    append a SearchStrategy to it (or pass `searches=`) to search further once turn-and-look is
+    exhausted."""
 
-    def __post_init__(self) -> None:
-        self.goal: Goal | None = None
+    def __init__(self, params: MissionParams | None = None, searches: tuple[SearchStrategy, ...] | None = None) -> None:
+        self.ctx = Context(params if params is not None else MissionParams())
         self.state = "idle"
         self.reason = "no goal yet"
-        self.counters: Counter[str] = Counter()
-        self.last_decision: dict[str, Any] | None = None
-        self.sighting: Sighting | None = None  # the newest one for the goal's object
         self.cmd = (0.0, 0.0)
-        self._postures: list[str] = []
-        self._last_seen: float | None = None  # arrival of the last confirmed sighting
-        self._last_x = 0.0
-        self._t_search = 0.0
-        self._zero_until = -math.inf
-        self._hold_until = -math.inf
-        self._turn_until = -math.inf
-        self._turn_dir = 0.0
         self.planner_note = ""  # what the local planner did on the last step ("" = nothing)
-        self._scan: tuple[np.ndarray, float] | None = None  # obstacle points (base frame), arrival
-        self._pose: tuple[float, float, float, float] | None = None  # odometry x, y, yaw, arrival
-        self._goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry)
-        self._detour_t: float | None = None  # when the planner last had to steer round something
-        self._side = 0.0  # the side it went round on (+1 left, -1 right)
-        self._side_t = -math.inf
-        self.memory: list[Remembered] | None = None  # None: no object memory heard of
-        self.answered_through: float | None = None  # the newest answer's frame, on this clock
-        self._latency: deque[float] = deque(maxlen=20)
-        self._given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
-        self._look_key: object = None  # what the current look is for
-        self._still_since = math.inf  # frames from this time on are taken at the current heading
-        self._failed_looks = 0
-        self._search_phase = "look"  # stop and look: look | turn
-        self._turn_t0 = 0.0  # when this step's turn began
-        self._turn_yaw: float | None = None  # the yaw the step started from
-        self._turned = 0.0  # rad turned (in steps) since the search began
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
-        self.target_obj: Remembered | None = None
-        self.view: float | None = None  # the camera's horizontal field of view (rad), from the tracker's reports
+        self._postures: list[str] = []
+        self._zero_until = -math.inf
+        self.decisions = Decisions()
+        self.approach = Approach()
+        self.remembered = GoToRemembered()
+        self.searches: list[SearchStrategy] = list(searches) if searches is not None else [TurnAndLook()]
+
+    # -- what the strategies share (read-only views of the context) -----------------------------
+    @property
+    def params(self) -> MissionParams:
+        return self.ctx.params
+
+    @params.setter
+    def params(self, p: MissionParams) -> None:  # live parameter changes: read on every step
+        self.ctx.params = p
+
+    @property
+    def goal(self) -> Goal | None:
+        return self.ctx.goal
+
+    @property
+    def counters(self) -> Counter[str]:
+        return self.ctx.counters
+
+    @property
+    def sighting(self) -> Sighting | None:
+        return self.ctx.sighting
+
+    @property
+    def memory(self) -> list[Remembered] | None:
+        return self.ctx.memory
+
+    @property
+    def answered_through(self) -> float | None:
+        return self.ctx.answers.through
+
+    @property
+    def answer_latency(self) -> float | None:
+        """The measured answer latency (s): the 80th percentile of the last answers, None before any."""
+        return self.ctx.answers.latency
+
+    @property
+    def view(self) -> float | None:
+        return self.ctx.view
+
+    @property
+    def target_obj(self) -> Remembered | None:
+        return self.ctx.target_obj
+
+    @property
+    def last_decision(self) -> dict[str, Any] | None:
+        return self.decisions.last
+
+    @property
+    def label(self) -> str:
+        return self.ctx.label
+
+    @property
+    def active(self) -> bool:
+        goal = self.ctx.goal
+        return goal is not None and goal.kind in TIMED_KINDS and self.state not in TERMINAL
+
+    def confirmed(self, now: float) -> bool:
+        """The newest sighting of the goal's object says tracking, and is fresh."""
+        return self.ctx.confirmed(now)
+
+    def base_distance(self, now: float) -> float | None:
+        """Base centre -> the object's surface, while confirmed and ranged."""
+        return self.ctx.base_distance(now)
+
+    def relative(self, o: Remembered, now: float) -> tuple[float, float] | None:
+        """(bearing, base centre -> surface) of a remembered object (strategies/remembered.py)."""
+        return relative(self.ctx, o, now)
 
     # -- inputs ------------------------------------------------------------------------------
     def set_goal(self, text: str, now: float) -> None:
+        ctx = self.ctx
         try:
             goal = parse_goal(text)
         except GoalParseError as exc:
-            self.counters["rejected_goals"] += 1
-            self.goal = Goal("stop", None, str(text)[:200])
+            ctx.counters["rejected_goals"] += 1
+            ctx.goal = Goal("stop", None, str(text)[:200])
             self._enter("rejected", str(exc), now)
             return
-        cur = self.goal
+        cur = ctx.goal
         if goal.moves and cur is not None and (cur.kind, cur.target) == (goal.kind, goal.target) and self.active:
             return  # the same goal again (a UI re-sending it): carry on, don't restart
-        self.goal = goal
-        self.sighting = None
-        self._last_seen = None
-        self._last_x = 0.0
-        self._goal_xy, self._detour_t, self._side = None, None, 0.0
-        self._hold_until = self._turn_until = -math.inf
-        self._given_up.clear()
-        self._look_key, self._failed_looks = None, 0
-        self._search_phase, self._turned, self._turn_yaw = "look", 0.0, None
+        ctx.new_goal(goal)
+        strategies: tuple[Strategy, ...] = (self.decisions, self.approach, self.remembered, *self.searches)
+        for strategy in strategies:
+            strategy.reset(now)
         if goal.kind == "stop":
             self._enter("stopped", "stop requested", now)
         elif goal.kind in ("sit", "stand"):
             self._postures.append(goal.kind)
             self._enter("done", f"sent {goal.kind!r} on /go2/command", now)
         elif goal.kind == "turn":  # the whitelisted turn of a VLM decision, asked for as a goal
-            self._start_turn(goal.angle_deg, now)
+            self.decisions.start_turn(goal.angle_deg, ctx.params, now)
             self._enter("turning", f"turning {goal.angle_deg:+g} deg in place", now)
+        elif goal.kind == "follow" and ctx.params.follow_control == "follower":
+            self._enter("waiting", f"waiting for the {self.label} to come into view", now)
         else:
-            self._t_search = now
-            label = self.label
-            if goal.kind == "follow" and self.params.follow_control == "follower":
-                self._enter("waiting", f"waiting for the {label} to come into view", now)
-            else:
-                self._enter("searching", f"looking for the {label}", now)
+            self._enter("searching", f"looking for the {self.label}", now)
 
     def observe(self, s: Sighting) -> None:
         """A target_tracker report; reports about another label are ignored (but for the camera's view)."""
+        ctx = self.ctx
         if math.isfinite(s.hfov) and 0.0 < s.hfov < math.pi:
-            self.view = s.hfov
+            ctx.view = s.hfov
         if not self.active or s.label != self.label:
-            self.counters["sightings_ignored"] += 1
+            ctx.counters["sightings_ignored"] += 1
             return
-        self.sighting = s
+        ctx.sighting = s
         if s.state == "ungroundable":
             self._enter(
                 "rejected",
@@ -272,441 +241,106 @@ class Mission:
                 s.t,
             )
         elif s.tracked:
-            self._last_seen = s.t
-            self._last_x = s.x
-            self._remember(s)
+            ctx.saw(s)
 
     def observe_scan(self, points: np.ndarray | None, now: float) -> None:
         """Obstacle points ((N, 2), base frame, x forward) from a scan; None: the scan was garbage."""
         if points is None:
-            self._scan = None
+            self.ctx.scan = None
             return
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        self._scan = (pts[np.isfinite(pts).all(axis=1)], now)
+        self.ctx.scan = (pts[np.isfinite(pts).all(axis=1)], now)
 
     def observe_pose(self, x: float, y: float, yaw: float, now: float) -> None:
         """The robot's odometry pose (a NaN one is dropped)."""
-        self._pose = (x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
+        self.ctx.pose = Pose(x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
 
     def observe_memory(self, objects: list[Remembered], answered_through: float | None, now: float) -> None:
         """The object memory's newest /objects: every remembered object, and the stamp of the newest
         answer it has taken in, both on this clock (None: no answer yet)."""
-        self.memory = list(objects)
-        if answered_through is not None and (self.answered_through is None or answered_through > self.answered_through):
-            self.answered_through = answered_through
-            self._latency.append(max(0.0, now - answered_through))
-
-    @property
-    def answer_latency(self) -> float | None:
-        """The measured answer latency (s): the 80th percentile of the last answers, None before any."""
-        if not self._latency:
-            return None
-        lat = sorted(self._latency)
-        return lat[min(len(lat) - 1, int(0.8 * len(lat)))]
-
-    def _remember(self, s: Sighting) -> None:
-        """Keep where a confirmed, ranged sighting puts the target, in the odometry frame."""
-        pose = self._fresh(self._pose, s.t, self.params.pose_timeout_s)
-        rel = self._seen_in_base(s)
-        if pose is None or rel is None:
-            return
-        x, y, yaw = pose[:3]
-        bx, by = rel
-        c, sn = math.cos(yaw), math.sin(yaw)
-        self._goal_xy = (x + c * bx - sn * by, y + sn * bx + c * by)
+        self.ctx.memory = list(objects)
+        self.ctx.answers.take(answered_through, now)
 
     def decide(self, text: str, now: float) -> None:
         """A raw VLM scene decision: applied if it is inside the whitelist, else counted and ignored."""
-        try:
-            d = parse_decision(text, self.params.max_turn_deg)
-        except DecisionRejected as rej:
-            self.counters["decisions_rejected"] += 1
-            self.counters[f"decisions_rejected.{rej.reason}"] += 1
-            self.last_decision = {"accepted": False, "reason": rej.reason, "answer": str(text)[:120]}
+        d = self.decisions.parse(text, self.params, self.counters)
+        if d is None or not self.active:
             return
-        self.counters["decisions_accepted"] += 1
-        self.last_decision = {"accepted": True, **d.to_dict()}
-        if not self.active:
-            return
-        p = self.params
-        if d.action == "stop":
-            self._hold_until = now + p.decision_hold_s
-        elif d.action == "continue":
-            self._hold_until = -math.inf
-        elif d.action == "turn":
-            self._start_turn(d.angle_deg, now)
-        elif d.action == "sit":
+        if d.action == "sit":
             self._postures.append("sit")
             self._enter("sat", "a VLM decision said sit: sent 'sit' on /go2/command", now)
-
-    def _start_turn(self, angle_deg: float, now: float) -> None:
-        rate = self._turn_rate
-        self._turn_dir = math.copysign(1.0, angle_deg) if angle_deg else 0.0
-        self._turn_until = now + (math.radians(abs(angle_deg)) / rate if rate > 0 else 0.0)
+        else:
+            self.decisions.apply(d, self.params, now)
 
     # -- state ---------------------------------------------------------------------------------
-    @property
-    def active(self) -> bool:
-        return self.goal is not None and self.goal.kind in TIMED_KINDS and self.state not in TERMINAL
-
-    @property
-    def label(self) -> str:
-        return self.goal.target.label if self.goal is not None and self.goal.target is not None else ""
-
-    @property
-    def _turn_rate(self) -> float:
-        return min(self.params.decision_turn_rate, self.params.max_angular)
-
-    def confirmed(self, now: float) -> bool:
-        """The newest sighting of the goal's object says tracking, and is fresh."""
-        s = self.sighting
-        return s is not None and s.tracked and 0.0 <= now - s.t < self.params.lost_timeout_s
-
-    def base_distance(self, now: float) -> float | None:
-        """Base centre -> the object's surface, while confirmed and ranged."""
-        s = self.sighting
-        if not self.confirmed(now) or s is None or s.distance is None or not math.isfinite(s.distance):
-            return None
-        return s.distance + self.params.camera_forward_m
-
-    @staticmethod
-    def _fresh(item: tuple[Any, ...] | None, now: float, timeout: float) -> tuple[Any, ...] | None:
-        return item if item is not None and 0.0 <= now - item[-1] <= timeout else None
-
-    def _seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
-        """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
-        d, b = s.distance, s.bearing
-        if d is None or not (math.isfinite(d) and math.isfinite(b)):
-            return None
-        return self.params.camera_forward_m + d * math.cos(b), d * math.sin(b)
-
-    def _remembered_in_base(self, now: float) -> tuple[float, float] | None:
-        """The target's last confirmed place as (bearing, distance) from the base now, if the pose is fresh."""
-        pose = self._fresh(self._pose, now, self.params.pose_timeout_s)
-        if pose is None or self._goal_xy is None:
-            return None
-        x, y, yaw = pose[:3]
-        dx, dy = self._goal_xy[0] - x, self._goal_xy[1] - y
-        c, sn = math.cos(yaw), math.sin(yaw)
-        return math.atan2(-sn * dx + c * dy, c * dx + sn * dy), math.hypot(dx, dy)
-
-    def _approach_params(self, goal: Goal) -> ApproachParams:
-        p = self.params
-        return p.approach(p.follow_distance_m if goal.kind == "follow" else p.stop_distance_m)
-
-    def _avoid(self, vx: float, wz: float, ap: ApproachParams, goal: tuple[float, float], now: float) -> Steer | None:
-        """The planner's way round the fresh scan towards `goal` (bearing, base distance), or None (no
-        planning: off, or no fresh scan)."""
-        scan = self._fresh(self._scan, now, self.params.scan_timeout_s)
-        if not self.params.avoid_obstacles or scan is None:
-            return None
-        bearing, dist = goal
-        speed, _, _ = approach_command(0.0, dist, ap)
-        side = self._side if now - self._side_t < 3.0 else 0.0
-        st = steer(
-            vx, wz, speed, bearing, dist, scan[0], self.params.planner, max_angular=ap.max_angular,
-            reach_m=dist - ap.stop_distance, side=side,
-        )  # fmt: skip
-        if st.blocked:
-            self._detour_t = now
-            if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
-                self._side, self._side_t = math.copysign(1.0, st.heading - bearing), now
-        return st
-
     def _enter(self, state: str, reason: str, now: float) -> None:
         self.state, self.reason = state, reason
         if state in TERMINAL:
             self._zero_until = now + ZERO_BURST_S
 
-    def _set(self, state: str, reason: str, now: float) -> None:
-        if state != self.state or reason != self.reason:
-            self._enter(state, reason, now)
-
     # -- output --------------------------------------------------------------------------------
     def step(self, now: float) -> Intent:
         postures, self._postures = tuple(self._postures), []
         self.planner_note = ""
-        vx, wz, publish, follow = self._control(now)
-        vx = min(max(vx, 0.0), self.params.max_linear) if math.isfinite(vx) else 0.0
-        wz = max(-self.params.max_angular, min(self.params.max_angular, wz)) if math.isfinite(wz) else 0.0
+        goal = self.ctx.goal
+        if goal is None or not self.active:
+            vx, wz, publish, follow = 0.0, 0.0, now < self._zero_until, False
+        else:
+            cmd = self._control(now)
+            if cmd.state in TERMINAL or (cmd.state, cmd.reason) != (self.state, self.reason):
+                self._enter(cmd.state, cmd.reason, now)
+            self.planner_note = cmd.note
+            vx, wz, publish, follow = cmd.vx, cmd.wz, cmd.publish, cmd.follow
+        p = self.params
+        vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
+        wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, follow, postures, self.label if self.active else "", self.state, self.reason)
 
-    def _control(self, now: float) -> tuple[float, float, bool, bool]:
-        """(vx, wz, publish on /behavior/cmd_vel, relay /detected_target)."""
-        goal = self.goal
-        if goal is None or not self.active:
-            return 0.0, 0.0, now < self._zero_until, False
-        p = self.params
-        if now < self._hold_until:
-            self._set("holding", "a VLM decision said stop", now)
-            return 0.0, 0.0, True, False
-        if goal.kind == "turn":
-            if now < self._turn_until:
-                self._set("turning", f"turning {goal.angle_deg:+g} deg in place", now)
-                return 0.0, self._turn_dir * self._turn_rate, True, False
-            self._enter("done", f"turned {goal.angle_deg:+g} deg", now)
-            return 0.0, 0.0, True, False
-        if now < self._turn_until:
-            self._set("turning", "a VLM decision said turn", now)
-            return 0.0, self._turn_dir * self._turn_rate, True, False
-        seen = self.confirmed(now)
+    def _control(self, now: float) -> Command:
+        """Ask the strategies, in order (the module docstring's rules): a VLM decision or a turn goal
+        overrides all; the tracker's confirmed target (or a detour that hides it); a remembered
+        object; lost; then the search chain; all searches exhausted: not_found."""
+        ctx, p = self.ctx, self.params
+        goal = ctx.goal
+        assert goal is not None
+        cmd = self.decisions.step(ctx, now)
+        if cmd is not None:
+            return cmd
+        seen = ctx.confirmed(now)
         self.basis = "tracker" if seen else ""
-        self.target_obj = self._remembered_target()
+        ctx.target_obj = self.remembered.pick(ctx)
         if seen:
-            self._t_search = now
-            self._look_key = None
+            for search in self.searches:
+                search.pause(now, "seen")
+            ctx.look.forget()
         if goal.kind == "follow" and p.follow_control == "follower":
             if seen:
-                self._set("tracking", "target in view: /detected_target for the follower", now)
-                return 0.0, 0.0, False, True
-            if self._last_seen is not None:
-                self._set("lost", "target not in view: the follower stops on its own timeout", now)
-            else:
-                self._set("waiting", "target not in view yet", now)
-            return 0.0, 0.0, False, False
-        if seen:
-            assert self.sighting is not None
-            x = self.sighting.x
-            if goal.kind == "look_for":
-                wz, centred = align_command(x, self._approach_params(goal))
-                if centred:
-                    self._enter("found", f"the {self.label} is straight ahead{self._where()}", now)
-                    return 0.0, 0.0, True, False
-                self._set("aligning", "target in view: turning to face it", now)
-                return 0.0, wz, True, False
-            follow = goal.kind == "follow"
-            dist = self.base_distance(now)
-            ap = self._approach_params(goal)
-            vx, wz, reached = approach_command(x, dist, ap)
-            how = "unknown" if dist is None else f"{dist:.2f} m ({self.sighting.range_method})"
-            if reached and not follow:
-                self._enter("reached", f"{dist:.2f} m from the {self.label} ({self.sighting.range_method})", now)
-                return 0.0, 0.0, True, False
-            rel = self._seen_in_base(self.sighting)
-            if rel is not None and not reached:
-                st = self._avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
-                if st is not None and st.blocked:
-                    self.planner_note = st.note
-                    self._set("detouring", f"target at {how}: {st.note}", now)
-                    return st.vx, st.wz, True, False
-            if follow:
-                self._set("tracking", "target in view: following", now)
-            else:
-                self._set("approaching", f"target at {how}", now)
-            return vx, wz, True, False
-        detour = self._detour_unseen(now)
-        if detour is not None:
-            return detour
-        remembered = self._memory_control(now)
-        if remembered is not None:
-            self._t_search = now
-            self._search_phase = "look"  # a search after this starts with a look where it then faces
-            return remembered
-        if self._last_seen is not None and (now - self._last_seen < 2 * p.lost_timeout_s or not p.search_on_loss):
-            self._set("lost", "target not in view: stopped", now)
-            return 0.0, 0.0, True, False
-        return self._search(now)
+                return Command(0.0, 0.0, "tracking", "target in view: /detected_target for the follower",
+                               publish=False, follow=True)  # fmt: skip
+            if ctx.last_seen is not None:
+                return Command(0.0, 0.0, "lost", "target not in view: the follower stops on its own timeout",
+                               publish=False)  # fmt: skip
+            return Command(0.0, 0.0, "waiting", "target not in view yet", publish=False)
+        cmd = self.approach.step(ctx, now)
+        if cmd is None:
+            cmd = self.remembered.step(ctx, now)
+            if cmd is not None:
+                for search in self.searches:
+                    search.pause(now, "memory")
+        if cmd is not None:
+            self.basis = cmd.basis or self.basis
+            return cmd
+        if ctx.last_seen is not None and (now - ctx.last_seen < 2 * p.lost_timeout_s or not p.search_on_loss):
+            return Command.still("lost", "target not in view: stopped")
+        return self.search(now)
 
-    # -- the world: the object memory ------------------------------------------------------------
-    def _remembered_target(self) -> Remembered | None:
-        """The most confident remembered object of the goal's label worth going to (not given up)."""
-        p = self.params
-        if not p.use_memory or not self.memory or not self.label:
-            return None
-        best: tuple[int, float] | None = None
-        pick = None
-        for o in self.memory:
-            fit = label_fits(self.label, o.label)
-            if fit == 0 or o.confidence < p.memory_min_confidence:
-                continue
-            if o.id in self._given_up and o.last_seen <= self._given_up[o.id]:
-                continue
-            key = (fit, o.confidence)
-            if best is None or key > best:
-                best, pick = key, o
-        return pick
-
-    def relative(self, o: Remembered, now: float) -> tuple[float, float] | None:
-        """(bearing from the base, base centre -> the object's surface) of a remembered object, with a
-        fresh pose; None without one. Where the fresh scan has returns on it (within its bearings, no
-        nearer than its remembered near side less 0.4 m), the nearest one is its surface: the lidar
-        knows a box's face better than the memory knows its size."""
-        pose = self._fresh(self._pose, now, self.params.pose_timeout_s)
-        if pose is None:
-            return None
-        x, y, yaw = pose[:3]
-        dx, dy = o.x - x, o.y - y
-        bearing = math.atan2(math.sin(math.atan2(dy, dx) - yaw), math.cos(math.atan2(dy, dx) - yaw))
-        centre = math.hypot(dx, dy)
-        surface = centre - o.radius
-        scan = self._fresh(self._scan, now, self.params.scan_timeout_s)
-        if scan is not None and len(scan[0]) and centre > o.radius:
-            pts = scan[0]
-            off = np.abs(np.angle(np.exp(1j * (np.arctan2(pts[:, 1], pts[:, 0]) - bearing))))
-            d = np.hypot(pts[:, 0], pts[:, 1])
-            on = (off <= math.asin(min(1.0, o.radius / centre))) & (d <= centre) & (d >= surface - 0.4)
-            if on.any():
-                surface = float(d[on].min())
-        return bearing, surface
-
-    def _look(self, key: object, now: float) -> str:
-        """Hold still and look: 'waiting' until an answer about a frame taken after the stop has come
-        back ('answered'), or 'timeout'. A new `key` (what is looked at) starts a new look."""
-        p = self.params
-        if key != self._look_key:
-            self._look_key = key
-            self._still_since = now + p.look_settle_s
-        if self.answered_through is not None and self.answered_through >= self._still_since:
-            return "answered"
-        lat = self.answer_latency
-        limit = p.look_timeout_s if lat is None else 2.5 * lat + 1.0
-        return "timeout" if now - self._still_since > limit else "waiting"
-
-    def _where(self) -> str:
-        """Where the goal's object is in the world, as a reason's tail: the memory's place for it, else
-        where the last ranged sighting put it ('' when neither is known)."""
-        o = self.target_obj
-        if o is not None:
-            return f", at ({o.x:.2f}, {o.y:.2f}) in the odometry frame (memory, {o.confidence:.2f})"
-        if self._goal_xy is not None:
-            return f", at ({self._goal_xy[0]:.2f}, {self._goal_xy[1]:.2f}) in the odometry frame (its near side)"
-        return ""
-
-    def _give_up(self, o: Remembered, now: float, why: str) -> None:
-        self._given_up[o.id] = o.last_seen
-        self.counters["remembered_given_up"] += 1
-        self._look_key, self._failed_looks = None, 0
-        self._set("searching", f"the remembered {o.label} ({o.id}) was not there: {why}", now)
-
-    def _looked_without(self, o: Remembered, now: float) -> bool:
-        """After an answered look that did not see `o`: count it; True when `o` is given up."""
-        self._failed_looks += 1
-        self._look_key = None  # look again: a new look waits for a newer frame
-        if self._failed_looks >= self.params.confirm_looks:
-            self._give_up(o, now, f"{self._failed_looks} looks without it")
-            return True
-        return False
-
-    def _memory_control(self, now: float) -> tuple[float, float, bool, bool] | None:
-        """Go to / look for on a remembered object while the tracker does not confirm it (the module
-        docstring's rules); None: no remembered target (search)."""
-        p, goal, o, view = self.params, self.goal, self.target_obj, self.view
-        if goal is None or goal.kind not in ("go_to", "look_for") or o is None or view is None:
-            return None
-        rel = self.relative(o, now)
-        if rel is None:
-            return None
-        bearing, surface = rel
-        where = f"the remembered {o.label} at ({o.x:.2f}, {o.y:.2f})"
-        ap = self._approach_params(goal)
-        x = -bearing / (view / 2.0)
-        vx, wz, at_place = approach_command(x, surface, ap)
-        key = (o.id, "look")
-        if self._look_key == key:  # looking at it: has an answer about a frame taken since the stop seen it?
-            seen_here = o.last_seen >= self._still_since
-            if goal.kind == "look_for" and seen_here:
-                self._enter("found", f"the {self.label} is straight ahead, {where} ({surface:.2f} m)", now)
-                return 0.0, 0.0, True, False
-            if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
-                self._enter("reached", f"{surface:.2f} m from the {self.label}: an answer about this view "
-                            f"placed it here ({where})", now)  # fmt: skip
-                return 0.0, 0.0, True, False
-        if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
-            # Walk: the approach turns before it walks, the planner steers round what is in the way.
-            self._look_key, self._failed_looks = None, 0
-            self.basis = "memory"
-            st = self._avoid(vx, wz, ap, (bearing, surface), now)
-            if st is not None and st.blocked:
-                self.planner_note = st.note
-                self._set("detouring", f"{where}, {surface:.2f} m (memory): {st.note}", now)
-                return st.vx, st.wz, True, False
-            self._set("approaching", f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})", now)
-            return vx, wz, True, False
-        facing = p.planner.step if goal.kind == "look_for" else 0.25
-        if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
-            self._look_key = None
-            wz = face_command(bearing, ap)
-            self._set("aligning" if goal.kind == "look_for" else "approaching", f"turning to {where}", now)
-            return 0.0, wz, True, False
-        # Hold still facing it (not sure enough to walk, or at its place) and look.
-        look = self._look(key, now)
-        if look == "answered":  # an answer about this view came back without it
-            if self._looked_without(o, now):
-                return None
-        elif look == "timeout":
-            self._look_key = None  # no answer at all: look again (the search's timeout still runs)
-        why = "confirming it is there" if at_place or goal.kind == "look_for" else "looking again before walking"
-        state = "aligning" if goal.kind == "look_for" else "approaching"
-        self._set(state, f"holding still facing {where} ({surface:.2f} m): {why}", now)
-        return 0.0, 0.0, True, False
-
-    def _detour_unseen(self, now: float) -> tuple[float, float, bool, bool] | None:
-        """Out of view during a detour (go to, follow self): on round the obstacle towards where the
-        target was, while the direct way stays blocked; a free way turns back towards it. None: the
-        detour is over (no detour, memory too old, no pose or no scan)."""
-        p, goal = self.params, self.goal
-        last = self._last_seen
-        if goal is None or goal.kind == "look_for" or (goal.kind == "follow" and p.follow_control == "follower"):
-            return None
-        if last is None or self._detour_t is None or self._detour_t < last - p.lost_timeout_s:
-            return None
-        if now - last > p.detour_memory_s:
-            return None
-        rel = self._remembered_in_base(now)
-        if rel is None:
-            return None
-        bearing, dist = rel
-        ap = self._approach_params(goal)
-        turn = max(-p.max_angular, min(p.max_angular, p.planner.kp * bearing))
-        st = self._avoid(0.0, turn, ap, rel, now)
-        if st is None:
-            return None
-        if st.blocked:
-            self.planner_note = st.note
-            self._set("detouring", f"the {self.label} is out of view: {st.note}", now)
-            return st.vx, st.wz, True, False
-        if abs(bearing) < p.planner.step:
-            return None  # facing where it was, and still not seen: lost, then search
-        self.planner_note = "turning back towards the target"
-        self._set("detouring", f"turning back towards where the {self.label} was last seen ({dist:.1f} m)", now)
-        return 0.0, turn, True, False
-
-    def _search(self, now: float) -> tuple[float, float, bool, bool]:
-        p = self.params
-        lat = self.answer_latency
-        view = self.view
-        fast = lat is not None and view is not None and lat * p.search_yaw_rate <= p.search_view_per_answer * view
-        stop_and_look = self.memory is not None and p.use_memory and not fast
-        full_turn = self._turned >= 2 * math.pi - 1e-6
-        if now - self._t_search > p.search_timeout_s and (not stop_and_look or full_turn):
-            self._enter("not_found", f"no {self.label} in view after {p.search_timeout_s:g} s", now)
-            return 0.0, 0.0, True, False
-        if not stop_and_look:
-            self._set("searching", f"turning in place to find the {self.label}", now)
-            return 0.0, search_command(self._last_x, p.search_yaw_rate, p.max_angular), True, False
-        if self._search_phase == "look":
-            look = self._look(("search", self._turned), now)
-            if look == "waiting":
-                how = "answer latency unknown" if lat is None else f"answers take {lat:.1f} s"
-                self._set("searching", f"holding still, looking for the {self.label} ({how})", now)
-                return 0.0, 0.0, True, False
-            self._search_phase, self._turn_t0, self._turn_yaw = "turn", now, None
-        wz = search_command(self._last_x, p.search_step_rate, p.max_angular)
-        pose = self._fresh(self._pose, now, p.pose_timeout_s)
-        if pose is not None:  # how far this step has turned, by odometry
-            if self._turn_yaw is None:
-                self._turn_yaw = pose[2]
-            done = abs(math.atan2(math.sin(pose[2] - self._turn_yaw), math.cos(pose[2] - self._turn_yaw)))
-        else:  # no odometry: by time
-            self._turn_yaw = None
-            done = abs(wz) * (now - self._turn_t0)
-        if done >= math.radians(p.search_step_deg) - 0.02:
-            self._turned += math.radians(p.search_step_deg)
-            self._search_phase = "look"
-            self._look(("search", self._turned), now)
-            self._set("searching", f"holding still, looking for the {self.label}", now)
-            return 0.0, 0.0, True, False
-        self._set("searching", f"turning {p.search_step_deg:g} deg to look for the {self.label}", now)
-        return 0.0, wz, True, False
+    def search(self, now: float) -> Command:
+        """The search hook: ask the chain (`searches`, in order) what next; the first that has
+        something to do answers. None left: not_found."""
+        for strategy in self.searches:
+            cmd = strategy.step(self.ctx, now)
+            if cmd is not None:
+                return cmd
+        return Command.still("not_found", f"no {self.label} in view after {self.params.search_timeout_s:g} s")

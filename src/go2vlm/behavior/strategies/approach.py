@@ -1,0 +1,82 @@
+"""Approach a target the tracker confirms: go to (turn, then walk, stop `stop_distance_m` from its
+surface: `reached`), look for (turn until it is centred: `found`), follow with follow_control=self
+(keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
+(`detouring`). Out of view during a detour (go to, follow self) it carries on round the obstacle
+towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
+blocked; a free way turns back towards it. The laws are behavior/control.py's. Pure."""
+
+from __future__ import annotations
+
+import math
+
+from go2vlm.behavior.control import align_command, approach_command
+from go2vlm.behavior.strategies.base import Command, Context
+
+__all__ = ["Approach"]
+
+
+class Approach:
+    """The tracked target's strategy: `step` answers while the tracker confirms it, or while a detour
+    hides it; None otherwise."""
+
+    def reset(self, now: float) -> None:
+        pass  # its state is the context's track
+
+    def step(self, ctx: Context, now: float) -> Command | None:
+        if ctx.confirmed(now):
+            return self.tracked(ctx, now)
+        return self.detour_unseen(ctx, now)
+
+    @staticmethod
+    def tracked(ctx: Context, now: float) -> Command:
+        goal, s = ctx.goal, ctx.sighting
+        assert goal is not None and s is not None
+        label = ctx.label
+        ap = ctx.approach_params()
+        if goal.kind == "look_for":
+            wz, centred = align_command(s.x, ap)
+            if centred:
+                return Command.still("found", f"the {label} is straight ahead{ctx.where()}")
+            return Command(0.0, wz, "aligning", "target in view: turning to face it")
+        follow = goal.kind == "follow"
+        dist = ctx.base_distance(now)
+        vx, wz, reached = approach_command(s.x, dist, ap)
+        how = "unknown" if dist is None else f"{dist:.2f} m ({s.range_method})"
+        if reached and not follow:
+            return Command.still("reached", f"{dist:.2f} m from the {label} ({s.range_method})")
+        rel = ctx.seen_in_base(s)
+        if rel is not None and not reached:
+            st = ctx.avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
+            if st is not None and st.blocked:
+                return Command.detour(st, f"target at {how}: {st.note}")
+        if follow:
+            return Command(vx, wz, "tracking", "target in view: following")
+        return Command(vx, wz, "approaching", f"target at {how}")
+
+    @staticmethod
+    def detour_unseen(ctx: Context, now: float) -> Command | None:
+        """Out of view during a detour: on round the obstacle while the direct way stays blocked; a
+        free way turns back towards where it was. None: the detour is over (no detour, look for,
+        follower mode, the track too old, no pose or no scan)."""
+        p, goal, last = ctx.params, ctx.goal, ctx.last_seen
+        if goal is None or goal.kind == "look_for" or (goal.kind == "follow" and p.follow_control == "follower"):
+            return None
+        detour_t = ctx.avoider.detour_t
+        if last is None or detour_t is None or detour_t < last - p.lost_timeout_s:
+            return None
+        if now - last > p.detour_memory_s:
+            return None
+        rel = ctx.last_place_in_base(now)
+        if rel is None:
+            return None
+        bearing, dist = rel
+        turn = max(-p.max_angular, min(p.max_angular, p.planner.kp * bearing))
+        st = ctx.avoid(0.0, turn, ctx.approach_params(), rel, now)
+        if st is None:
+            return None
+        if st.blocked:
+            return Command.detour(st, f"the {ctx.label} is out of view: {st.note}")
+        if abs(bearing) < p.planner.step:
+            return None  # facing where it was, and still not seen: lost, then search
+        reason = f"turning back towards where the {ctx.label} was last seen ({dist:.1f} m)"
+        return Command(0.0, turn, "detouring", reason, note="turning back towards the target")

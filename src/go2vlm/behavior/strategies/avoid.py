@@ -1,0 +1,48 @@
+"""The local planner's bookkeeping for every approach (a tracked target, a remembered place, a
+detour out of view): when it last had to steer round something and the side it went round on, so
+that an obstacle dead ahead is not passed left and right in turn. The steering itself is
+behavior/planner/local.py's; pure, timestamp-driven."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from go2vlm.behavior.control import ApproachParams, approach_command
+from go2vlm.behavior.planner import PlannerParams, Steer, steer
+
+__all__ = ["SIDE_MEMORY_S", "Avoider"]
+
+SIDE_MEMORY_S = 3.0  # the side chosen last is kept this long
+
+
+class Avoider:
+    def __init__(self) -> None:
+        self.detour_t: float | None = None  # when the planner last had to steer round something
+        self.side = 0.0  # the side it went round on (+1 left, -1 right)
+        self.side_t = -math.inf
+
+    def reset(self) -> None:
+        self.detour_t, self.side = None, 0.0
+
+    def steer(
+        self, points: np.ndarray | None, planner: PlannerParams, vx: float, wz: float, ap: ApproachParams,
+        goal: tuple[float, float], now: float,
+    ) -> Steer | None:  # fmt: skip
+        """The planner's way round the scan `points` (base frame; None: no fresh scan, no planning)
+        towards `goal` (bearing, base distance to its surface), given the approach's own (vx, wz)."""
+        if points is None:
+            return None
+        bearing, dist = goal
+        speed, _, _ = approach_command(0.0, dist, ap)
+        side = self.side if now - self.side_t < SIDE_MEMORY_S else 0.0
+        st = steer(
+            vx, wz, speed, bearing, dist, points, planner, max_angular=ap.max_angular,
+            reach_m=dist - ap.stop_distance, side=side,
+        )  # fmt: skip
+        if st.blocked:
+            self.detour_t = now
+            if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
+                self.side, self.side_t = math.copysign(1.0, st.heading - bearing), now
+        return st

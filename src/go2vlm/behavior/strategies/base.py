@@ -1,0 +1,217 @@
+"""What every strategy shares: a target_tracker report (`Sighting`), what a strategy asks for
+(`Command`), the context the mission keeps for them (`Context`: the goal, the newest observations and
+the target's track), and the two protocols, `Strategy` and `SearchStrategy`. Pure: no I/O; every
+method takes the time it is about."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from go2vlm.behavior.control import ApproachParams
+from go2vlm.behavior.goals import Goal
+from go2vlm.behavior.planner import Steer
+from go2vlm.behavior.strategies.avoid import Avoider
+from go2vlm.behavior.strategies.latency import Answers
+from go2vlm.behavior.strategies.look import Look
+from go2vlm.behavior.strategies.params import MissionParams
+from go2vlm.world.objects_msg import Remembered
+
+__all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
+
+
+@dataclass(frozen=True)
+class Sighting:
+    """One target_tracker report (a TrackedTarget), as it arrived."""
+
+    t: float  # arrival time on the node's clock
+    label: str  # what the tracker tracks
+    state: str  # idle | searching | tracking | lost | ungroundable
+    x: float = math.nan  # box centre, -1..1 from the image centre (geometry/target.py); NaN without a box
+    distance: float | None = None  # camera -> near surface (m)
+    range_method: str = "none"
+    bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
+    hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
+
+    @property
+    def tracked(self) -> bool:
+        return self.state == "tracking" and math.isfinite(self.x) and abs(self.x) <= 2.0
+
+
+@dataclass(frozen=True)
+class Command:
+    """A strategy's answer for this step: a velocity (the mission clamps it to its limits), and the
+    mission state with its reason. A terminal `state` (mission.TERMINAL: found, reached, done, ...)
+    ends the goal."""
+
+    vx: float
+    wz: float
+    state: str
+    reason: str
+    publish: bool = True  # send (vx, wz) on /behavior/cmd_vel
+    follow: bool = False  # relay the confirmed target on /detected_target (follow, follower mode)
+    note: str = ""  # what the local planner did ("" = nothing)
+    basis: str = ""  # what the motion is based on when not the tracker's confirmation: "memory"
+
+    @classmethod
+    def still(cls, state: str, reason: str) -> Command:
+        return cls(0.0, 0.0, state, reason)
+
+    @classmethod
+    def detour(cls, st: Steer, reason: str, basis: str = "") -> Command:
+        """The planner's way round an obstacle (`st` blocked)."""
+        return cls(st.vx, st.wz, "detouring", reason, note=st.note, basis=basis)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """The robot's odometry pose and when it arrived."""
+
+    x: float
+    y: float
+    yaw: float
+    t: float
+
+
+@dataclass
+class Context:
+    """What the mission knows, kept for the strategies: its parameters and goal, the newest
+    observations (a sighting, the odometry pose, the scan, the object memory, the answers' latency,
+    the camera's view) and the target's track (when and where it was last confirmed). The mission
+    writes the observations; strategies read them and use the shared tools (`look`, `avoider`)."""
+
+    params: MissionParams
+    counters: Counter[str] = field(default_factory=Counter)
+    goal: Goal | None = None
+    sighting: Sighting | None = None  # the newest one for the goal's object
+    pose: Pose | None = None
+    scan: tuple[np.ndarray, float] | None = None  # obstacle points (base frame), arrival
+    memory: list[Remembered] | None = None  # None: no object memory heard of
+    answers: Answers = field(default_factory=Answers)
+    view: float | None = None  # the camera's horizontal field of view (rad), from the tracker's reports
+    target_obj: Remembered | None = None  # the remembered object the goal goes to / looks at this step
+    last_seen: float | None = None  # arrival of the last confirmed sighting
+    last_x: float = 0.0  # its offset x (a search turns that way)
+    goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry frame)
+    look: Look = field(default_factory=Look)
+    avoider: Avoider = field(default_factory=Avoider)
+
+    # -- the goal ------------------------------------------------------------------------------
+    @property
+    def label(self) -> str:
+        return self.goal.target.label if self.goal is not None and self.goal.target is not None else ""
+
+    def new_goal(self, goal: Goal) -> None:
+        """A new goal: forget the target's track (the observations of the world stay)."""
+        self.goal = goal
+        self.sighting = None
+        self.last_seen = None
+        self.last_x = 0.0
+        self.goal_xy = None
+        self.avoider.reset()
+        self.look.forget()
+
+    def approach_params(self) -> ApproachParams:
+        p = self.params
+        follow = self.goal is not None and self.goal.kind == "follow"
+        return p.approach(p.follow_distance_m if follow else p.stop_distance_m)
+
+    # -- observations --------------------------------------------------------------------------
+    def fresh_pose(self, now: float) -> Pose | None:
+        pose = self.pose
+        return pose if pose is not None and 0.0 <= now - pose.t <= self.params.pose_timeout_s else None
+
+    def fresh_scan(self, now: float) -> np.ndarray | None:
+        scan = self.scan
+        return scan[0] if scan is not None and 0.0 <= now - scan[1] <= self.params.scan_timeout_s else None
+
+    def confirmed(self, now: float) -> bool:
+        """The newest sighting of the goal's object says tracking, and is fresh."""
+        s = self.sighting
+        return s is not None and s.tracked and 0.0 <= now - s.t < self.params.lost_timeout_s
+
+    def base_distance(self, now: float) -> float | None:
+        """Base centre -> the object's surface, while confirmed and ranged."""
+        s = self.sighting
+        if not self.confirmed(now) or s is None or s.distance is None or not math.isfinite(s.distance):
+            return None
+        return s.distance + self.params.camera_forward_m
+
+    def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
+        """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
+        d, b = s.distance, s.bearing
+        if d is None or not (math.isfinite(d) and math.isfinite(b)):
+            return None
+        return self.params.camera_forward_m + d * math.cos(b), d * math.sin(b)
+
+    def saw(self, s: Sighting) -> None:
+        """A confirmed sighting: keep when and where (in the odometry frame, if ranged) it was."""
+        self.last_seen = s.t
+        self.last_x = s.x
+        pose = self.fresh_pose(s.t)
+        rel = self.seen_in_base(s)
+        if pose is None or rel is None:
+            return
+        bx, by = rel
+        c, sn = math.cos(pose.yaw), math.sin(pose.yaw)
+        self.goal_xy = (pose.x + c * bx - sn * by, pose.y + sn * bx + c * by)
+
+    def last_place_in_base(self, now: float) -> tuple[float, float] | None:
+        """The target's last confirmed place as (bearing, distance) from the base now, if the pose is fresh."""
+        pose = self.fresh_pose(now)
+        if pose is None or self.goal_xy is None:
+            return None
+        dx, dy = self.goal_xy[0] - pose.x, self.goal_xy[1] - pose.y
+        c, sn = math.cos(pose.yaw), math.sin(pose.yaw)
+        return math.atan2(-sn * dx + c * dy, c * dx + sn * dy), math.hypot(dx, dy)
+
+    def where(self) -> str:
+        """Where the goal's object is in the world, as a reason's tail: the memory's place for it, else
+        where the last ranged sighting put it ('' when neither is known)."""
+        o = self.target_obj
+        if o is not None:
+            return f", at ({o.x:.2f}, {o.y:.2f}) in the odometry frame (memory, {o.confidence:.2f})"
+        if self.goal_xy is not None:
+            return f", at ({self.goal_xy[0]:.2f}, {self.goal_xy[1]:.2f}) in the odometry frame (its near side)"
+        return ""
+
+    # -- shared tools --------------------------------------------------------------------------
+    def avoid(self, vx: float, wz: float, ap: ApproachParams, goal: tuple[float, float], now: float) -> Steer | None:
+        """The planner's way round the fresh scan towards `goal` (bearing, base distance), or None (no
+        planning: avoid_obstacles off, or no fresh scan)."""
+        scan = self.fresh_scan(now) if self.params.avoid_obstacles else None
+        return self.avoider.steer(scan, self.params.planner, vx, wz, ap, goal, now)
+
+    def look_at(self, key: object, now: float) -> str:
+        """Hold still and look at `key` (look.Look.check with the mission's settings and answers)."""
+        p = self.params
+        return self.look.check(
+            key, now, settle_s=p.look_settle_s, timeout_s=p.look_timeout_s, answered=self.answers.through,
+            latency=self.answers.latency,
+        )  # fmt: skip
+
+
+class Strategy(Protocol):
+    """One way of getting closer to the goal. `step` answers for this step: a Command, or None when
+    it has nothing to do now (the mission asks the next one). It may keep state of its own; `reset`
+    forgets it when a new goal starts."""
+
+    def reset(self, now: float) -> None: ...
+
+    def step(self, ctx: Context, now: float) -> Command | None: ...
+
+
+class SearchStrategy(Strategy, Protocol):
+    """A search, asked when the target is neither confirmed by the tracker nor remembered (the
+    mission's search chain, Mission.searches, in order). `step` returns None once it is exhausted
+    (nothing more to try): the next one in the chain is asked, and when all are, the goal ends
+    `not_found`. `pause` says that something else drove the robot this step ('seen': the tracker
+    confirmed the target; 'memory': a remembered object), so a later search starts afresh."""
+
+    name: str
+
+    def pause(self, now: float, cause: str) -> None: ...

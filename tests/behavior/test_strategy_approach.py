@@ -1,0 +1,78 @@
+"""Property tests of the tracked target's strategy (behavior/strategies/approach.py): it answers only
+while the tracker confirms the target or a detour hides it; it never reverses nor exceeds its limits;
+look for never walks; reached and found only where the law says so; a detour out of view walks only
+while the planner says the direct way is blocked, and never for look for or the follower's follow."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import event, given, settings
+from hypothesis import strategies as st
+
+from go2vlm.behavior.control import CENTRED_X
+from go2vlm.behavior.goals import parse_goal
+from go2vlm.behavior.strategies.approach import Approach
+from go2vlm.behavior.strategies.base import Context, Pose, Sighting
+from go2vlm.behavior.strategies.params import MissionParams
+
+GOALS = ["go to the blue cylinder", "look for the blue cylinder", "follow the blue cylinder"]
+pts = st.lists(st.tuples(st.floats(0.5, 2.5), st.floats(-0.8, 0.8)), min_size=1, max_size=25).map(
+    lambda p: np.array(p, dtype=float).reshape(-1, 2)
+)
+seen = st.tuples(
+    st.booleans(),
+    st.floats(-0.5, 0.5),
+    st.one_of(st.none(), st.floats(0.0, 6.0)),
+    st.one_of(st.just(math.nan), st.floats(-0.6, 0.6)),
+)
+step = st.tuples(seen, st.booleans(), st.one_of(st.floats(0.0, 0.3), st.floats(0.0, 3.0)), st.floats(-0.3, 0.3))
+
+
+@settings(max_examples=200)
+@given(
+    goal=st.sampled_from(GOALS),
+    follow_control=st.sampled_from(["follower", "self"]),
+    wall=pts,
+    steps=st.lists(step, min_size=1, max_size=40),
+)
+def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
+    goal: str, follow_control: str, wall: np.ndarray, steps: list[tuple[tuple[bool, float, float | None, float],
+                                                                       bool, float, float]],
+) -> None:  # fmt: skip
+    p = MissionParams(follow_control=follow_control)
+    ctx = Context(p, goal=parse_goal(goal))
+    a, now, yaw = Approach(), 0.0, 0.0
+    kind = ctx.goal.kind if ctx.goal is not None else ""
+    for (tracked, x, dist, bearing), scan, dt, turn in steps:
+        now += dt
+        yaw += turn
+        ctx.pose = Pose(0.0, 0.0, yaw, now)
+        ctx.scan = (wall, now) if scan else None
+        if tracked:
+            s = Sighting(now, "blue cylinder", "tracking", x, dist, "bottom", bearing)
+            ctx.sighting = s
+            ctx.saw(s)
+        cmd = a.step(ctx, now)
+        if ctx.confirmed(now):
+            assert cmd is not None
+        if cmd is None:
+            continue
+        event(f"{cmd.state} ({'confirmed' if ctx.confirmed(now) else 'hidden'})")
+        assert 0.0 <= cmd.vx <= p.max_linear + 1e-9 and abs(cmd.wz) <= p.max_angular + 1e-9
+        if kind == "look_for":
+            assert ctx.confirmed(now) and ctx.sighting is not None and cmd.vx == 0.0
+            assert (cmd.state == "found") == (abs(ctx.sighting.x) < CENTRED_X)
+        if cmd.state == "reached":
+            d = ctx.base_distance(now)
+            assert kind == "go_to" and d is not None and d - p.stop_distance_m <= p.distance_tolerance_m
+        if cmd.state in ("found", "reached"):
+            assert cmd.vx == cmd.wz == 0.0
+        if kind == "follow":
+            assert cmd.state in ("tracking", "detouring")
+        if not ctx.confirmed(now):  # a detour that hides the target
+            assert kind != "look_for" and not (kind == "follow" and follow_control == "follower")
+            assert cmd.state == "detouring" and ctx.last_seen is not None
+            assert now - ctx.last_seen <= p.detour_memory_s and scan
+            assert cmd.vx == 0.0 or ctx.avoider.detour_t == now  # walks only round a blocked way
