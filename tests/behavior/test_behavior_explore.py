@@ -1,4 +1,4 @@
-"""Exploration's core (behavior/explore.py) in a toy house: a robot that sees 4 m round it (walls block
+"""Exploration (behavior/strategies/explore.py) in a toy house: a robot that sees 4 m round it (walls block
 its rays) and walks exactly where it is told. Spawned in the kitchen, it walks through the doorway
 into the living room, never through a wall, and ends `done` with no frontier left once the house is
 known."""
@@ -10,8 +10,8 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from go2vlm.behavior.explore import ExploreParams, Explorer
 from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.strategies.explore import ExploreParams, Explorer
 
 RES = 0.05
 ORIGIN = (-6.0, -3.5)

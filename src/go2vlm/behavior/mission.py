@@ -79,6 +79,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
+from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -254,6 +255,10 @@ class Mission:
     def observe_pose(self, x: float, y: float, yaw: float, now: float) -> None:
         """The robot's odometry pose (a NaN one is dropped)."""
         self.ctx.pose = Pose(x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
+
+    def observe_map(self, costmap: Costmap | None) -> None:
+        """The map's newest inflated costmap (None: none, or a bad one), for the global planner."""
+        self.ctx.costmap = costmap
 
     def observe_memory(self, objects: list[Remembered], answered_through: float | None, now: float) -> None:
         """The object memory's newest /objects: every remembered object, and the stamp of the newest

@@ -46,7 +46,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from skimage.graph import MCP_Geometric
 
 __all__ = [
     "Costmap",
@@ -276,6 +275,8 @@ def plan_path(
         return Plan(
             False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it", stride=k
         )
+    from skimage.graph import MCP_Geometric  # the nav extra; imported here so a commander without a map needs none
+
     mcp = MCP_Geometric(c, fully_connected=True)
     costs, _ = mcp.find_costs([s_from], ends, find_all_ends=False)
     end_arr = np.array(ends)

@@ -1,6 +1,8 @@
-"""Exploration's core, pure and timestamp-driven: where to walk next when the goal's object is
-neither remembered nor found by the look-around where the robot stands. The search strategy that
-drives the robot with it is behavior/strategies/explore.py.
+"""The search that leaves the room: when the goal's object is neither remembered nor found by the
+look-around where the robot stands, walk to a frontier (world/frontiers.py: free space next to
+unknown), look around there, and repeat. Pure and timestamp-driven: `Explorer` is the core (where to
+walk next), `Explore` the SearchStrategy (strategies/base.py) that the mission asks once
+turn-and-look is exhausted (Mission.searches).
 
     ex = Explorer(ExploreParams())
     ex.set_map(costmap)                 # each new /map/costmap (behavior/planner/global_path.Costmap)
@@ -32,10 +34,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from go2vlm.behavior.control import search_command
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, plan_path
+from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.route import follow_waypoint
+from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.world.frontiers import Frontier, FrontierParams, find_frontiers
+from go2vlm.world.poses import wrap_angle
 
-__all__ = ["FRONTIER_CHOICES", "ExploreParams", "ExploreStep", "Explorer"]
+__all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
 
 FRONTIER_CHOICES = ("nearest", "vlm")
 
@@ -247,3 +254,85 @@ class Explorer:
     def frontier_points(self) -> np.ndarray:
         """(N, 2) the goals of the frontiers left (for a plot or the status)."""
         return np.array([f.goal for f in self.frontiers]).reshape(-1, 2)
+
+
+# -- the search strategy ------------------------------------------------------------------------
+class Explore:
+    """The search that leaves the room: a SearchStrategy (strategies/base.py) over the Explorer,
+    asked once turn-and-look is exhausted. Walks to the chosen frontier along the global route
+    (route.follow_waypoint: the approach law and the local planner), looks around there (a whole
+    turn: search.TurnAndLook's stop and look with slow answers, else a continuous turn at
+    `search_yaw_rate`), and repeats; ends the goal `not_found` with the explorer's reason when no
+    frontier is left or none is reachable. State `exploring` throughout (`detouring` while the local
+    planner steers)."""
+
+    name = "explore"
+
+    def __init__(self, params: ExploreParams | None = None) -> None:
+        self.explorer = Explorer(params)
+        self.look = TurnAndLook()
+        self.looking = False
+        self._yaw: float | None = None  # continuous look: the last yaw, and how far it has turned
+        self._turned = 0.0
+        self._t: float | None = None
+
+    @property
+    def params(self) -> ExploreParams:
+        return self.explorer.params
+
+    def reset(self, now: float) -> None:
+        self.explorer.reset(now)
+        self.looking = False
+
+    def pause(self, now: float, cause: str) -> None:
+        self.looking = False  # a look interrupted (the target seen, or remembered) starts afresh
+        self.look.pause(now, cause)
+
+    def status(self) -> dict[str, object]:
+        return self.explorer.status()
+
+    def step(self, ctx: Context, now: float) -> Command | None:
+        goal = ctx.goal
+        if goal is None or goal.kind not in ("go_to", "look_for"):
+            return None
+        if ctx.costmap is not None and ctx.costmap is not self.explorer.costmap:
+            self.explorer.set_map(ctx.costmap)
+        pose = ctx.fresh_pose(now)
+        x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
+        st = self.explorer.step(x, y, yaw, now)
+        ctx.route = self.explorer.route
+        if st.action == "done":
+            return Command.still("not_found", f"no {ctx.label} found: {st.reason}")
+        if st.action == "wait":
+            return Command.still("exploring", st.reason)
+        if st.action == "look":
+            return self._look(ctx, now, st.reason)
+        self.looking = False
+        return follow_waypoint(ctx, st.bearing, st.distance, st.remaining, now, "exploring", st.reason)
+
+    def _look(self, ctx: Context, now: float, reason: str) -> Command:
+        """A whole turn where it stands, then the explorer is told (looked)."""
+        p = ctx.params
+        if not self.looking:
+            self.looking = True
+            self.look.reset(now)
+            self._yaw, self._turned, self._t = None, 0.0, now
+        if self.look.stop_and_look(ctx):
+            cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
+            if cmd is not None:
+                return Command(cmd.vx, cmd.wz, "exploring", f"{reason}: {cmd.reason}")
+        else:
+            pose = ctx.fresh_pose(now)
+            wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
+            if pose is not None:
+                if self._yaw is not None:
+                    self._turned += abs(wrap_angle(pose.yaw - self._yaw))
+                self._yaw = pose.yaw
+            elif self._t is not None:
+                self._turned += abs(wz) * max(0.0, now - self._t)
+            self._t = now
+            if self._turned < 2 * math.pi - (ctx.view or 0.0):
+                return Command(0.0, wz, "exploring", reason)
+        self.looking = False
+        self.explorer.looked(now)
+        return Command.still("exploring", f"{reason}: looked all round")
