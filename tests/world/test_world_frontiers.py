@@ -50,13 +50,26 @@ def test_frontier_properties(cells, min_size) -> None:
     g = np.array(cells, np.int8).reshape(20, 20)
     p = FrontierParams(min_size_m=min_size)
     mask = frontier_cells(g)
+    assert not (mask & ((g == -1) | (g == 100))).any()
     fs = find_frontiers(g, RES, (0.0, 0.0), p)
     for f in fs:
         r, c = f.goal_cell
-        assert mask[r, c] and 0 <= g[r, c] < p.lethal  # a free frontier cell to stand on
+        assert mask[r, c] and 0 <= g[r, c] < p.lethal  # a frontier cell to stand on
         assert (g[max(0, r - 1) : r + 2, max(0, c - 1) : c + 2] == -1).any()  # next to unknown
         assert f.size_m >= min_size - 1e-9 and f.size >= 1
     assert sum(f.size for f in fs) <= int(mask.sum())
     assert [f.size for f in fs] == sorted((f.size for f in fs), reverse=True)
     if not (g == -1).any() or not ((g >= 0) & (g < 99)).any():
         assert fs == []
+
+
+def test_a_doorway_frontier_counts_its_inflated_cells() -> None:
+    # A 1.2 m door whose middle 0.3 m only is free of the footprint's circumscribed radius (99 beside).
+    g = np.full((60, 60), -1, np.int8)
+    g[:, 30:] = 0
+    g[:, 30] = 100
+    g[18:42, 30] = 99
+    g[28:34, 30] = 0
+    fs = find_frontiers(g, RES, (0.0, 0.0), FrontierParams(min_size_m=0.5))
+    assert len(fs) == 1 and fs[0].size_m >= 1.2 - 1e-9
+    assert 28 <= fs[0].goal_cell[0] < 34 and fs[0].goal_cell[1] == 30

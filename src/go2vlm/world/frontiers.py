@@ -2,12 +2,15 @@
 when what is looked for is nowhere in the known part of the house. Pure (numpy + scipy.ndimage).
 
 The grid is a ROS-convention costmap (nav_msgs/OccupancyGrid data: int8, rows = y, cols = x; -1
-unknown, 0..`lethal`-1 free at some cost, >= `lethal` not to be entered). A frontier cell is a known,
-free cell (value 0..lethal-1) with an unknown cell among its 8 neighbours. Frontier cells are
+unknown, 0..`lethal`-1 free at some cost, >= `lethal` not to be entered). A frontier cell is a known
+cell that is no obstacle (value 0..99: the inflation's cells count, so a doorway's frontier is as
+wide as the door less the obstacle's own cells, not less the whole footprint) with an unknown cell
+among its 8 neighbours. Frontier cells are
 clustered by 8-connectivity (scipy.ndimage.label); a cluster shorter than `min_size_m` (its cell
 count times the resolution: the length of its edge) is dropped, as are the speckles a sparse scan
 leaves between its rays. Each frontier has its centroid, its size, and a goal: the cell of the
-cluster nearest the centroid whose cost is below `lethal` (so the robot can stand there), among
+cluster nearest the centroid whose cost is below `lethal` (so the robot can stand there; a frontier
+without one is dropped), among
 `reachable` cells when the caller gives that mask (the global planner's costs).
 """
 
@@ -54,11 +57,14 @@ class Frontier:
         }
 
 
-def frontier_cells(grid: np.ndarray, lethal: int = 99) -> np.ndarray:
-    """bool mask: known free cells (0..lethal-1) with an unknown (-1) 8-neighbour."""
+OBSTACLE = 100  # the costmap's value on an obstacle (and within the footprint's inscribed radius of one)
+
+
+def frontier_cells(grid: np.ndarray) -> np.ndarray:
+    """bool mask: known cells that are no obstacle (0..99) with an unknown (-1) 8-neighbour."""
     g = np.asarray(grid)
     unknown = g == -1
-    free = (g >= 0) & (g < lethal)
+    free = (g >= 0) & (g < OBSTACLE)
     near_unknown = ndimage.binary_dilation(unknown, structure=_EIGHT)
     return free & near_unknown
 
@@ -79,14 +85,16 @@ def find_frontiers(
         raise ValueError(f"resolution must be a positive number, got {resolution}")
     if reachable is not None and reachable.shape != g.shape:
         raise ValueError(f"reachable mask {reachable.shape} is not the grid's shape {g.shape}")
-    mask = frontier_cells(g, p.lethal)
+    mask = frontier_cells(g)
     labels, n = ndimage.label(mask, structure=_EIGHT)
     if n == 0:
         return []
     out: list[Frontier] = []
     min_cells = p.min_size_m / resolution
     counts = np.bincount(labels.ravel(), minlength=n + 1)
-    standable = reachable if reachable is not None else np.ones(g.shape, bool)
+    standable = (g >= 0) & (g < p.lethal)
+    if reachable is not None:
+        standable &= reachable
     for lab, box in enumerate(ndimage.find_objects(labels), start=1):
         if box is None or counts[lab] < max(1.0, min_cells):
             continue
