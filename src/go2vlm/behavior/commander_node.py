@@ -110,6 +110,7 @@ from typing import Any
 
 from go2vlm.behavior.mission import Intent, Mission, MissionParams, Sighting
 from go2vlm.behavior.planner.global_path import Costmap, Route
+from go2vlm.behavior.strategies.base import SearchStrategy
 from go2vlm.behavior.strategies.explore import FRONTIER_CHOICES, Explore, ExploreParams
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.bus import Node, core_params, param
@@ -337,11 +338,11 @@ class CommanderNode(Node):
         self.explore.explorer.params = self.config.explore_params()
         self.mission.searches[:] = self._searches()
 
-    def _searches(self) -> list[TurnAndLook | Explore]:
+    def _searches(self) -> tuple[SearchStrategy, ...]:
         """The search chain: turn and look where it stands, then (explore) walk to frontiers."""
         old = getattr(self, "mission", None)
         look = next((s for s in old.searches if isinstance(s, TurnAndLook)), None) if old else None
-        return [look or TurnAndLook(), self.explore] if self.config.explore else [look or TurnAndLook()]
+        return (look or TurnAndLook(), self.explore) if self.config.explore else (look or TurnAndLook(),)
 
     def on_goal(self, msg: String) -> None:
         self.set_goal(msg.data)

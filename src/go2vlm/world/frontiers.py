@@ -20,7 +20,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 __all__ = ["Frontier", "FrontierParams", "find_frontiers", "frontier_cells"]
 
@@ -62,6 +61,8 @@ OBSTACLE = 100  # the costmap's value on an obstacle (and within the footprint's
 
 def frontier_cells(grid: np.ndarray) -> np.ndarray:
     """bool mask: known cells that are no obstacle (0..99) with an unknown (-1) 8-neighbour."""
+    from scipy import ndimage  # the nav extra; here, so the commander starts as fast without a map
+
     g = np.asarray(grid)
     unknown = g == -1
     free = (g >= 0) & (g < OBSTACLE)
@@ -85,6 +86,8 @@ def find_frontiers(
         raise ValueError(f"resolution must be a positive number, got {resolution}")
     if reachable is not None and reachable.shape != g.shape:
         raise ValueError(f"reachable mask {reachable.shape} is not the grid's shape {g.shape}")
+    from scipy import ndimage
+
     mask = frontier_cells(g)
     labels, n = ndimage.label(mask, structure=_EIGHT)
     if n == 0:
