@@ -7,8 +7,9 @@ view is. Pure, timestamp-driven.
 - Go to turns to it, then approaches its remembered place with the local planner, but only once the
   memory confirms it (at least `memory_confirm_confidence`); less sure, it holds still facing it and
   looks. A place it cannot see straight on the map (a wall or unknown space on the straight line:
-  another room) is walked to along the global route (route.RouteTo), through the doorway. At its remembered place it stops and looks: `reached` only when an answer about a frame taken
-  there placed it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
+  another room) is walked to along the global route (route.RouteTo), through the doorway. At its
+  remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
+  it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it.
 - `confirm_looks` answered looks without it: that object is given up and the search goes on.
 """
