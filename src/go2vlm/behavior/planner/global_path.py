@@ -205,25 +205,35 @@ def _goal_cells(c: np.ndarray, rc: tuple[int, int], radius: int) -> np.ndarray:
 
 def prune(c: np.ndarray, cells: np.ndarray) -> list[int]:
     """Indices into `cells` (a dense path on cost grid `c`) kept as waypoints: line-of-sight pruning
-    that never crosses a cell costlier than the stretch it replaces."""
+    that never crosses a cell costlier than the stretch it replaces. From each waypoint the next is
+    found by galloping then bisecting over the path (each candidate line checked): O(log n) checks
+    a leg, not one a cell; a leg may stop short of the farthest visible cell, never go past a
+    blocked one."""
     n = len(cells)
     if n <= 2:
         return list(range(n))
     v = c[cells[:, 0], cells[:, 1]]
+
+    def clear(i: int, j: int) -> bool:
+        line = line_cells(tuple(cells[i]), tuple(cells[j]))
+        return bool((c[line[:, 0], line[:, 1]] <= v[i : j + 1].max()).all())
+
     keep = [0]
     i = 0
     while i < n - 1:
-        j = i + 1
-        worst = max(v[i], v[j])
-        while j + 1 < n:
-            worst_next = max(worst, v[j + 1])
-            line = line_cells(tuple(cells[i]), tuple(cells[j + 1]))
-            if not (c[line[:, 0], line[:, 1]] <= worst_next).all():
-                break
-            j += 1
-            worst = worst_next
-        keep.append(j)
-        i = j
+        good, step = i + 1, 1  # i + 1 is the path's own next cell: always clear
+        while good + step < n and clear(i, good + step):
+            good += step
+            step *= 2
+        bad = min(good + step, n)  # the first candidate found blocked (or past the end)
+        while bad - good > 1:
+            mid = (good + bad) // 2
+            if clear(i, mid):
+                good = mid
+            else:
+                bad = mid
+        keep.append(good)
+        i = good
     return keep
 
 
@@ -253,7 +263,8 @@ def plan_path(
         return Plan(False, f"the robot at ({start[0]:.2f}, {start[1]:.2f}) is outside the map", stride=k)
     s_from = s
     if not np.isfinite(c[s]):
-        esc = _nearest_passable(c, s, max(1, int(p.escape_m / res)))
+        radius = int(round(p.escape_m / res))
+        esc = _nearest_passable(c, s, radius) if radius > 0 else None
         if esc is None:
             return Plan(False, f"boxed in: no passable cell within {p.escape_m:g} m of the robot", stride=k)
         s_from = esc
