@@ -9,16 +9,15 @@ radius, and 100, an obstacle) never entered. `origin` is the world (x, y) of cel
 Search: scikit-image's `graph.MCP_Geometric` (Dijkstra, 8-connected, each step costing its length
 times the mean of the two cells' costs: geometric, so a diagonal costs sqrt(2)). Chosen by
 measurement (benchmarks/bench_planner.py, docs/navigation.md): on a 1200 x 1200 house (60 x 60 m
-at 5 cm, the map's cap) corner to corner it takes 0.52 s, pyastar2d's A* 0.13 s and scipy's
-csgraph 1.4 s with its graph build; coarsened to 400 x 400 (15 cm) MCP takes 44 ms, A* 15 ms.
-MCP wins on what the planner is for: one search settles the costs to *every* goal cell, so the
-nearest of many frontiers (by path cost), or the nearest free cell round an object, comes from one
-search that stops at the first goal reached; A* needs one search per goal. And its costs are
-Euclidean (pyastar2d's diagonal costs as much as a straight step: its paths measure ~9 % longer).
-To hold a full replan within 50 ms on the largest map, a grid of more than `max_cells` cells is
-coarsened by the smallest whole factor that fits, each coarse cell as costly as its costliest
-fine cell (conservative: a coarse cell is lethal when any of its fine cells is). The household
-and rooms worlds plan at the map's own resolution.
+at 5 cm, the map's cap) corner to corner it takes 0.54 s of CPU, pyastar2d's A* 0.14 s and scipy's
+csgraph 1.2 s with its graph build. MCP wins on what the planner is for: one search settles the
+costs to *every* goal cell, so the nearest of many frontiers (by path cost), or the nearest free
+cell round an object, comes from one search that stops at the first goal reached; A* needs one
+search per goal. And its costs are Euclidean (pyastar2d's diagonal costs as much as a straight
+step: its paths measure ~9 % longer). A full replan across the largest world (the apartment,
+303 x 223 cells) takes 15 ms. A grid of more than `max_cells` cells is coarsened by the smallest
+whole factor that fits, each coarse cell as costly as its costliest fine cell (conservative: a
+coarse cell is lethal when any of its fine cells is): the 60 m cap plans at 15 cm in ~80 ms.
 
 Unknown space (`unknown_cost`): the cost per cell of crossing an unknown cell; `math.inf` never
 crosses one. Exploration crosses unknown at a small cost (a frontier's goal is at the edge of the
