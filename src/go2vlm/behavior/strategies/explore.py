@@ -13,8 +13,9 @@ Rules
 - Frontiers (world/frontiers.py) of the newest costmap, less those within `visited_radius_m` of a
   frontier already looked from or given up on. `frontier_choice`: `nearest` takes the nearest by
   path cost (one search of the global planner to all their goals at once, crossing unknown space at
-  `unknown_cost`); `vlm` takes the one a whitelisted model answer points to (set by `prefer`), the
-  nearest when there is none.
+  `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
+  (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
+  nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
 - Walk the route's waypoints (behavior/planner/global_path.Route): replan when the map makes the
   route blocked, when the robot strays from it, or as the map grows. A frontier the lidar has seen
   past on the way is still walked to and looked from (the lidar reaches 10 m, the camera's answers
@@ -39,6 +40,7 @@ from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, pl
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.route import follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
+from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.world.frontiers import Frontier, FrontierParams, find_frontiers
 from go2vlm.world.poses import wrap_angle
 
@@ -101,7 +103,7 @@ class Explorer:
         self.route: Route | None = None
         self.visited: list[tuple[float, float]] = []
         self.given_up = 0
-        self.prefer: tuple[float, float] | None = None  # vlm: a point the model's answer points to
+        self.views = ViewScores()  # vlm: the model's scores of the ways it looked (world yaw)
         self._progress = (math.inf, now)  # best remaining distance, and when it last improved
         self._frontier_stamp: float | None = None
         self.reason = ""
@@ -167,9 +169,9 @@ class Explorer:
             self.reason = "no frontier left: every reachable part of the map has been looked at"
             return ExploreStep("done", self.reason)
         cands = self.frontiers
-        if p.frontier_choice == "vlm" and self.prefer is not None:
-            px, py = self.prefer
-            cands = sorted(cands, key=lambda f: math.hypot(f.centroid[0] - px, f.centroid[1] - py))[:1]
+        if p.frontier_choice == "vlm":
+            scored = [self.views.toward(x, y, *f.centroid) for f in cands]
+            cands = [f for f, sc in zip(cands, scored, strict=True) if sc >= max(scored)]
         gp = p.global_params
         plan = plan_path(cm, (x, y), [f.goal for f in cands], gp)
         if not plan.ok and cands is not self.frontiers:
