@@ -238,7 +238,8 @@ class CommanderConfig:
     explore: bool = param(_EP_ON, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
                           "finds nothing", live=True)  # fmt: skip
     frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
-                                 help="explore: the frontier to walk to: nearest by path cost, or vlm")  # fmt: skip
+                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (view "
+                                 "scores; no answers on the bus yet: as nearest)")  # fmt: skip
     explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
                                         min=1.0, max=1000.0, live=True)  # fmt: skip
     costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
