@@ -148,7 +148,6 @@ __all__ = ["CommanderConfig", "CommanderNode"]
 MAX_IMAGE_SIDE = 100_000  # a TrackedTarget claiming a bigger image is garbage
 _MP = MissionParams()
 _EP = ExploreParams()
-_EP_ON = True
 
 
 @dataclass
@@ -235,7 +234,7 @@ class CommanderConfig:
                                  min=0.0, max=5.0, live=True)  # fmt: skip
     look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
                                   min=0.5, max=120.0, live=True)  # fmt: skip
-    explore: bool = param(_EP_ON, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
+    explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
                           "finds nothing", live=True)  # fmt: skip
     frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
                                  help="explore: the frontier to walk to: nearest by path cost, or vlm (view "
