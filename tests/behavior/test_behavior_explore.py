@@ -124,3 +124,15 @@ def test_a_known_closed_room_has_nothing_to_explore() -> None:
     ex.set_map(costmap(known, 1.0))
     step = ex.step(3.0, 0.0, 0.0, 0.1)
     assert step.action == "done" and "no frontier" in step.reason
+
+
+def test_exploring_gives_up_after_its_timeout() -> None:
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    ex = Explorer(ExploreParams(timeout_s=60.0))
+    ex.reset(0.0)
+    ex.set_map(costmap(known, 1.0))
+    assert ex.step(3.0, -2.0, 0.0, 30.0).action == "walk"
+    done = ex.step(3.0, -2.0, 0.0, 61.0)
+    assert done.action == "done" and "explored for 60 s" in done.reason

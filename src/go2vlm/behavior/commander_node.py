@@ -75,7 +75,8 @@ command is still the commander's, within its limits, through the safety gate (be
 Exploring (explore, behavior/strategies/explore.py): once turn-and-look has found nothing, go to and
 look for walk to a frontier of /map/costmap (free space next to unknown; `frontier_choice` nearest
 by path cost) along the global planner's route, look all round there, and repeat, until the target
-is seen or remembered, no frontier is left (not_found, with that reason) or the goal is stopped.
+is seen or remembered, no frontier is left (not_found, with that reason), explore_timeout_s after the
+goal began (not_found: an open world has frontiers without end), or the goal is stopped.
 A go to a remembered object the robot cannot see straight (a wall or unknown space on the straight
 line) walks the global route to it, preferring known free space. Each waypoint goes to the same
 approach law and local planner, so the safety gate and its guard keep the last word.
@@ -241,6 +242,8 @@ class CommanderConfig:
                                  "scores; no answers on the bus yet: as nearest)")  # fmt: skip
     explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
                                         min=1.0, max=1000.0, live=True)  # fmt: skip
+    explore_timeout_s: float = param(_EP.timeout_s, help="explore: give the goal up this long after it began (s)",
+                                     min=10.0, max=3600.0, live=True)  # fmt: skip
     costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
@@ -255,7 +258,8 @@ class CommanderConfig:
     )
 
     def explore_params(self) -> ExploreParams:
-        return dataclasses.replace(_EP, frontier_choice=self.frontier_choice, unknown_cost=self.explore_unknown_cost)
+        return dataclasses.replace(_EP, frontier_choice=self.frontier_choice, unknown_cost=self.explore_unknown_cost,
+                                   timeout_s=self.explore_timeout_s)  # fmt: skip
 
     def mission_params(self) -> MissionParams:
         return core_params(

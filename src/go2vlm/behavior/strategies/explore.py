@@ -24,7 +24,8 @@ Rules
   frontier up.
 - Within `arrive_m` of the goal: `look` (the host turns and looks), then `looked()`: that place is
   visited, and the next frontier is chosen.
-- `done` (the goal ends not_found, with the reason) when no frontier is left, or none is reachable.
+- `done` (the goal ends not_found, with the reason) when no frontier is left, or none is reachable,
+  or `timeout_s` after the goal began (an open world has frontiers without end).
   `wait` (hold still) without a map or a pose; after `map_timeout_s` without any map: done.
 """
 
@@ -60,13 +61,14 @@ class ExploreParams:
     stuck_m: float = 0.3  # at least this much progress along the route ...
     stuck_s: float = 20.0  # ... within this long, else the frontier is given up
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
+    timeout_s: float = 300.0  # the goal has explored this long since it began: done (not_found)
     planner: GlobalParams = field(default_factory=GlobalParams)
 
     def __post_init__(self) -> None:
         if self.frontier_choice not in FRONTIER_CHOICES:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
         for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
-                     "stuck_s", "map_timeout_s"):  # fmt: skip
+                     "stuck_s", "map_timeout_s", "timeout_s"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
@@ -201,6 +203,10 @@ class Explorer:
     def step(self, x: float | None, y: float | None, yaw: float | None, now: float) -> ExploreStep:
         p = self.params
         if self.phase == "done":
+            return ExploreStep("done", self.reason)
+        if now - self.t0 > p.timeout_s:
+            self.phase = "done"
+            self.reason = f"explored for {p.timeout_s:g} s without finding it ({len(self.visited)} places looked from)"
             return ExploreStep("done", self.reason)
         cm = self.costmap
         if cm is None:
