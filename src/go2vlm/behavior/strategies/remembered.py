@@ -128,6 +128,8 @@ class GoToRemembered:
             if st is not None and st.blocked:
                 return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
             reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})"
+            if self.router.reason:  # out of sight and no route on the map: straight, the guard has the last word
+                reason += f"; no route on the map ({self.router.reason})"
             return Command(vx, wz, "approaching", reason, basis="memory")
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
