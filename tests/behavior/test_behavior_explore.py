@@ -136,3 +136,38 @@ def test_exploring_gives_up_after_its_timeout() -> None:
     assert ex.step(3.0, -2.0, 0.0, 30.0).action == "walk"
     done = ex.step(3.0, -2.0, 0.0, 61.0)
     assert done.action == "done" and "explored for 60 s" in done.reason
+
+
+def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.strategies.base import Context, Pose
+    from go2vlm.behavior.strategies.explore import Explore
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    s = Explore()
+    ctx = Context(MissionParams(), goal=parse_goal("look for the duck"), view=math.radians(73))
+    ctx.costmap = costmap(known, 1.0)
+    s.reset(0.0)
+    x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
+    states: list[str] = []
+    turned = 0.0
+    for _ in range(4000):
+        now += 0.05
+        ctx.pose = Pose(x, y, yaw, now)
+        cmd = s.step(ctx, now)
+        assert cmd is not None
+        states.append(cmd.state)
+        assert 0.0 <= cmd.vx <= ctx.params.max_linear and abs(cmd.wz) <= ctx.params.max_angular
+        if s.looking:
+            turned += abs(cmd.wz) * 0.05
+        yaw += cmd.wz * 0.05
+        x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
+        if s.explorer.status()["visited"] >= 1 and not s.looking and s.explorer.phase == "walk":
+            break
+    assert set(states) <= {"exploring", "detouring"}
+    assert s.explorer.status()["visited"] >= 1  # it arrived, looked all round, and walks on
+    assert turned >= 2 * math.pi - math.radians(73) - 0.1
+    assert ctx.route is s.explorer.route is not None
