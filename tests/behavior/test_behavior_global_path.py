@@ -184,3 +184,22 @@ def test_bad_parameters_are_refused() -> None:
         GlobalParams(lethal=0)
     with pytest.raises(ValueError):
         Costmap(np.zeros((0, 3), np.int8), RES, (0.0, 0.0))
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(st.sampled_from([-1, 0, 40, 98, 99, 100]), min_size=100, max_size=100),
+    st.sampled_from([math.inf, 3.0]),
+    st.lists(st.tuples(st.integers(-3, 12), st.integers(-3, 12)), min_size=1, max_size=20),
+)
+def test_passable_agrees_with_the_cost_grid(cells, unknown_cost, probe) -> None:
+    from go2vlm.behavior.planner.global_path import passable
+
+    cm = Costmap(np.array(cells, np.int8).reshape(10, 10), 0.1, (0.0, 0.0))
+    p = GlobalParams(unknown_cost=unknown_cost)
+    c = cell_costs(cm, p)
+    rc = np.array(probe)
+    inside = (rc >= 0).all(axis=1) & (rc < 10).all(axis=1)
+    want = np.zeros(len(rc), bool)
+    want[inside] = np.isfinite(c[rc[inside, 0], rc[inside, 1]])
+    assert (passable(cm, rc, p) == want).all()

@@ -51,7 +51,10 @@ __all__ = [
     "GlobalParams",
     "Plan",
     "Route",
+    "cell_costs",
+    "chain_cost",
     "line_cells",
+    "passable",
     "plan_path",
 ]
 
@@ -151,6 +154,20 @@ def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
     c[v >= p.lethal] = np.inf
     c[v < UNKNOWN] = np.inf  # not a ROS occupancy value: never entered
     return c
+
+
+def passable(cm: Costmap, cells: np.ndarray, p: GlobalParams) -> np.ndarray:
+    """bool per (row, col) of `cells`: may it be entered (inside the grid, below lethal, and known
+    unless unknown may be crossed)? Only those cells are read (a check along a line, not the grid)."""
+    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
+    h, w = cm.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < h) & (cells[:, 1] >= 0) & (cells[:, 1] < w)
+    v = np.full(len(cells), 100, np.int16)
+    v[inside] = cm.data[cells[inside, 0], cells[inside, 1]]
+    ok = (v >= 0) & (v < p.lethal)
+    if math.isfinite(p.unknown_cost):
+        ok |= v == UNKNOWN
+    return ok & inside
 
 
 def stride_for(shape: tuple[int, int], max_cells: int) -> int:
@@ -375,18 +392,15 @@ class Route:
         """Does the rest of the route, from the robot at (x, y) on, cross a cell that `cm` says may
         not be entered? (Cells within `escape_m` of the robot do not count: it may stand in the
         inflation, by a wall, and the local planner and the guard see to that.)"""
-        c = cell_costs(cm, p)
         w = self.plan.waypoints
         i = max(1, min(self.index, len(w) - 1))
         legs = [(np.array((x, y)), w[i])] + list(zip(w[i:-1], w[i + 1 :], strict=False))
         for n, (a, b) in enumerate(legs):
             line = line_cells(cm.cell(*a), cm.cell(*b))
-            ok = (line[:, 0] >= 0) & (line[:, 0] < c.shape[0]) & (line[:, 1] >= 0) & (line[:, 1] < c.shape[1])
-            line = line[ok]
             if n == 0:
                 xy = cm.world(line[:, 0], line[:, 1])
                 line = line[np.hypot(xy[:, 0] - x, xy[:, 1] - y) > p.escape_m]
-            if not np.isfinite(c[line[:, 0], line[:, 1]]).all():
+            if not passable(cm, line, p).all():
                 return True
         return False
 

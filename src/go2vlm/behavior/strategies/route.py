@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from go2vlm.behavior.control import approach_command
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, cell_costs, line_cells, plan_path
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, line_cells, passable, plan_path
 from go2vlm.behavior.strategies.base import Command, Context
 
 __all__ = ["DEFAULT_VIEW", "RouteTo", "follow_waypoint", "line_of_sight"]
@@ -43,14 +43,13 @@ def follow_waypoint(
 def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, skip_m: float) -> bool:
     """Is the straight way from `a` to `b` known and passable on `cm`, but for `skip_m` round each end
     (the robot may stand in the inflation; the object is itself an obstacle)?"""
-    c = cell_costs(cm, replace(p, unknown_cost=math.inf))
     line = line_cells(cm.cell(*a), cm.cell(*b))
-    inside = (line[:, 0] >= 0) & (line[:, 0] < c.shape[0]) & (line[:, 1] >= 0) & (line[:, 1] < c.shape[1])
-    if not inside.all():
+    h, w = cm.shape
+    if not ((line[:, 0] >= 0) & (line[:, 0] < h) & (line[:, 1] >= 0) & (line[:, 1] < w)).all():
         return False
     xy = cm.world(line[:, 0], line[:, 1])
     far = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) > skip_m) & (np.hypot(xy[:, 0] - b[0], xy[:, 1] - b[1]) > skip_m)
-    return bool(np.isfinite(c[line[far, 0], line[far, 1]]).all())
+    return bool(passable(cm, line[far], replace(p, unknown_cost=math.inf)).all())
 
 
 class RouteTo:
