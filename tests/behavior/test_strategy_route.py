@@ -110,3 +110,20 @@ def test_waypoint_commands_stay_within_the_limits_and_turn_first(bearing: float,
         assert cmd.vx == 0.0
     if abs(bearing) > 0.05:
         assert cmd.wz * bearing > 0  # towards the waypoint
+
+
+def test_look_for_a_remembered_object_in_the_other_room_walks_until_it_is_in_sight() -> None:
+    cm = two_rooms()
+    s = GoToRemembered()
+    ctx = ctx_at(3.0, -2.0, 0.0, cm)
+    ctx.goal = parse_goal("look for the duck")
+    ctx.target_obj = s.pick(ctx)
+    cmd = s.step(ctx, 10.0)
+    assert cmd is not None and cmd.state in ("aligning", "detouring") and "can be seen" in cmd.reason
+    assert ctx.route is not None
+    # In sight (the living room): it turns to face it and looks, as before.
+    ctx2 = ctx_at(-2.0, -2.0, 0.0, cm)
+    ctx2.goal = parse_goal("look for the duck")
+    ctx2.target_obj = s.pick(ctx2)
+    cmd2 = s.step(ctx2, 10.0)
+    assert cmd2 is not None and cmd2.state == "aligning" and "turning to" in cmd2.reason and cmd2.vx == 0.0

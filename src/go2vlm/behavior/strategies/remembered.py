@@ -10,7 +10,8 @@ view is. Pure, timestamp-driven.
   another room) is walked to along the global route (route.RouteTo), through the doorway. At its
   remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
   it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
-- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it.
+- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
+  one out of sight on the map is first walked towards along the global route until it is in sight.
 - `confirm_looks` answered looks without it: that object is given up and the search goes on.
 """
 
@@ -114,6 +115,14 @@ class GoToRemembered:
             if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
+        if goal.kind == "look_for":  # out of sight on the map (another room): walk until it can be seen
+            via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
+            ctx.route = self.router.route
+            if via is not None:
+                ctx.look.forget()
+                b, d, rest = via
+                reason = f"walking to where {where} can be seen, {rest:.1f} m along the route (memory)"
+                return follow_waypoint(ctx, b, d, rest, now, "aligning", reason, basis="memory")
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
             # Walk: the approach turns before it walks, the planner steers round what is in the way.
             ctx.look.forget()
