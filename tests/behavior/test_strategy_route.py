@@ -127,3 +127,13 @@ def test_look_for_a_remembered_object_in_the_other_room_walks_until_it_is_in_sig
     ctx2.target_obj = s.pick(ctx2)
     cmd2 = s.step(ctx2, 10.0)
     assert cmd2 is not None and cmd2.state == "aligning" and "turning to" in cmd2.reason and cmd2.vx == 0.0
+
+
+def test_look_for_does_not_walk_the_route_to_what_the_tracker_just_saw() -> None:
+    s = GoToRemembered()
+    ctx = ctx_at(3.0, -2.0, 0.0, two_rooms())
+    ctx.goal = parse_goal("look for the duck")
+    ctx.target_obj = s.pick(ctx)
+    ctx.last_seen = 8.0  # 2 s ago: in sight, whatever the map says
+    cmd = s.step(ctx, 10.0)
+    assert cmd is not None and "can be seen" not in cmd.reason and cmd.vx == 0.0

@@ -11,7 +11,8 @@ view is. Pure, timestamp-driven.
   remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
   it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
-  one out of sight on the map is first walked towards along the global route until it is in sight.
+  one out of sight on the map is first walked towards along the global route until it is in sight
+  (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
 - `confirm_looks` answered looks without it: that object is given up and the search goes on.
 """
 
@@ -27,7 +28,9 @@ from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["GoToRemembered", "relative"]
+__all__ = ["SEEN_LATELY_S", "GoToRemembered", "relative"]
+
+SEEN_LATELY_S = 5.0  # look for: the tracker confirmed it this recently: it is in sight, whatever the map says
 
 
 def relative(ctx: Context, o: Remembered, now: float) -> tuple[float, float] | None:
@@ -115,7 +118,8 @@ class GoToRemembered:
             if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
-        if goal.kind == "look_for":  # out of sight on the map (another room): walk until it can be seen
+        seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
+        if goal.kind == "look_for" and not seen_lately:  # out of sight on the map (another room): walk to where it is
             via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
             ctx.route = self.router.route
             if via is not None:
