@@ -138,7 +138,8 @@ def test_stop_and_unparseable_goals_interrupt_motion_and_sit_stand_are_forwarded
 
 
 def test_look_for_something_absent_gives_up_and_stays_still() -> None:
-    m = run("find the yellow ball", duration_s=20.0, params={"commander": {"search_timeout_s": 2.0}})
+    # Where it stands: exploring the house for it is tests/apps/test_apps_cross_room.py's.
+    m = run("find the yellow ball", duration_s=20.0, params={"commander": {"search_timeout_s": 2.0, "explore": False}})
     assert m["final_state"] == "not_found" and not m["goal_reached"], m
     assert m["states"] == ["searching", "not_found"]
     assert m["final_cmd"] == [0.0, 0.0] and m["robot_distance_travelled_m"] < 0.1

@@ -1,4 +1,4 @@
-"""The commander's core with the local planner (behavior/mission.py + behavior/planner.py): a box between
+"""The commander's core with the local planner (behavior/mission.py + behavior/planner/local.py): a box between
 the robot and "the blue cylinder" is driven round, in a kinematic loop of the pure core with a
 ray-cast scan, odometry and a pinhole camera's sightings; and no sequence of scans, poses and
 sightings makes it drive forward without a confirmed target except on a detour that is blocked, fresh

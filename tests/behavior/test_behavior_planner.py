@@ -1,4 +1,4 @@
-"""The approach's local planner (behavior/planner.py): a free way passes the command unchanged; a box
+"""The approach's local planner (behavior/planner/local.py): a free way passes the command unchanged; a box
 in the way turns the robot to a free heading; the goal itself is no obstacle; it never speeds anything
 up nor drives backwards."""
 

@@ -40,6 +40,7 @@ TYPES = [
     "sensor_msgs/msg/PointCloud2",
     "sensor_msgs/msg/LaserScan",
     "nav_msgs/msg/Odometry",
+    "nav_msgs/msg/Path",
     "nav_msgs/msg/MapMetaData",
     "nav_msgs/msg/OccupancyGrid",
     "vision_msgs/msg/Point2D",

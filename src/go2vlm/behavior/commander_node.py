@@ -26,6 +26,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
               /objects            vision_msgs/Detection3DArray, latched (`objects_topic`): the object
                                   memory (world/object_memory_node.py): remembered objects in the odom
                                   frame, and (header.stamp) the newest answer it has taken in
+              /map/costmap        nav_msgs/OccupancyGrid, latched (`costmap_topic`): the map node's
+                                  inflated costmap (world/map_node.py), frame odom: the global planner
+                                  and the frontiers (explore)
   publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
@@ -33,17 +36,23 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   control_rate_hz; zeros for 0.5 s after a goal ends, then quiet;
                                   lowest priority in the safety gate (/teleop > /follower > /behavior)
               /go2/command        std_msgs/String       "sit" / "stand" (the Go2 driver / sim acts)
+              /plan               nav_msgs/Path, latched: the global route it walks (exploring to a
+                                  frontier, or to a remembered object out of sight), frame odom, on
+                                  every replan; an empty path when the route ends
               /commander/status   std_msgs/String       latched JSON: goal, kind, target, state, reason,
                                   seen, x, distance_m, range_method, tracker, cmd, decision, counters,
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
-                                  id, x, y, confidence, distance_m), memory (objects, answer latency);
+                                  id, x, y, confidence, distance_m), memory (objects, answer latency),
+                                  explore (exploring, phase, frontier, frontiers_left, visited,
+                                  given_up, route_m), plan (length_m, waypoints, reason);
                                   on every change and every status_period_s
 
 Goals and states
   follow    waiting -> tracking (keeps follow_distance_m) | lost | searching   never ends by itself
   go to     searching -> approaching -> reached (stops at stop_distance_m, base -> object surface);
-            detouring while the local planner (behavior/planner.py) steers round an obstacle on /scan
+            detouring while the local planner (behavior/planner/local.py) steers round an obstacle on /scan
   look for  searching -> aligning -> found (target centred), or not_found after search_timeout_s
+            (with explore: searching -> exploring -> ... -> not_found when no frontier is left)
   turn      turning (in place at decision_turn_rate, |angle| <= 30 deg) -> done
   stop      stopped (zero velocity); sit / stand -> done; text it cannot parse -> rejected: reason on
             /commander/status, zero velocity, nothing else moves; an object the target_tracker cannot
@@ -62,6 +71,15 @@ search_yaw_rate would turn more than search_view_per_answer of the view between 
 look (hold still until an answer about a frame taken at this heading has come back, then turn
 search_step_deg at search_step_rate). The memory never commands a velocity: every
 command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
+
+Exploring (explore, behavior/strategies/explore.py): once turn-and-look has found nothing, go to and
+look for walk to a frontier of /map/costmap (free space next to unknown; `frontier_choice` nearest
+by path cost) along the global planner's route, look all round there, and repeat, until the target
+is seen or remembered, no frontier is left (not_found, with that reason), explore_timeout_s after the
+goal began (not_found: an open world has frontiers without end), or the goal is stopped.
+A go to a remembered object the robot cannot see straight (a wall or unknown space on the straight
+line) walks the global route to it, preferring known free space. Each waypoint goes to the same
+approach law and local planner, so the safety gate and its guard keep the last word.
 
 Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow steer round what lies
 between the robot and the target, planner_margin_m each side of the footprint. A detour that takes
@@ -96,7 +114,11 @@ from typing import Any
 
 from go2vlm.behavior.lease import Lease, LeaseError, overdue, parse_goal, parse_renewal, too_far
 from go2vlm.behavior.mission import Intent, Mission, MissionParams
+from go2vlm.behavior.planner.global_path import Costmap, Route
 from go2vlm.behavior.sighting import sighting_of
+from go2vlm.behavior.strategies.base import SearchStrategy
+from go2vlm.behavior.strategies.explore import FRONTIER_CHOICES, Explore, ExploreParams
+from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.bus import Node, core_params, param
 from go2vlm.bus.topics import (
     BEHAVIOR_CMD_VEL,
@@ -104,8 +126,10 @@ from go2vlm.bus.topics import (
     GO2_COMMAND,
     GOAL,
     GOAL_LEASE,
+    MAP_COSTMAP,
     OBJECTS,
     ODOM,
+    PLAN,
     SCAN,
     TARGET_QUERY,
     TARGET_TRACKED,
@@ -113,18 +137,21 @@ from go2vlm.bus.topics import (
 )
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.msgs.geometry_msgs import Twist, Vector3
+from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion, Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import TrackedTarget
-from go2vlm.msgs.nav_msgs import Odometry
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry, Path
 from go2vlm.msgs.sensor_msgs import LaserScan
-from go2vlm.msgs.std_msgs import String
+from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection3DArray
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.map_msg import grid_of
 from go2vlm.world.objects_msg import remembered
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
 _MP = MissionParams()
+_EP = ExploreParams()
 
 
 @dataclass
@@ -211,6 +238,16 @@ class CommanderConfig:
     max_go_to_m: float = param(
         25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
     )
+    explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
+                          "finds nothing", live=True)  # fmt: skip
+    frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
+                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (view "
+                                 "scores; no answers on the bus yet: as nearest)")  # fmt: skip
+    explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
+                                        min=1.0, max=1000.0, live=True)  # fmt: skip
+    explore_timeout_s: float = param(_EP.timeout_s, help="explore: give the goal up this long after it began (s)",
+                                     min=10.0, max=3600.0, live=True)  # fmt: skip
+    costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
     decision_hold_s: float = param(
@@ -222,6 +259,10 @@ class CommanderConfig:
     max_turn_deg: float = param(
         _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
     )
+
+    def explore_params(self) -> ExploreParams:
+        return dataclasses.replace(_EP, frontier_choice=self.frontier_choice, unknown_cost=self.explore_unknown_cost,
+                                   timeout_s=self.explore_timeout_s)  # fmt: skip
 
     def mission_params(self) -> MissionParams:
         return core_params(
@@ -240,7 +281,10 @@ class CommanderNode(Node):
     def __init__(self, config: CommanderConfig | None = None, **kwargs: Any) -> None:
         super().__init__(config, **kwargs)
         cfg: CommanderConfig = self.config
-        self.mission = Mission(cfg.mission_params())
+        self.explore = Explore(cfg.explore_params())
+        self.mission = Mission(cfg.mission_params(), searches=self._searches())
+        self.pub_plan = PLAN.publisher(self)
+        self._route: Route | None = None  # the route last published on /plan
         self.pub_query = TARGET_QUERY.publisher(self)
         self.pub_cmd = BEHAVIOR_CMD_VEL.publisher(self)
         self.pub_go2 = GO2_COMMAND.publisher(self)
@@ -254,6 +298,7 @@ class CommanderNode(Node):
         SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
         ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
         OBJECTS.subscription(self, self.on_objects, name=cfg.objects_topic)
+        MAP_COSTMAP.subscription(self, self.on_costmap, name=cfg.costmap_topic)
         self._odom_frame = ""
         self._query: str | None = None
         self._last_key: tuple[str, str] | None = None
@@ -269,6 +314,14 @@ class CommanderNode(Node):
     def on_params_changed(self, old: CommanderConfig, changed: frozenset[str]) -> None:
         # The mission reads its gains, speeds and timeouts from params on every step.
         self.mission.params = self.config.mission_params()
+        self.explore.explorer.params = self.config.explore_params()
+        self.mission.searches[:] = self._searches()
+
+    def _searches(self) -> tuple[SearchStrategy, ...]:
+        """The search chain: turn and look where it stands, then (explore) walk to frontiers."""
+        old = getattr(self, "mission", None)
+        look = next((s for s in old.searches if isinstance(s, TurnAndLook)), None) if old else None
+        return (look or TurnAndLook(), self.explore) if self.config.explore else (look or TurnAndLook(),)
 
     def on_goal(self, msg: String) -> None:
         try:
@@ -345,6 +398,23 @@ class CommanderNode(Node):
         stamp = msg.header.stamp.to_sec()
         self.mission.observe_memory(objs, stamp + shift if stamp > 0 else None, self.clock.monotonic())
 
+    def on_costmap(self, msg: OccupancyGrid) -> None:
+        """A new costmap for the global planner; a bad one (or one in another frame than /odom) is
+        counted and ignored: the last good one stays."""
+        try:
+            g = grid_of(msg)
+        except ValueError as exc:
+            n = self.count("bad_costmap")
+            self.log.throttled("error", 5.0, f"ignoring a bad {self.config.costmap_topic} ({n} so far): {exc}",
+                               key="costmap")  # fmt: skip
+            return
+        if self._odom_frame and g.frame_id != self._odom_frame:
+            n = self.count("costmap_wrong_frame")
+            self.log.throttled("error", 5.0, f"ignoring {self.config.costmap_topic} in frame {g.frame_id!r} "
+                               f"({n} so far): /odom is in {self._odom_frame!r}", key="costmap")  # fmt: skip
+            return
+        self.mission.observe_map(Costmap(g.cells, g.resolution, g.origin, stamp=self.clock.monotonic()))
+
     def on_decision(self, msg: String) -> None:
         before = self.mission.counters["decisions_rejected"]
         self.mission.decide(msg.data, self.clock.monotonic())
@@ -366,6 +436,10 @@ class CommanderNode(Node):
             self.pub_go2.publish(String(data=posture))
         if intent.publish_cmd:
             self.pub_cmd.publish(Twist(linear=Vector3(x=float(intent.vx)), angular=Vector3(z=float(intent.wz))))
+        route = self.mission.ctx.route if self.mission.active else None
+        if route is not self._route:
+            self._route = route
+            self.publish_plan(route)
         if (intent.state, intent.reason) != self._last_key:
             self._last_state_log(intent)
             self.publish_status()
@@ -417,6 +491,11 @@ class CommanderNode(Node):
             "lease": None if self._lease is None else {"id": self._lease.lease_id,
                                                        "left_s": round(self._lease.left(time.monotonic()), 2)},
             "remembered": self._remembered_status(now),
+            "explore": self.explore.status() if self.config.explore else None,
+            "plan": None if self._route is None else {
+                "length_m": round(self._route.plan.length, 2), "waypoints": len(self._route.plan.waypoints),
+                "reason": self._route.plan.reason,
+            },
             "memory": None if m.memory is None else {
                 "objects": len(m.memory),
                 "answer_latency_s": None if m.answer_latency is None else round(m.answer_latency, 3),
@@ -432,6 +511,14 @@ class CommanderNode(Node):
             "id": o.id, "label": o.label, "x": round(o.x, 3), "y": round(o.y, 3),
             "confidence": round(o.confidence, 3), "distance_m": None if rel is None else round(rel[1], 3),
         }  # fmt: skip
+
+    def publish_plan(self, route: Route | None) -> None:
+        header = Header(stamp=Time.from_sec(self.clock.now()), frame_id=self._odom_frame or "odom")
+        poses = [] if route is None else [
+            PoseStamped(header=header, pose=Pose(position=Point(x=float(x), y=float(y)), orientation=Quaternion(w=1.0)))
+            for x, y in route.plan.waypoints
+        ]  # fmt: skip
+        self.pub_plan.publish(Path(header=header, poses=poses))
 
     def publish_status(self) -> None:
         self._last_key = (self.mission.state, self.mission.reason)

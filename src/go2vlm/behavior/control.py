@@ -1,6 +1,6 @@
 """The behaviours' control laws, pure: how a target's place becomes a velocity. Which law runs, and
 when, is decided elsewhere (the follower node; the commander's Mission, behavior/mission.py, and its
-strategies, with the local planner, behavior/planner.py), as Nav2 keeps the planner and the
+strategies, with the local planner, behavior/planner/local.py), as Nav2 keeps the planner and the
 controller apart. Each behaviour has one law and one set of gains:
 
 - `follow_command`: the article's follower (behavior/follower_node.py, section 5.3), the follow

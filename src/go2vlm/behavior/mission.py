@@ -8,7 +8,7 @@ what to do: strategies/decide.py (a VLM decision or a turn goal overrides all), 
 tracker's confirmed target, and a detour that hides it), remembered.py (a remembered object), then
 lost, then the search chain (`Mission.searches`, the hook `Mission.search`: search.py's
 turn-and-look first; a new search strategy is appended there). The control laws they run are
-behavior/control.py's, the local planner behavior/planner.py.
+behavior/control.py's, the local planner behavior/planner/local.py.
 
     mission = Mission(MissionParams())
     mission.set_goal("go to the blue cylinder", now)
@@ -42,7 +42,7 @@ Rules
   |angle| / rate seconds, sit sends "sit" and ends the goal. Text never becomes a velocity.
 - Terminal states (idle, stopped, rejected, done, reached, found, not_found, sat) output zero: a
   burst of zeros for ZERO_BURST_S, then /behavior/cmd_vel goes quiet.
-- Obstacles (`avoid_obstacles`, behavior/planner.py): go to and follow steer round what the
+- Obstacles (`avoid_obstacles`, behavior/planner/local.py): go to and follow steer round what the
   newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
   the target (`detouring`). With the pose (`observe_pose`, odometry, fresh for `pose_timeout_s`) the
   target's last confirmed place is kept in the odometry frame; a detour that takes the target out of
@@ -84,6 +84,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
+from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -258,6 +259,10 @@ class Mission:
     def observe_pose(self, x: float, y: float, yaw: float, now: float) -> None:
         """The robot's odometry pose (a NaN one is dropped)."""
         self.ctx.pose = Pose(x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
+
+    def observe_map(self, costmap: Costmap | None) -> None:
+        """The map's newest inflated costmap (None: none, or a bad one), for the global planner."""
+        self.ctx.costmap = costmap
 
     def observe_memory(self, objects: list[Remembered], answered_through: float | None, now: float) -> None:
         """The object memory's newest /objects: every remembered object, and the stamp of the newest

@@ -28,7 +28,7 @@ from go2vlm.bus import qos
 from go2vlm.bus.qos import QosProfile
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import TrackedTarget
-from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry, Path
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image, Imu, JointState, LaserScan, PointCloud2
 from go2vlm.msgs.std_msgs import Bool, String
@@ -129,6 +129,8 @@ MAP_ODOM = Topic("/map/odom", Odometry, qos.QOS_DEFAULT)
 # Behaviour.
 GOAL = Topic("/goal", String, qos.QOS_DEFAULT)
 GOAL_LEASE = Topic("/goal/lease", String, qos.QOS_DEFAULT)
+# The commander's global route (behavior/planner/global_path.py): latched, so a late viewer sees it.
+PLAN = Topic("/plan", Path, qos.QOS_LATCHED)
 MCP_PENDING = Topic("/mcp/pending", String, qos.QOS_LATCHED)
 MCP_CONFIRM = Topic("/mcp/confirm", String, qos.QOS_DEFAULT)
 

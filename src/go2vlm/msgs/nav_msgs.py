@@ -1,4 +1,4 @@
-"""nav_msgs/msg: Odometry, MapMetaData, OccupancyGrid.
+"""nav_msgs/msg: Odometry, MapMetaData, OccupancyGrid, Path.
 
 OccupancyGrid.data is ROS's `int8[]`: row-major, row 0 at the origin's y, -1 unknown, 0..100 the
 probability of occupied (in percent). cyclonedds packs a sequence of primitives with one struct call,
@@ -11,7 +11,7 @@ from cyclonedds.idl import types
 
 from go2vlm.msgs._base import IdlStruct, default, register
 from go2vlm.msgs.builtin_interfaces import Time
-from go2vlm.msgs.geometry_msgs import Pose, PoseWithCovariance, TwistWithCovariance
+from go2vlm.msgs.geometry_msgs import Pose, PoseStamped, PoseWithCovariance, TwistWithCovariance
 from go2vlm.msgs.std_msgs import Header
 
 
@@ -40,3 +40,10 @@ class OccupancyGrid(IdlStruct, typename="nav_msgs::msg::dds_::OccupancyGrid_"):
     header: Header = default(Header)
     info: MapMetaData = default(MapMetaData)
     data: types.sequence[types.int8] = default(list)
+
+
+@register
+@dataclass
+class Path(IdlStruct, typename="nav_msgs::msg::dds_::Path_"):
+    header: Header = default(Header)
+    poses: types.sequence[PoseStamped] = default(list)  # the waypoints, in the header's frame

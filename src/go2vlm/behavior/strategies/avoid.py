@@ -1,7 +1,7 @@
 """The local planner's bookkeeping for every approach (a tracked target, a remembered place, a
 detour out of view): when it last had to steer round something and the side it went round on, so
 that an obstacle dead ahead is not passed left and right in turn. The steering itself is
-behavior/planner.py's; pure, timestamp-driven."""
+behavior/planner/local.py's; pure, timestamp-driven."""
 
 from __future__ import annotations
 

@@ -15,6 +15,7 @@ import numpy as np
 from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.goals import Goal
 from go2vlm.behavior.planner import Steer
+from go2vlm.behavior.planner.global_path import Costmap, Route
 from go2vlm.behavior.sighting import Sighting
 from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
@@ -80,6 +81,8 @@ class Context:
     goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry frame)
     look: Look = field(default_factory=Look)
     avoider: Avoider = field(default_factory=Avoider)
+    costmap: Costmap | None = None  # the map's newest inflated costmap (/map/costmap), for the global planner
+    route: Route | None = None  # the global route being walked (explore, or a remembered place out of sight): /plan
 
     # -- the goal ------------------------------------------------------------------------------
     @property
@@ -93,6 +96,7 @@ class Context:
         self.last_seen = None
         self.last_x = 0.0
         self.goal_xy = None
+        self.route = None
         self.avoider.reset()
         self.look.forget()
 

@@ -6,9 +6,13 @@ view is. Pure, timestamp-driven.
   `memory_min_confidence`, not given up: a given-up one counts again once it is seen again).
 - Go to turns to it, then approaches its remembered place with the local planner, but only once the
   memory confirms it (at least `memory_confirm_confidence`); less sure, it holds still facing it and
-  looks. At its remembered place it stops and looks: `reached` only when an answer about a frame taken
-  there placed it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
-- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it.
+  looks. A place it cannot see straight on the map (a wall or unknown space on the straight line:
+  another room) is walked to along the global route (route.RouteTo), through the doorway. At its
+  remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
+  it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
+- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
+  one out of sight on the map is first walked towards along the global route until it is in sight
+  (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
 - `confirm_looks` answered looks without it: that object is given up and the search goes on.
 """
 
@@ -20,10 +24,13 @@ import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["GoToRemembered", "relative"]
+__all__ = ["SEEN_LATELY_S", "GoToRemembered", "relative"]
+
+SEEN_LATELY_S = 5.0  # look for: the tracker confirmed it this recently: it is in sight, whatever the map says
 
 
 def relative(ctx: Context, o: Remembered, now: float) -> tuple[float, float] | None:
@@ -54,10 +61,12 @@ class GoToRemembered:
     def __init__(self) -> None:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
+        self.router = RouteTo()
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
+        self.router.reset()
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -109,14 +118,31 @@ class GoToRemembered:
             if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
+        seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
+        if goal.kind == "look_for" and not seen_lately:  # out of sight on the map (another room): walk to where it is
+            via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
+            ctx.route = self.router.route
+            if via is not None:
+                ctx.look.forget()
+                b, d, rest = via
+                reason = f"walking to where {where} can be seen, {rest:.1f} m along the route (memory)"
+                return follow_waypoint(ctx, b, d, rest, now, "aligning", reason, basis="memory")
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
             # Walk: the approach turns before it walks, the planner steers round what is in the way.
             ctx.look.forget()
             self.failed_looks = 0
+            via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
+            ctx.route = self.router.route
+            if via is not None:  # out of sight on the map: along the global route
+                b, d, rest = via
+                reason = f"{where}, {rest:.1f} m along the route (memory, confidence {o.confidence:.2f})"
+                return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
             if st is not None and st.blocked:
                 return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
             reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})"
+            if self.router.reason:  # out of sight and no route on the map: straight, the guard has the last word
+                reason += f"; no route on the map ({self.router.reason})"
             return Command(vx, wz, "approaching", reason, basis="memory")
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25

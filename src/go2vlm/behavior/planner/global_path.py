@@ -1,0 +1,416 @@
+"""The global planner: the shortest safe path on the map's inflated costmap, as waypoints. Pure (no
+DDS); the commander hands the next waypoint to its approach and its local planner, and the safety
+gate and its collision guard keep the last word.
+
+The costmap is a ROS-convention grid (nav_msgs/OccupancyGrid's data): int8, rows = y, cols = x;
+-1 unknown, 0 free, 1..98 the inflation's cost gradient, >= `lethal` (99, the footprint's inscribed
+radius, and 100, an obstacle) never entered. `origin` is the world (x, y) of cell (0, 0)'s corner.
+
+Search: scikit-image's `graph.MCP_Geometric` (Dijkstra, 8-connected, each step costing its length
+times the mean of the two cells' costs: geometric, so a diagonal costs sqrt(2)). Chosen by
+measurement (benchmarks/bench_planner.py, docs/navigation.md): on a 1200 x 1200 house (60 x 60 m
+at 5 cm, the map's cap) corner to corner it takes 0.54 s of CPU, pyastar2d's A* 0.14 s and scipy's
+csgraph 1.2 s with its graph build. MCP wins on what the planner is for: one search settles the
+costs to *every* goal cell, so the nearest of many frontiers (by path cost), or the nearest free
+cell round an object, comes from one search that stops at the first goal reached; A* needs one
+search per goal. And its costs are Euclidean (pyastar2d's diagonal costs as much as a straight
+step: its paths measure ~9 % longer). A full replan across the largest world (the apartment,
+303 x 223 cells) takes 15 ms. A grid of more than `max_cells` cells is coarsened by the smallest
+whole factor that fits, each coarse cell as costly as its costliest fine cell (conservative: a
+coarse cell is lethal when any of its fine cells is): the 60 m cap plans at 15 cm in ~80 ms.
+
+Unknown space (`unknown_cost`): the cost per cell of crossing an unknown cell; `math.inf` never
+crosses one. Exploration crosses unknown at a small cost (a frontier's goal is at the edge of the
+known); a go to a remembered object prefers known free space (a high cost: unknown only where no
+known way exists).
+
+Start and goal: a start on a lethal cell (the robot inside the inflation, by a wall) plans from the
+nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
+the goal (an object is itself an obstacle on the map: the path ends beside it). A refusal says why:
+outside the map, boxed in, the goal inside an obstacle, or cut off.
+
+Waypoints: the dense cell path pruned by line of sight: from each waypoint the next is the farthest
+path cell reachable in a straight line that crosses no cell costlier than the stretch of path it
+replaces (a shortcut never goes nearer an obstacle than the path did).
+
+Replanning (`Route`): the commander replans when a new costmap makes the rest of the route cross a
+cell that is now lethal (or unknown, where unknown is not to be crossed), when the robot strays
+more than `off_path_m` from it, and at most every `replan_period_s` as the map grows.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = [
+    "Costmap",
+    "GlobalParams",
+    "Plan",
+    "Route",
+    "cell_costs",
+    "chain_cost",
+    "line_cells",
+    "passable",
+    "plan_path",
+]
+
+UNKNOWN = -1
+
+
+@dataclass(frozen=True)
+class Costmap:
+    """An inflated costmap: `data` int8 (rows = y, cols = x), `resolution` m per cell, `origin` the
+    world (x, y) of cell (0, 0)'s corner, `stamp` when it was made (s, the bus clock)."""
+
+    data: np.ndarray
+    resolution: float
+    origin: tuple[float, float]
+    stamp: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.data.ndim != 2 or self.data.size == 0:
+            raise ValueError(f"a costmap is a non-empty 2-D grid, got shape {self.data.shape}")
+        if not (math.isfinite(self.resolution) and self.resolution > 0):
+            raise ValueError(f"costmap resolution must be a positive number, got {self.resolution}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return int(self.data.shape[0]), int(self.data.shape[1])
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        """(row, col) of the world point (x, y) (may lie outside the grid)."""
+        return int(math.floor((y - self.origin[1]) / self.resolution)), int(
+            math.floor((x - self.origin[0]) / self.resolution)
+        )
+
+    def inside(self, rc: tuple[int, int]) -> bool:
+        return 0 <= rc[0] < self.shape[0] and 0 <= rc[1] < self.shape[1]
+
+    def world(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """(N, 2) world (x, y) of cell centres."""
+        r = self.resolution
+        return np.column_stack(
+            (self.origin[0] + (np.asarray(cols) + 0.5) * r, self.origin[1] + (np.asarray(rows) + 0.5) * r)
+        )
+
+
+@dataclass(frozen=True)
+class GlobalParams:
+    lethal: int = 99  # a cell this costly or more is never entered (99 inscribed, 100 an obstacle)
+    cost_scale: float = 10.0  # a cell of cost v (0..98) costs 1 + cost_scale * v / 100 per cell crossed
+    unknown_cost: float = math.inf  # per unknown cell crossed; inf: never
+    max_cells: int = 160_000  # larger grids are coarsened to fit (a full replan within 50 ms)
+    goal_tolerance_m: float = 0.6  # any passable cell this near the goal is the goal
+    escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
+    off_path_m: float = 0.8  # the robot this far from the route: replan
+    replan_period_s: float = 2.0  # a new costmap replans at most this often (a blocked route at once)
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.lethal <= 100:
+            raise ValueError(f"lethal must be within 1..100, got {self.lethal}")
+        for name in ("cost_scale", "goal_tolerance_m", "escape_m", "off_path_m", "replan_period_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v}")
+        if not (self.unknown_cost >= 1.0):  # also refuses NaN
+            raise ValueError(f"unknown_cost must be >= 1 (or inf: never cross), got {self.unknown_cost}")
+        if self.max_cells < 100:
+            raise ValueError(f"max_cells must be at least 100, got {self.max_cells}")
+
+
+@dataclass(frozen=True)
+class Plan:
+    ok: bool
+    reason: str  # why not (a refusal), or what was planned
+    waypoints: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (M, 2) world x, y; [0] the start
+    cost: float = math.inf  # the search's cost (m, weighted)
+    length: float = math.inf  # m along the waypoints
+    goal: tuple[float, float] | None = None  # the goal cell reached (world x, y)
+    goal_index: int = -1  # plan_path's goals: which one was reached
+    stride: int = 1  # the coarsening factor it was planned at
+    cells: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # dense (row, col) path, fine grid
+
+
+def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
+    """float64 cost of entering each cell (inf: never), on the grid coarsened by `k`: each k x k
+    block as costly as its costliest cell (unknown counted where any is; the edge padded lethal)."""
+    d = cm.data
+    unknown = d == UNKNOWN
+    if k > 1:
+        h, w = d.shape
+        hh, ww = -(-h // k) * k, -(-w // k) * k
+        pad = np.full((hh, ww), 100, np.int8)
+        pad[:h, :w] = d
+        blocks = pad.reshape(hh // k, k, ww // k, k)
+        d = blocks.max(axis=3).max(axis=1)  # int8 reductions: -1 (unknown) loses to any known value
+        unknown = blocks.min(axis=3).min(axis=1) == UNKNOWN
+    v = d.astype(np.int16)
+    c = 1.0 + p.cost_scale * np.clip(v, 0, 100) / 100.0
+    c[unknown] = np.maximum(c[unknown], p.unknown_cost) if k > 1 else p.unknown_cost
+    c[v >= p.lethal] = np.inf
+    c[v < UNKNOWN] = np.inf  # not a ROS occupancy value: never entered
+    return c
+
+
+def passable(cm: Costmap, cells: np.ndarray, p: GlobalParams) -> np.ndarray:
+    """bool per (row, col) of `cells`: may it be entered (inside the grid, below lethal, and known
+    unless unknown may be crossed)? Only those cells are read (a check along a line, not the grid)."""
+    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
+    h, w = cm.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < h) & (cells[:, 1] >= 0) & (cells[:, 1] < w)
+    v = np.full(len(cells), 100, np.int16)
+    v[inside] = cm.data[cells[inside, 0], cells[inside, 1]]
+    ok = (v >= 0) & (v < p.lethal)
+    if math.isfinite(p.unknown_cost):
+        ok |= v == UNKNOWN
+    return ok & inside
+
+
+def stride_for(shape: tuple[int, int], max_cells: int) -> int:
+    return max(1, math.ceil(math.sqrt(shape[0] * shape[1] / max_cells)))
+
+
+def line_cells(a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
+    """(N, 2) cells a straight line from cell a to cell b passes through (8-connected, a and b included)."""
+    n = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
+    if n == 0:
+        return np.array([a], dtype=int)
+    t = np.linspace(0.0, 1.0, 2 * n + 1)
+    rows = np.rint(a[0] + t * (b[0] - a[0])).astype(int)
+    cols = np.rint(a[1] + t * (b[1] - a[1])).astype(int)
+    cells = np.column_stack((rows, cols))
+    keep = np.ones(len(cells), bool)
+    keep[1:] = np.any(np.diff(cells, axis=0) != 0, axis=1)
+    return cells[keep]
+
+
+def chain_cost(c: np.ndarray, cells: np.ndarray) -> float:
+    """MCP_Geometric's cost of walking `cells` (adjacent, 8-connected) on cost grid `c`."""
+    cells = np.asarray(cells, dtype=int)
+    if len(cells) < 2:
+        return 0.0
+    v = c[cells[:, 0], cells[:, 1]]
+    step = np.hypot(*np.diff(cells, axis=0).T)
+    return float(np.sum(step * 0.5 * (v[1:] + v[:-1])))
+
+
+def _nearest_passable(c: np.ndarray, rc: tuple[int, int], radius: int) -> tuple[int, int] | None:
+    r0, c0 = max(0, rc[0] - radius), max(0, rc[1] - radius)
+    win = c[r0 : rc[0] + radius + 1, c0 : rc[1] + radius + 1]
+    ok = np.argwhere(np.isfinite(win))
+    if len(ok) == 0:
+        return None
+    d = np.hypot(ok[:, 0] + r0 - rc[0], ok[:, 1] + c0 - rc[1])
+    i = int(np.argmin(d))
+    if d[i] > radius:
+        return None
+    return int(ok[i, 0] + r0), int(ok[i, 1] + c0)
+
+
+def _goal_cells(c: np.ndarray, rc: tuple[int, int], radius: int) -> np.ndarray:
+    """Passable cells within `radius` cells of `rc` ((N, 2) row, col)."""
+    r0, c0 = max(0, rc[0] - radius), max(0, rc[1] - radius)
+    win = c[r0 : rc[0] + radius + 1, c0 : rc[1] + radius + 1]
+    ok = np.argwhere(np.isfinite(win)) + (r0, c0)
+    return ok[np.hypot(ok[:, 0] - rc[0], ok[:, 1] - rc[1]) <= radius + 1e-9]
+
+
+def prune(c: np.ndarray, cells: np.ndarray) -> list[int]:
+    """Indices into `cells` (a dense path on cost grid `c`) kept as waypoints: line-of-sight pruning
+    that never crosses a cell costlier than the stretch it replaces. From each waypoint the next is
+    found by galloping then bisecting over the path (each candidate line checked): O(log n) checks
+    a leg, not one a cell; a leg may stop short of the farthest visible cell, never go past a
+    blocked one."""
+    n = len(cells)
+    if n <= 2:
+        return list(range(n))
+    v = c[cells[:, 0], cells[:, 1]]
+
+    def clear(i: int, j: int) -> bool:
+        line = line_cells(tuple(cells[i]), tuple(cells[j]))
+        return bool((c[line[:, 0], line[:, 1]] <= v[i : j + 1].max()).all())
+
+    keep = [0]
+    i = 0
+    while i < n - 1:
+        good, step = i + 1, 1  # i + 1 is the path's own next cell: always clear
+        while good + step < n and clear(i, good + step):
+            good += step
+            step *= 2
+        bad = min(good + step, n)  # the first candidate found blocked (or past the end)
+        while bad - good > 1:
+            mid = (good + bad) // 2
+            if clear(i, mid):
+                good = mid
+            else:
+                bad = mid
+        keep.append(good)
+        i = good
+    return keep
+
+
+def plan_path(
+    cm: Costmap,
+    start: tuple[float, float],
+    goals: Sequence[tuple[float, float]],
+    p: GlobalParams,
+) -> Plan:
+    """The cheapest path from world point `start` to the nearest (by path cost) of `goals` (one
+    point, or several: frontiers), or a refusal with its reason (`ok` False)."""
+    goal_list = list(goals)
+    if not goal_list:
+        return Plan(False, "no goal to plan to")
+    if not all(math.isfinite(v) for v in start) or not all(math.isfinite(v) for g in goal_list for v in g):
+        return Plan(False, "start or goal is not a finite point")
+    k = stride_for(cm.shape, p.max_cells)
+    c = cell_costs(cm, p, k)
+    res = cm.resolution * k
+    cm_k = Costmap(np.zeros((1, 1), np.int8), res, cm.origin)
+
+    def to_cell(xy: tuple[float, float]) -> tuple[int, int]:
+        return cm_k.cell(*xy)
+
+    s = to_cell(start)
+    if not (0 <= s[0] < c.shape[0] and 0 <= s[1] < c.shape[1]):
+        return Plan(False, f"the robot at ({start[0]:.2f}, {start[1]:.2f}) is outside the map", stride=k)
+    s_from = s
+    if not np.isfinite(c[s]):
+        radius = int(round(p.escape_m / res))
+        esc = _nearest_passable(c, s, radius) if radius > 0 else None
+        if esc is None:
+            return Plan(False, f"boxed in: no passable cell within {p.escape_m:g} m of the robot", stride=k)
+        s_from = esc
+    radius = max(0, int(round(p.goal_tolerance_m / res)))
+    ends: list[tuple[int, int]] = []
+    owner: list[int] = []
+    outside = 0
+    for gi, g in enumerate(goal_list):
+        gc = to_cell(g)
+        if not (-radius <= gc[0] < c.shape[0] + radius and -radius <= gc[1] < c.shape[1] + radius):
+            outside += 1
+            continue
+        cells = _goal_cells(c, gc, radius)
+        ends += [(int(a), int(b)) for a, b in cells]
+        owner += [gi] * len(cells)
+    if not ends:
+        if outside == len(goal_list):
+            return Plan(False, "the goal is outside the map", stride=k)
+        return Plan(
+            False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it", stride=k
+        )
+    from skimage.graph import MCP_Geometric  # the nav extra; imported here so a commander without a map needs none
+
+    mcp = MCP_Geometric(c, fully_connected=True)
+    costs, _ = mcp.find_costs([s_from], ends, find_all_ends=False)
+    end_arr = np.array(ends)
+    end_costs = costs[end_arr[:, 0], end_arr[:, 1]]
+    best = int(np.argmin(end_costs))
+    if not np.isfinite(end_costs[best]):
+        how = "obstacles and unknown space" if math.isinf(p.unknown_cost) else "obstacles"
+        return Plan(False, f"unreachable: {how} cut the goal off from the robot", stride=k)
+    e = (int(end_arr[best, 0]), int(end_arr[best, 1]))
+    dense = np.array(mcp.traceback(e), dtype=int).reshape(-1, 2)
+    if s_from != s:
+        dense = np.vstack((np.array([s]), dense))
+    keep = prune(c if s_from == s else _with_start(c, s), dense)
+    pts = cm_k.world(dense[keep, 0], dense[keep, 1])
+    pts[0] = start
+    length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) if len(pts) > 1 else 0.0
+    gxy = cm_k.world(np.array([e[0]]), np.array([e[1]]))[0]
+    fine = dense * k + k // 2
+    return Plan(
+        True,
+        f"{length:.1f} m in {len(pts) - 1} legs",
+        waypoints=pts,
+        cost=float(end_costs[best]) * res,
+        length=length,
+        goal=(float(gxy[0]), float(gxy[1])),
+        goal_index=owner[best],
+        stride=k,
+        cells=fine,
+    )
+
+
+def _with_start(c: np.ndarray, s: tuple[int, int]) -> np.ndarray:
+    """The cost grid with the (lethal) start cell passable, for pruning a path that escapes from it."""
+    c2 = c.copy()
+    c2[s] = np.nanmax(np.where(np.isfinite(c), c, np.nan))
+    return c2
+
+
+@dataclass
+class Route:
+    """A plan being followed: the next waypoint, and when to replan (timestamp-driven).
+
+    `reach_m`: a waypoint this near counts as passed. `target()` gives the next waypoint as
+    (bearing from the robot's heading, distance), and the distance left along the route."""
+
+    plan: Plan
+    goal: tuple[float, float]
+    t: float  # when it was planned
+    map_stamp: float
+    reach_m: float = 0.4
+    index: int = 1  # the waypoint being walked to
+
+    def advance(self, x: float, y: float) -> None:
+        w = self.plan.waypoints
+        while self.index < len(w) - 1 and math.hypot(w[self.index][0] - x, w[self.index][1] - y) < self.reach_m:
+            self.index += 1
+
+    @property
+    def done(self) -> bool:
+        return self.index >= len(self.plan.waypoints) - 1
+
+    def target(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
+        """(bearing rad + left, distance m) to the next waypoint, and the metres left to the route's end."""
+        self.advance(x, y)
+        w = self.plan.waypoints
+        i = min(self.index, len(w) - 1)
+        dx, dy = w[i][0] - x, w[i][1] - y
+        bearing = math.atan2(dy, dx) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        dist = math.hypot(dx, dy)
+        rest = float(np.sum(np.hypot(*np.diff(w[i:], axis=0).T))) if i < len(w) - 1 else 0.0
+        return bearing, dist, dist + rest
+
+    def off_path(self, x: float, y: float) -> float:
+        """Distance (m) from (x, y) to the route's remaining legs (from the one being walked)."""
+        w = self.plan.waypoints
+        i = max(1, min(self.index, len(w) - 1))
+        best = math.inf
+        for a, b in zip(w[i - 1 : -1], w[i:], strict=False):
+            ab = b - a
+            t = 0.0 if not ab.any() else max(0.0, min(1.0, float(np.dot((x, y) - a, ab) / np.dot(ab, ab))))
+            best = min(best, math.hypot(*(a + t * ab - (x, y))))
+        return best
+
+    def blocked(self, cm: Costmap, p: GlobalParams, x: float, y: float) -> bool:
+        """Does the rest of the route, from the robot at (x, y) on, cross a cell that `cm` says may
+        not be entered? (Cells within `escape_m` of the robot do not count: it may stand in the
+        inflation, by a wall, and the local planner and the guard see to that.)"""
+        w = self.plan.waypoints
+        i = max(1, min(self.index, len(w) - 1))
+        legs = [(np.array((x, y)), w[i])] + list(zip(w[i:-1], w[i + 1 :], strict=False))
+        for n, (a, b) in enumerate(legs):
+            line = line_cells(cm.cell(*a), cm.cell(*b))
+            if n == 0:
+                xy = cm.world(line[:, 0], line[:, 1])
+                line = line[np.hypot(xy[:, 0] - x, xy[:, 1] - y) > p.escape_m]
+            if not passable(cm, line, p).all():
+                return True
+        return False
+
+    def needs_replan(self, cm: Costmap, x: float, y: float, now: float, p: GlobalParams) -> str:
+        """Why to replan now ('' = keep the route)."""
+        if self.off_path(x, y) > p.off_path_m:
+            return "off the route"
+        if cm.stamp != self.map_stamp:
+            if self.blocked(cm, p, x, y):
+                return "the route is blocked on the new map"
+            if now - self.t >= p.replan_period_s:
+                return "the map has grown"
+        return ""

@@ -1,0 +1,346 @@
+"""The search that leaves the room: when the goal's object is neither remembered nor found by the
+look-around where the robot stands, walk to a frontier (world/frontiers.py: free space next to
+unknown), look around there, and repeat. Pure and timestamp-driven: `Explorer` is the core (where to
+walk next), `Explore` the SearchStrategy (strategies/base.py) that the mission asks once
+turn-and-look is exhausted (Mission.searches).
+
+    ex = Explorer(ExploreParams())
+    ex.set_map(costmap)                 # each new /map/costmap (behavior/planner/global_path.Costmap)
+    step = ex.step(x, y, yaw, now)      # walk (a bearing and distance to the next waypoint) | look | wait | done
+    ex.looked(now)                      # the host's look-around at the frontier is over
+
+Rules
+- Frontiers (world/frontiers.py) of the newest costmap, less those within `visited_radius_m` of a
+  frontier already looked from or given up on. `frontier_choice`: `nearest` takes the nearest by
+  path cost (one search of the global planner to all their goals at once, crossing unknown space at
+  `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
+  (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
+  nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
+- Walk the route's waypoints (behavior/planner/global_path.Route): replan when the map makes the
+  route blocked, when the robot strays from it, or as the map grows. A frontier the lidar has seen
+  past on the way is still walked to and looked from (the lidar reaches 10 m, the camera's answers
+  less: the look is what finds the object); one whose goal is no place to stand on the new map, a
+  route that cannot be planned, or no progress of `stuck_m` along it within `stuck_s`, gives that
+  frontier up.
+- Within `arrive_m` of the goal: `look` (the host turns and looks), then `looked()`: that place is
+  visited, and the next frontier is chosen.
+- `done` (the goal ends not_found, with the reason) when no frontier is left, or none is reachable,
+  or `timeout_s` after the goal began (an open world has frontiers without end).
+  `wait` (hold still) without a map or a pose; after `map_timeout_s` without any map: done.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from go2vlm.behavior.control import search_command
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, plan_path
+from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.route import follow_waypoint
+from go2vlm.behavior.strategies.search import TurnAndLook
+from go2vlm.behavior.view_scores import ViewScores
+from go2vlm.world.frontiers import Frontier, FrontierParams, find_frontiers
+from go2vlm.world.poses import wrap_angle
+
+__all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
+
+FRONTIER_CHOICES = ("nearest", "vlm")
+
+
+@dataclass(frozen=True)
+class ExploreParams:
+    frontier_choice: str = "nearest"  # nearest (by path cost) | vlm (a whitelisted model answer)
+    unknown_cost: float = 3.0  # exploring, a path may cross unknown space at this cost per cell
+    min_frontier_m: float = 0.5  # a shorter frontier is dropped
+    arrive_m: float = 0.5  # this near the frontier's goal: look around
+    waypoint_reach_m: float = 0.4  # a waypoint this near is passed
+    visited_radius_m: float = 1.0  # frontiers this near a visited or given-up place are skipped
+    stuck_m: float = 0.3  # at least this much progress along the route ...
+    stuck_s: float = 20.0  # ... within this long, else the frontier is given up
+    map_timeout_s: float = 10.0  # no map at all this long after the search began: done
+    timeout_s: float = 300.0  # the goal has explored this long since it began: done (not_found)
+    planner: GlobalParams = field(default_factory=GlobalParams)
+
+    def __post_init__(self) -> None:
+        if self.frontier_choice not in FRONTIER_CHOICES:
+            raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
+        for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
+                     "stuck_s", "map_timeout_s", "timeout_s"):  # fmt: skip
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
+        if not self.unknown_cost >= 1.0:
+            raise ValueError(f"unknown_cost must be >= 1 (or inf), got {self.unknown_cost}")
+
+    @property
+    def global_params(self) -> GlobalParams:
+        return replace(self.planner, unknown_cost=self.unknown_cost)
+
+
+@dataclass(frozen=True)
+class ExploreStep:
+    action: str  # walk | look | wait | done
+    reason: str
+    bearing: float = 0.0  # walk: rad from the robot's heading to the next waypoint (+ left)
+    distance: float = 0.0  # walk: m to it
+    remaining: float = 0.0  # walk: m left along the route
+    last_leg: bool = False  # walk: the next waypoint is the frontier's goal
+
+
+class Explorer:
+    def __init__(self, params: ExploreParams | None = None) -> None:
+        self.params = params or ExploreParams()
+        self.costmap: Costmap | None = None
+        self.reset(0.0)
+
+    def reset(self, now: float) -> None:
+        """A new search: forget the frontiers visited and the route (the map stays)."""
+        self.t0 = now
+        self.phase = "choose"  # choose | walk | look | done
+        self.frontier: Frontier | None = None
+        self.frontiers: list[Frontier] = []  # the newest map's, less the visited
+        self.route: Route | None = None
+        self.visited: list[tuple[float, float]] = []
+        self.given_up = 0
+        self.views = ViewScores()  # vlm: the model's scores of the ways it looked (world yaw)
+        self._progress = (math.inf, now)  # best remaining distance, and when it last improved
+        self._frontier_stamp: float | None = None
+        self.reason = ""
+
+    def set_map(self, cm: Costmap) -> None:
+        self.costmap = cm
+
+    # -- status ---------------------------------------------------------------------------------
+    def status(self) -> dict[str, object]:
+        return {
+            "exploring": self.phase in ("choose", "walk", "look"),
+            "phase": self.phase,
+            "frontier": None if self.frontier is None else self.frontier.to_dict(),
+            "frontiers_left": len(self.frontiers),
+            "visited": len(self.visited),
+            "given_up": self.given_up,
+            "route_m": None if self.route is None else round(self.route.plan.length, 2),
+        }
+
+    # -- the search -----------------------------------------------------------------------------
+    def looked(self, now: float) -> None:
+        """The look-around at the chosen frontier is over: that place is visited."""
+        if self.phase == "look" and self.frontier is not None:
+            self.visited.append(self.frontier.goal)
+        self.frontier, self.route, self.phase = None, None, "choose"
+
+    def _skip(self, f: Frontier) -> bool:
+        r = self.params.visited_radius_m
+        return any(math.hypot(f.goal[0] - vx, f.goal[1] - vy) < r for vx, vy in self.visited)
+
+    def _refresh(self) -> None:
+        cm = self.costmap
+        if cm is None or self._frontier_stamp == cm.stamp:
+            return
+        self._frontier_stamp = cm.stamp
+        p = self.params
+        fp = FrontierParams(lethal=p.planner.lethal, min_size_m=p.min_frontier_m)
+        standable = (cm.data >= 0) & (cm.data < p.planner.lethal)
+        found = find_frontiers(cm.data, cm.resolution, cm.origin, fp, reachable=standable)
+        self.frontiers = [f for f in found if not self._skip(f)]
+
+    def _give_up(self, why: str) -> None:
+        if self.frontier is not None:
+            self.visited.append(self.frontier.goal)
+            self.frontiers = [f for f in self.frontiers if not self._skip(f)]
+        self.given_up += 1
+        self.reason = why
+        self.frontier, self.route, self.phase = None, None, "choose"
+
+    def _standable(self, cm: Costmap, xy: tuple[float, float]) -> bool:
+        """Is there a cell within `arrive_m` of `xy` that the robot may stand on, on `cm`?"""
+        r = max(1, int(math.ceil(self.params.arrive_m / cm.resolution)))
+        row, col = cm.cell(*xy)
+        win = cm.data[max(0, row - r) : row + r + 1, max(0, col - r) : col + r + 1]
+        return bool(((win >= 0) & (win < self.params.planner.lethal)).any())
+
+    def _choose(self, x: float, y: float, now: float) -> ExploreStep | None:
+        cm = self.costmap
+        assert cm is not None
+        p = self.params
+        if not self.frontiers:
+            self.phase = "done"
+            self.reason = "no frontier left: every reachable part of the map has been looked at"
+            return ExploreStep("done", self.reason)
+        cands = self.frontiers
+        if p.frontier_choice == "vlm":
+            scored = [self.views.toward(x, y, *f.centroid) for f in cands]
+            cands = [f for f, sc in zip(cands, scored, strict=True) if sc >= max(scored)]
+        gp = p.global_params
+        plan = plan_path(cm, (x, y), [f.goal for f in cands], gp)
+        if not plan.ok and cands is not self.frontiers:
+            plan = plan_path(cm, (x, y), [f.goal for f in self.frontiers], gp)
+            cands = self.frontiers
+        if not plan.ok:
+            self.phase = "done"
+            self.reason = f"no reachable frontier ({len(self.frontiers)} left): {plan.reason}"
+            return ExploreStep("done", self.reason)
+        self.frontier = cands[plan.goal_index]
+        self.route = Route(plan, self.frontier.goal, now, cm.stamp, reach_m=p.waypoint_reach_m)
+        self.phase = "walk"
+        self._progress = (plan.length, now)
+        return None
+
+    def _replan(self, x: float, y: float, now: float, why: str) -> bool:
+        """Plan anew to the chosen frontier; False (and the frontier given up) when it cannot be."""
+        cm, f = self.costmap, self.frontier
+        assert cm is not None and f is not None
+        plan = plan_path(cm, (x, y), [f.goal], self.params.global_params)
+        if not plan.ok:
+            self._give_up(f"frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) given up ({why}): {plan.reason}")
+            return False
+        self.route = Route(plan, f.goal, now, cm.stamp, reach_m=self.params.waypoint_reach_m)
+        return True
+
+    def step(self, x: float | None, y: float | None, yaw: float | None, now: float) -> ExploreStep:
+        p = self.params
+        if self.phase == "done":
+            return ExploreStep("done", self.reason)
+        if now - self.t0 > p.timeout_s:
+            self.phase = "done"
+            self.reason = f"explored for {p.timeout_s:g} s without finding it ({len(self.visited)} places looked from)"
+            return ExploreStep("done", self.reason)
+        cm = self.costmap
+        if cm is None:
+            if now - self.t0 > p.map_timeout_s:
+                self.phase = "done"
+                self.reason = f"no map (/map/costmap) after {p.map_timeout_s:g} s: cannot explore"
+                return ExploreStep("done", self.reason)
+            return ExploreStep("wait", "waiting for the map to explore")
+        if x is None or y is None or yaw is None or not all(math.isfinite(v) for v in (x, y, yaw)):
+            return ExploreStep("wait", "no fresh pose: holding still")
+        if self.phase == "look":
+            return ExploreStep("look", self._at())
+        self._refresh()
+        for _ in range(8):  # a few frontiers may be dropped in one step (gone, unplannable)
+            if self.phase == "choose":
+                done = self._choose(x, y, now)
+                if done is not None:
+                    return done
+            assert self.route is not None and self.frontier is not None
+            f, route = self.frontier, self.route
+            if cm.stamp != route.map_stamp and not self._standable(cm, f.goal):
+                self._give_up(f"the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) is no place to stand on the new map")
+                continue
+            why = route.needs_replan(cm, x, y, now, p.global_params)
+            if why and not self._replan(x, y, now, why):
+                continue
+            route = self.route
+            bearing, dist, remaining = route.target(x, y, yaw)
+            end = route.plan.waypoints[-1]  # the passable cell the plan reached, near the frontier's goal
+            to_goal = min(math.hypot(f.goal[0] - x, f.goal[1] - y), math.hypot(end[0] - x, end[1] - y))
+            if to_goal <= p.arrive_m:
+                self.phase = "look"
+                return ExploreStep("look", self._at())
+            best, since = self._progress
+            if remaining < best - p.stuck_m:
+                self._progress = (remaining, now)
+            elif now - since > p.stuck_s:
+                self._give_up(f"no progress towards the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) "
+                              f"in {p.stuck_s:g} s")  # fmt: skip
+                continue
+            reason = (
+                f"exploring: walking to the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}), "
+                f"{remaining:.1f} m along the route ({len(self.frontiers)} frontiers left)"
+            )
+            return ExploreStep("walk", reason, bearing, dist, remaining, route.done)
+        return ExploreStep("wait", "exploring: choosing a frontier")
+
+    def _at(self) -> str:
+        f = self.frontier
+        where = "" if f is None else f" at ({f.goal[0]:.1f}, {f.goal[1]:.1f})"
+        return f"exploring: looking around from the frontier{where} ({len(self.frontiers)} frontiers left)"
+
+    def frontier_points(self) -> np.ndarray:
+        """(N, 2) the goals of the frontiers left (for a plot or the status)."""
+        return np.array([f.goal for f in self.frontiers]).reshape(-1, 2)
+
+
+# -- the search strategy ------------------------------------------------------------------------
+class Explore:
+    """The search that leaves the room: a SearchStrategy (strategies/base.py) over the Explorer,
+    asked once turn-and-look is exhausted. Walks to the chosen frontier along the global route
+    (route.follow_waypoint: the approach law and the local planner), looks around there (a whole
+    turn: search.TurnAndLook's stop and look with slow answers, else a continuous turn at
+    `search_yaw_rate`), and repeats; ends the goal `not_found` with the explorer's reason when no
+    frontier is left or none is reachable. State `exploring` throughout (`detouring` while the local
+    planner steers)."""
+
+    name = "explore"
+
+    def __init__(self, params: ExploreParams | None = None) -> None:
+        self.explorer = Explorer(params)
+        self.look = TurnAndLook()
+        self.looking = False
+        self._yaw: float | None = None  # continuous look: the last yaw, and how far it has turned
+        self._turned = 0.0
+        self._t: float | None = None
+
+    @property
+    def params(self) -> ExploreParams:
+        return self.explorer.params
+
+    def reset(self, now: float) -> None:
+        self.explorer.reset(now)
+        self.looking = False
+
+    def pause(self, now: float, cause: str) -> None:
+        self.looking = False  # a look interrupted (the target seen, or remembered) starts afresh
+        self.look.pause(now, cause)
+
+    def status(self) -> dict[str, object]:
+        return self.explorer.status()
+
+    def step(self, ctx: Context, now: float) -> Command | None:
+        goal = ctx.goal
+        if goal is None or goal.kind not in ("go_to", "look_for"):
+            return None
+        if ctx.costmap is not None and ctx.costmap is not self.explorer.costmap:
+            self.explorer.set_map(ctx.costmap)
+        pose = ctx.fresh_pose(now)
+        x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
+        st = self.explorer.step(x, y, yaw, now)
+        ctx.route = self.explorer.route
+        if st.action == "done":
+            return Command.still("not_found", f"no {ctx.label} found: {st.reason}")
+        if st.action == "wait":
+            return Command.still("exploring", st.reason)
+        if st.action == "look":
+            return self._look(ctx, now, st.reason)
+        self.looking = False
+        return follow_waypoint(ctx, st.bearing, st.distance, st.remaining, now, "exploring", st.reason)
+
+    def _look(self, ctx: Context, now: float, reason: str) -> Command:
+        """A whole turn where it stands, then the explorer is told (looked)."""
+        p = ctx.params
+        if not self.looking:
+            self.looking = True
+            self.look.reset(now)
+            self._yaw, self._turned, self._t = None, 0.0, now
+        if self.look.stop_and_look(ctx):
+            cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
+            if cmd is not None:
+                return Command(cmd.vx, cmd.wz, "exploring", f"{reason}: {cmd.reason}")
+        else:
+            pose = ctx.fresh_pose(now)
+            wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
+            if pose is not None:
+                if self._yaw is not None:
+                    self._turned += abs(wrap_angle(pose.yaw - self._yaw))
+                self._yaw = pose.yaw
+            elif self._t is not None:
+                self._turned += abs(wz) * max(0.0, now - self._t)
+            self._t = now
+            if self._turned < 2 * math.pi - (ctx.view or 0.0):
+                return Command(0.0, wz, "exploring", reason)
+        self.looking = False
+        self.explorer.looked(now)
+        return Command.still("exploring", f"{reason}: looked all round")

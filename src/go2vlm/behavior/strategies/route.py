@@ -1,0 +1,93 @@
+"""Walking a global route: the global planner's waypoints (behavior/planner/global_path.py) handed,
+one at a time, to the approach law (behavior/control.py) and the local planner (ctx.avoid), so that
+the safety gate and its collision guard keep the last word. Pure, timestamp-driven.
+
+- `follow_waypoint`: the next waypoint as a bearing and distance: the approach turns before it
+  walks, at the speed the distance left *along the route* allows (not the waypoint's: no slowing at
+  every corner), and the local planner steers round what the scan shows on the way to it.
+- `RouteTo`: a route to a remembered place the robot cannot see straight (the straight line crosses a
+  wall, or space the map does not know): planned on the costmap preferring known free space
+  (`unknown_cost`), replanned when the map blocks it, the robot strays, or the map grows; None while
+  the straight way is clear (the direct approach does better there) or without a map.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from go2vlm.behavior.control import approach_command
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, line_cells, passable, plan_path
+from go2vlm.behavior.strategies.base import Command, Context
+
+__all__ = ["DEFAULT_VIEW", "RouteTo", "follow_waypoint", "line_of_sight"]
+
+DEFAULT_VIEW = math.radians(73.0)  # the head camera's, until a tracker report has said
+
+
+def follow_waypoint(
+    ctx: Context, bearing: float, dist: float, remaining: float, now: float, state: str, reason: str, basis: str = ""
+) -> Command:
+    """Walk towards a waypoint at `bearing` (rad, + left), `dist` m away, `remaining` m from the route's end."""
+    ap = replace(ctx.approach_params(), stop_distance=0.0)
+    view = ctx.view or DEFAULT_VIEW
+    vx, wz, _ = approach_command(-bearing / (view / 2.0), max(remaining, dist), ap)
+    st = ctx.avoid(vx, wz, ap, (bearing, dist), now)
+    if st is not None and st.blocked:
+        return Command.detour(st, f"{reason}: {st.note}", basis=basis)
+    return Command(vx, wz, state, reason, basis=basis)
+
+
+def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, skip_m: float) -> bool:
+    """Is the straight way from `a` to `b` known and passable on `cm`, but for `skip_m` round each end
+    (the robot may stand in the inflation; the object is itself an obstacle)?"""
+    line = line_cells(cm.cell(*a), cm.cell(*b))
+    h, w = cm.shape
+    if not ((line[:, 0] >= 0) & (line[:, 0] < h) & (line[:, 1] >= 0) & (line[:, 1] < w)).all():
+        return False
+    xy = cm.world(line[:, 0], line[:, 1])
+    far = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) > skip_m) & (np.hypot(xy[:, 0] - b[0], xy[:, 1] - b[1]) > skip_m)
+    return bool(passable(cm, line[far], replace(p, unknown_cost=math.inf)).all())
+
+
+class RouteTo:
+    """A route to a place (a remembered object's), kept while it stays good (module docstring)."""
+
+    def __init__(self, params: GlobalParams | None = None) -> None:
+        self.params = params or GlobalParams(unknown_cost=20.0)
+        self.route: Route | None = None
+        self.reason = ""  # why there is no route ('' when there is one, or none is needed)
+
+    def reset(self) -> None:
+        self.route, self.reason = None, ""
+
+    def next(
+        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float
+    ) -> tuple[float, float, float] | None:
+        """(bearing, distance) to the next waypoint and the metres left along the route to `target`
+        (whose surface the robot stops `reach_m` short of); None: go straight (no map, no pose, the
+        straight way is clear, or no route could be planned: `reason` says why)."""
+        cm, pose = ctx.costmap, ctx.fresh_pose(now)
+        if cm is None or pose is None:
+            self.route = None
+            return None
+        p = replace(self.params, goal_tolerance_m=max(self.params.goal_tolerance_m, reach_m))
+        if line_of_sight(cm, (pose.x, pose.y), target, p, skip_m=max(p.escape_m, reach_m)):
+            self.route, self.reason = None, ""
+            return None
+        r = self.route
+        why = "" if r is not None and r.goal == target else "new"
+        if not why and r is not None:
+            why = r.needs_replan(cm, pose.x, pose.y, now, p)
+        if why:
+            plan = plan_path(cm, (pose.x, pose.y), [target], p)
+            if not plan.ok:
+                self.route, self.reason = None, plan.reason
+                return None
+            self.route, self.reason = Route(plan, target, now, cm.stamp), ""
+        assert self.route is not None
+        if self.route.done:
+            return None
+        return self.route.target(pose.x, pose.y, pose.yaw)

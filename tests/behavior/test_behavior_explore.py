@@ -1,0 +1,173 @@
+"""Exploration (behavior/strategies/explore.py) in a toy house: a robot that sees 4 m round it (walls block
+its rays) and walks exactly where it is told. Spawned in the kitchen, it walks through the doorway
+into the living room, never through a wall, and ends `done` with no frontier left once the house is
+known."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.strategies.explore import ExploreParams, Explorer
+
+RES = 0.05
+ORIGIN = (-6.0, -3.5)
+
+
+def house() -> np.ndarray:
+    """True occupancy (1 = wall) of two 6 x 7 m rooms joined by a 1.2 m door at x = 0, |y| < 0.6."""
+    g = np.zeros((140, 240), np.int8)
+    g[:2, :] = g[-2:, :] = 1
+    g[:, :2] = g[:, -2:] = 1
+    g[:, 119:121] = 1
+    g[58:82, 119:121] = 0
+    return g
+
+
+def cell(x: float, y: float) -> tuple[int, int]:
+    return int((y - ORIGIN[1]) / RES), int((x - ORIGIN[0]) / RES)
+
+
+def sense(truth: np.ndarray, known: np.ndarray, x: float, y: float, reach: float = 4.0) -> None:
+    """Ray-cast from (x, y): cells up to the first wall become known (0 free, 100 wall)."""
+    for a in np.linspace(-math.pi, math.pi, 360, endpoint=False):
+        for d in np.arange(0.0, reach, RES / 2):
+            r, c = cell(x + d * math.cos(a), y + d * math.sin(a))
+            if not (0 <= r < truth.shape[0] and 0 <= c < truth.shape[1]):
+                break
+            if truth[r, c]:
+                known[r, c] = 100
+                break
+            known[r, c] = 0
+
+
+def costmap(known: np.ndarray, stamp: float) -> Costmap:
+    d = ndimage.distance_transform_edt(known != 100) * RES
+    cost = np.clip((0.6 - d) / 0.4 * 98, 0, 98).astype(np.int8)
+    cost[d <= 0.2] = 99
+    cost[known == 100] = 100
+    cost[known == -1] = -1
+    return Costmap(cost, RES, ORIGIN, stamp)
+
+
+def run(x: float, y: float, steps: int = 3000) -> tuple[Explorer, list[tuple[float, float]], list[str]]:
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    ex = Explorer(ExploreParams())
+    ex.reset(0.0)
+    yaw, path, actions = 0.0, [(x, y)], []
+    for k in range(steps):
+        now = k * 0.1
+        if k % 10 == 0:
+            sense(truth, known, x, y)
+            ex.set_map(costmap(known, now))
+        step = ex.step(x, y, yaw, now)
+        actions.append(step.action)
+        if step.action == "done":
+            break
+        if step.action == "look":
+            ex.looked(now)
+        elif step.action == "walk":
+            yaw += step.bearing
+            d = min(0.2, step.distance)
+            x, y = x + d * math.cos(yaw), y + d * math.sin(yaw)
+            path.append((x, y))
+            assert truth[cell(x, y)] == 0, f"walked into a wall at ({x:.2f}, {y:.2f})"
+    return ex, path, actions
+
+
+def test_from_the_kitchen_through_the_door_until_nothing_is_left() -> None:
+    ex, path, actions = run(3.0, -2.0)
+    assert actions[-1] == "done", actions[-5:]
+    assert "no frontier left" in ex.reason
+    assert min(px for px, _ in path) < -3.0  # deep into the living room
+    doors = [(a, b) for a, b in zip(path[:-1], path[1:], strict=False) if a[0] * b[0] <= 0]
+    assert doors and all(abs(a[1]) < 0.6 for a, _ in doors)  # through the door, and only there
+    assert "look" in actions and ex.status()["visited"] >= 1
+    st = ex.status()
+    assert st["exploring"] is False and st["frontiers_left"] == 0
+
+
+def test_status_while_exploring() -> None:
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    ex = Explorer()
+    ex.reset(0.0)
+    ex.set_map(costmap(known, 1.0))
+    step = ex.step(3.0, -2.0, 0.0, 0.1)
+    assert step.action == "walk" and "frontier" in step.reason
+    st = ex.status()
+    assert st["exploring"] is True and st["frontier"] is not None and st["frontiers_left"] >= 1
+
+
+def test_no_map_waits_then_gives_up() -> None:
+    ex = Explorer(ExploreParams(map_timeout_s=5.0))
+    ex.reset(0.0)
+    assert ex.step(0.0, 0.0, 0.0, 1.0).action == "wait"
+    done = ex.step(0.0, 0.0, 0.0, 6.0)
+    assert done.action == "done" and "no map" in done.reason
+
+
+def test_a_known_closed_room_has_nothing_to_explore() -> None:
+    truth = house()
+    truth[58:82, 119:121] = 1  # door shut
+    known = np.full(truth.shape, -1, np.int8)
+    for x in (1.5, 3.0, 4.5):
+        for y in (-2.0, 0.0, 2.0):
+            sense(truth, known, x, y)
+    ex = Explorer()
+    ex.reset(0.0)
+    ex.set_map(costmap(known, 1.0))
+    step = ex.step(3.0, 0.0, 0.0, 0.1)
+    assert step.action == "done" and "no frontier" in step.reason
+
+
+def test_exploring_gives_up_after_its_timeout() -> None:
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    ex = Explorer(ExploreParams(timeout_s=60.0))
+    ex.reset(0.0)
+    ex.set_map(costmap(known, 1.0))
+    assert ex.step(3.0, -2.0, 0.0, 30.0).action == "walk"
+    done = ex.step(3.0, -2.0, 0.0, 61.0)
+    assert done.action == "done" and "explored for 60 s" in done.reason
+
+
+def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.strategies.base import Context, Pose
+    from go2vlm.behavior.strategies.explore import Explore
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    s = Explore()
+    ctx = Context(MissionParams(), goal=parse_goal("look for the duck"), view=math.radians(73))
+    ctx.costmap = costmap(known, 1.0)
+    s.reset(0.0)
+    x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
+    states: list[str] = []
+    turned = 0.0
+    for _ in range(4000):
+        now += 0.05
+        ctx.pose = Pose(x, y, yaw, now)
+        cmd = s.step(ctx, now)
+        assert cmd is not None
+        states.append(cmd.state)
+        assert 0.0 <= cmd.vx <= ctx.params.max_linear and abs(cmd.wz) <= ctx.params.max_angular
+        if s.looking:
+            turned += abs(cmd.wz) * 0.05
+        yaw += cmd.wz * 0.05
+        x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
+        if s.explorer.status()["visited"] >= 1 and not s.looking and s.explorer.phase == "walk":
+            break
+    assert set(states) <= {"exploring", "detouring"}
+    assert s.explorer.status()["visited"] >= 1  # it arrived, looked all round, and walks on
+    assert turned >= 2 * math.pi - math.radians(73) - 0.1
+    assert ctx.route is s.explorer.route is not None
