@@ -25,9 +25,11 @@ asserted here: docs/navigation.md keeps the figures.
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -95,6 +97,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--world", action="append", help="also plan across this world (default: household)")
+    ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
     args = ap.parse_args()
     occ = house()
     c = costs(occ)
@@ -185,8 +188,10 @@ def main() -> None:
     print(f"{SIZE} x {SIZE} cells at {RES} m, corner to corner, {args.repeats} repeats")
     for name, text in rows:
         print(f"{name:30s} {text}")
-    for world in args.world or ["household"]:
-        bench_world(world, args.repeats)
+    worlds = {world: bench_world(world, args.repeats) for world in args.world or ["household"]}
+    if args.json is not None:
+        out = {"grid": {"cells": SIZE, "resolution_m": RES, "repeats": args.repeats}, "candidates": dict(rows)}
+        args.json.write_text(json.dumps({**out, "worlds": worlds}, indent=1) + "\n")
 
 
 def world_costmap(name: str) -> tuple[np.ndarray, tuple[float, float]]:
@@ -216,7 +221,7 @@ def world_costmap(name: str) -> tuple[np.ndarray, tuple[float, float]]:
     return inflate(occ, RES, CostmapParams.for_footprint(FOOTPRINT_LENGTH, FOOTPRINT_WIDTH)), (-hx, -hy)
 
 
-def bench_world(name: str, repeats: int) -> None:
+def bench_world(name: str, repeats: int) -> dict[str, float]:
     from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, plan_path
 
     cost, origin = world_costmap(name)
@@ -241,6 +246,7 @@ def bench_world(name: str, repeats: int) -> None:
         f"{gxy[1]:.1f}), {plan.length:.1f} m in {len(plan.waypoints) - 1} legs: plan_path median {med:.1f} ms, "
         f"best {best:.1f} ms, CPU {cpu:.1f} ms"
     )
+    return {"median_ms": med, "best_ms": best, "cpu_ms": cpu, "length_m": plan.length}
 
 
 if __name__ == "__main__":

@@ -50,6 +50,7 @@ SMALLEST: dict[str, Smallest] = {
     "bench_odom_drift": Smallest(("--seeds", "2", "--json", "{json}")),
     "bench_params": Smallest(("--calls", "5", "--nodes", "1", "--json", "{json}")),
     "bench_pipeline": Smallest(("--frames", "20", "--flips", "2", "--period", "0.3", "--json", "{json}")),
+    "bench_planner": Smallest(("--repeats", "1", "--json", "{json}")),
     "bench_record_view": Smallest(
         ("--duration", "1", "--camera-hz", "10", "--json", "{json}"),
         slow="three publisher/consumer process pairs, `go2vlm record` and `go2vlm view`",
