@@ -15,8 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from go2vlm.perception.vlm.geometry import CoordSystem
-from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding
+from go2vlm.geometry.qwen import CoordSystem
 from go2vlm.perception.vlm.prompts import detect_prompt
 from go2vlm.testing.sim_dataset import (
     ALL_LABELS,
@@ -35,6 +34,7 @@ from go2vlm.testing.tiny_grounder import (
     grounder_checkpoint,
     grounder_settings,
 )
+from go2vlm.vocabulary.answers import Box, finalize_boxes, parse_grounding
 
 # Not the training stream (seed 0) nor the build's held-out streams (1000003, 2000006).
 TEST_SEED = 4242

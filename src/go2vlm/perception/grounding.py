@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from go2vlm.perception.color import PRESETS, color_mask
+from go2vlm.vocabulary.pixels import color_mask
+from go2vlm.vocabulary.words import COLOR_HSV as PRESETS
+from go2vlm.vocabulary.words import SHAPES
 
 __all__ = ["SHAPES", "Candidate", "ShapeScores", "ground", "shape_scores"]
 
-SHAPES = ("ball", "box", "cylinder")  # the shapes the grounder knows
 
 
 @dataclass(frozen=True)

@@ -39,85 +39,31 @@ Rules
 from __future__ import annotations
 
 import math
-import re
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
-from go2vlm.perception.color import PRESETS, color_mask
-from go2vlm.perception.grounding import SHAPES, ground
+from go2vlm.perception.grounding import ground
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
 from go2vlm.perception.tracker import HistTracker
 from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
+from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
+from go2vlm.vocabulary.words import Label, label_match, parse_label
 
 __all__ = [
     "STATES",
     "Box",
     "Grounding",
-    "Label",
     "Observation",
     "TargetTracking",
     "TrackingParams",
-    "box_fraction",
-    "label_match",
-    "parse_label",
 ]
 
 Box = tuple[float, float, float, float]  # x1, y1, x2, y2 in pixels
 STATES = ("idle", "searching", "tracking", "lost", "ungroundable")
 STAMP_EPS_S = 1e-6  # stamps this close are the same frame's (float seconds from sec + nanosec)
-
-
-@dataclass(frozen=True)
-class Label:
-    """What a query or an answer names: the grounder's colour and shape words, if any, and the text."""
-
-    text: str
-    color: str | None = None
-    shape: str | None = None
-
-    @property
-    def classical(self) -> bool:
-        """The colour-shape grounder can find it (it names a colour or a shape it knows)."""
-        return self.color is not None or self.shape is not None
-
-
-# Shape words the grounder's names stand for (body names in the sim: red_sphere).
-_SHAPE_WORDS = {"sphere": "ball", "cube": "box"}
-
-
-def _words(text: str) -> list[str]:
-    return re.sub(r"[\W_]+", " ", text.lower()).split()
-
-
-def parse_label(text: str) -> Label:
-    """ "blue cylinder" (or "blue_cylinder") -> Label(color="blue", shape="cylinder"); "person" -> free text."""
-    words = _words(text)
-    color = next((w for w in words if w in PRESETS), None)
-    shape = next((_SHAPE_WORDS.get(w, w) for w in words if _SHAPE_WORDS.get(w, w) in SHAPES), None)
-    return Label(" ".join(text.split()), color, shape)
-
-
-def label_match(query: Label, label: str) -> int:
-    """How well an answer's label names the query: 2 exactly, 1 compatibly, 0 not at all. With a
-    colour or shape in the query, the answer's must agree ("red box" is not "red ball", "box" is not
-    "red box"); free text matches when all its words are in the answer's label."""
-    if not label.strip():
-        return 0
-    other = parse_label(label)
-    if query.classical:
-        if query.color is not None and other.color != query.color:
-            return 0
-        if query.shape is not None and other.shape != query.shape:
-            return 0
-        return 2 if (other.color, other.shape) == (query.color, query.shape) else 1
-    want, have = set(_words(query.text)), set(_words(label))
-    if not want or not want <= have:
-        return 0
-    return 2 if have == want else 1
 
 
 @dataclass(frozen=True)
@@ -297,7 +243,7 @@ class TargetTracking:
     def _label_mask(self, bgr: np.ndarray) -> np.ndarray | None:
         """The pixels of the colour the query names (None: it names none)."""
         color = self.query.color if self.query else None
-        return None if color is None else color_mask(bgr, PRESETS[color], iterations=0)
+        return None if color is None else label_color_mask(bgr, color)
 
     def _frame_index(self, stamp: float) -> int | None:
         frames = self._history
@@ -334,13 +280,14 @@ class TargetTracking:
                 reason, detail = "bad_box", f"{box} is outside the {w}x{h} image"
                 continue
             frac = 1.0
-            if mask is not None:
-                frac = box_fraction(mask, (x1, y1, x2, y2))
-                if frac < p.min_label_color:
+            if mask is not None and self.query.color is not None:
+                frac, why = color_in_box(
+                    mask, (x1, y1, x2, y2), label=label, color=self.query.color, min_fraction=p.min_label_color,
+                    shown=box,
+                )  # fmt: skip
+                if why:
                     if reason == "bad_box":
-                        reason = "color_mismatch"
-                        where = tuple(round(v) for v in box)
-                        detail = f"{label!r} box {where} is {100 * frac:.0f} % {self.query.color}"
+                        reason, detail = "color_mismatch", why
                     continue
             candidates.append((score, frac, (x1, y1, x2, y2)))
         if not candidates:
@@ -414,8 +361,3 @@ class TargetTracking:
         return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
 
 
-def box_fraction(mask: np.ndarray, box: Box) -> float:
-    """Fraction of a box's pixels set in a mask (0..1)."""
-    x1, y1, x2, y2 = (int(round(v)) for v in box)
-    roi = mask[max(0, y1) : max(0, y2), max(0, x1) : max(0, x2)]
-    return float(cv2.countNonZero(roi)) / max(1, roi.size)

@@ -485,8 +485,8 @@ def _probe(model: Any, processor: Any, probe: GroundingData, spec: GroundingSpec
     import torch
     from PIL import Image
 
-    from go2vlm.perception.vlm.parse import parse_grounding
     from go2vlm.perception.vlm.prompts import detect_prompt
+    from go2vlm.vocabulary.answers import parse_grounding
 
     hits = visible = fails = asked = 0
     rng = random.Random(0)
@@ -582,8 +582,8 @@ def evaluate(
     labels, those in view and three that are not, drawn from `seed`) and, for the primitives, all
     three in one prompt. Per label and overall: IoU>=0.5 rate on frames where it is visible, mean IoU,
     false-positive rate on frames without it, answers whose JSON did not parse."""
-    from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
     from go2vlm.perception.vlm.prompts import detect_prompt
+    from go2vlm.vocabulary.answers import answer_boxes
 
     rng = random.Random(seed)
     asked: dict[int, list[tuple[str, ...]]] = {
@@ -599,18 +599,10 @@ def evaluate(
         for frame in frames:
             for labels in prompts_of(frame):
                 gen = backend.generate(frame.rgb, detect_prompt(labels))
-                parsed = parse_grounding(gen.text, labels=list(labels))
+                parsed, boxes = answer_boxes(gen, labels)
                 answers += 1
                 parse_fail += not parsed.found_json
                 repaired += parsed.counters["parse.json_repaired"] > 0
-                counters: Counter[str] = Counter()
-                boxes = finalize_boxes(
-                    parsed.boxes,
-                    coords=gen.coords,
-                    resized_hw=gen.resized_hw,
-                    original_hw=gen.original_hw,
-                    counters=counters,
-                )
                 for label in labels:
                     per_label[label].add(score_answer(frame, label, boxes))
                 if progress is not None:

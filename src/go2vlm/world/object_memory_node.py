@@ -116,11 +116,12 @@ from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, LaserScan
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import Detection2DArray, detection_boxes
-from go2vlm.perception.color import PRESETS, color_mask
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
-from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
+from go2vlm.perception.tracking import TrackingParams
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.statefiles import StateFileError, read_bounded, state_file, write_atomic
+from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
+from go2vlm.vocabulary.words import parse_label
 from go2vlm.world.labels import normalize_label
 from go2vlm.world.memory import MemoryParams, ObjectMemory, View
 from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, dumps, loads
@@ -393,11 +394,11 @@ class ObjectMemoryNode(Node):
         if abs(stamp_f - stamp) > FRAME_WINDOW_S:
             self.count("color_unchecked")
             return ""
-        mask = color_mask(small, PRESETS[color], iterations=0)
-        frac = box_fraction(mask, tuple(v * scale for v in box))  # type: ignore[arg-type]
-        if frac < self.config.min_label_color:
-            return f"{label!r} box {tuple(round(v) for v in box)} is {100 * frac:.0f} % {color}"
-        return ""
+        x1, y1, x2, y2 = (v * scale for v in box)
+        mask = label_color_mask(small, color)
+        return color_in_box(
+            mask, (x1, y1, x2, y2), label=label, color=color, min_fraction=self.config.min_label_color, shown=box
+        )[1]
 
     def _ranger(self, label: str) -> RangeEstimator:
         r = self._rangers.get(label)

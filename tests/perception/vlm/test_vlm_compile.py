@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from go2vlm.geometry.qwen import smart_resize
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings
-from go2vlm.perception.vlm.geometry import smart_resize
 from go2vlm.perception.vlm.hf_backend import TEXT_BUDGET_TOKENS, resolve_compile, static_cache_len
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from go2vlm.geometry.qwen import smart_resize
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings
 from go2vlm.perception.vlm.factory import make_backend
-from go2vlm.perception.vlm.geometry import smart_resize
 from go2vlm.perception.vlm.process_backend import InferenceProcess, wants_process
 from go2vlm.perception.vlm.standin_backend import StandinBackend, parse_spec
 
