@@ -29,7 +29,6 @@ from go2vlm.vocabulary.words import SHAPES
 __all__ = ["SHAPES", "Candidate", "ShapeScores", "ground", "shape_scores"]
 
 
-
 @dataclass(frozen=True)
 class ShapeScores:
     ball: float

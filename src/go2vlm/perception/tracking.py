@@ -359,5 +359,3 @@ class TargetTracking:
             distance, method = reading.distance, reading.method
             bearing = cam.bearing((box[0] + box[2]) / 2.0)
         return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
-
-
