@@ -1,6 +1,6 @@
 """Classical colour-shape grounding: "the blue cylinder" -> a box in the image, without weights.
 
-Colour: the HSV presets and mask of `perception/color.py` (red/green/blue/yellow). Every external
+Colour: the vocabulary's HSV ranges and mask (vocabulary/words.py, pixels.py). Every external
 contour of the colour (not only the largest) is a candidate and gets shape scores from its outline:
 
 * ball     -- round: a circle fitted to the outline (ignoring points on the image border, so a ball

@@ -7,8 +7,8 @@ frame out, driven by the frames' own stamps so it can be tested exhaustively.
     why = tracking.add_answer(Grounding(stamp, (("blue cylinder", (x1, y1, x2, y2)),)))  # a VLM answer
 
 Rules
-- The query is a label: "<colour> <shape>" in the grounder's words (red/green/blue/yellow, ball/box/
-  cylinder, either may be left out) or free text for a VLM ("person"). No query: `idle`. A free-text
+- The query is a label: "<colour> <shape>" in the vocabulary's words (vocabulary/words.py: COLORS, SHAPES;
+  either may be left out) or free text for a VLM ("person"). No query: `idle`. A free-text
   query with the colour-shape grounder: `ungroundable` (it cannot find it), never a box.
 - Grounding answers: `grounding="color"` runs the colour-shape grounder (perception/grounding.py) on
   a frame whenever there is no track, and every `reground_period_s` (frame stamps) while tracking;
