@@ -41,6 +41,7 @@ import numpy as np
 
 # Before torch: the node sets this too; the benchmark must measure the same allocator.
 os.environ.setdefault("PYTORCH_CUDA_ALLOC_CONF", "expandable_segments:True")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: testing_support/ (dev-only)
 
 
 # -- helpers -----------------------------------------------------------------------------------
@@ -124,7 +125,7 @@ def free_memory() -> None:
 
 
 def resolve_model(args: argparse.Namespace) -> str:
-    from go2vlm.testing import tiny_qwen as tiny
+    from testing_support import tiny_qwen as tiny
 
     if args.model:
         return args.model

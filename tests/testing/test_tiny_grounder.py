@@ -17,7 +17,8 @@ import pytest
 
 from go2vlm.geometry.qwen import CoordSystem
 from go2vlm.perception.vlm.prompts import detect_prompt
-from go2vlm.testing.sim_dataset import (
+from go2vlm.vocabulary.answers import Box, finalize_boxes, parse_grounding
+from testing_support.sim_dataset import (
     ALL_LABELS,
     Frame,
     FrameRenderer,
@@ -26,7 +27,7 @@ from go2vlm.testing.sim_dataset import (
     match_boxes,
     sample_frames,
 )
-from go2vlm.testing.tiny_grounder import (
+from testing_support.tiny_grounder import (
     EVAL_SEED_OFFSET,
     GROUNDER_MAX_PIXELS,
     META_FILE,
@@ -34,7 +35,6 @@ from go2vlm.testing.tiny_grounder import (
     grounder_checkpoint,
     grounder_settings,
 )
-from go2vlm.vocabulary.answers import Box, finalize_boxes, parse_grounding
 
 # Not the training stream (seed 0) nor the build's held-out streams (1000003, 2000006).
 TEST_SEED = 4242

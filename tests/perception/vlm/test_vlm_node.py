@@ -21,7 +21,7 @@ from go2vlm.msgs.vision_msgs import Detection2DArray
 from go2vlm.perception.vlm.backend import BackendError, Generation, VlmOutOfMemory
 from go2vlm.perception.vlm.prompts import DECISION_PROMPT, DEFAULT_PROMPT, detect_prompt
 from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, image_to_rgb
-from go2vlm.testing.tiny_qwen import DEFAULT_ANSWER
+from testing_support.tiny_qwen import DEFAULT_ANSWER
 
 EXPECTED_480x640 = {"red ball": (80.0, 120.0, 280.0, 360.0), "green box": (360.0, 40.0, 600.0, 240.0)}
 _topic_seq = iter(range(1_000_000))

@@ -72,7 +72,7 @@ def test_load_errors_come_back_with_their_message() -> None:
 
 
 def test_transformers_in_its_own_process_answers_as_in_this_process(tiny_ckpt: Path) -> None:
-    from go2vlm.testing.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS
+    from testing_support.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS
 
     def settings(process: str) -> BackendSettings:
         return BackendSettings(
