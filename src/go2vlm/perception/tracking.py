@@ -40,10 +40,11 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from go2vlm.declare import param
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.perception.grounding import ground
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
@@ -93,18 +94,31 @@ class Observation:
 
 @dataclass(frozen=True)
 class TrackingParams:
-    grounding: str = "color"  # color | vlm
-    reground_period_s: float = 0.5  # color: re-ground this often while tracking
-    min_shape_score: float = 0.35  # color: the grounder's shape score needed
-    min_label_color: float = 0.15  # an answer's box must hold this fraction of the label's colour
-    max_answer_age_s: float = 5.0  # refuse answers about frames older than this (vs the newest frame)
-    max_grounding_age_s: float = 15.0  # drop a track no answer confirmed for this long; 0 = never
-    max_unconfirmed_answers: int = 3  # vlm: drop a track this many answers in a row did not confirm; 0 = never
+    """The tracking rules' settings; those declared with `param` are the target_tracker's parameters too
+    (go2vlm/declare.py: the node takes them over with `from_core`)."""
+
+    grounding: str = param("color", choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    reground_period_s: float = param(0.5, help="color: re-ground this often while tracking", min=0.0)
+    min_shape_score: float = param(0.35, help="color: shape score the grounder needs", min=0.0, max=1.0)
+    min_label_color: float = param(
+        0.15, help="an answer's box must hold this fraction of the colour its label names", min=0.0, max=1.0
+    )
+    max_answer_age_s: float = param(
+        5.0, help="refuse answers about frames older than this (vs the newest frame)", min=0.1, max=60.0
+    )
+    max_grounding_age_s: float = param(
+        15.0, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
+    )
+    max_unconfirmed_answers: int = param(
+        3, help="vlm: drop a track this many answers in a row did not confirm (0 = never)", min=0, max=100
+    )
     stamp_tolerance_s: float = 0.15  # an answer's frame: the stored frame closest to its stamp, this close
     history: int = 40  # frames kept for catching up (4 s at 10 Hz)
-    camera_height_m: float = HEAD_CAMERA_HEIGHT
+    camera_height_m: float = HEAD_CAMERA_HEIGHT  # the node's: its robot profile's head camera
     camera_pitch_rad: float = 0.0
-    object_sizes: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_SIZES))
+    object_sizes: dict[str, float] = param(
+        DEFAULT_SIZES, help="ranging before calibration: ball/cylinder radius, box width (m)"
+    )
 
     def __post_init__(self) -> None:
         if self.grounding not in ("color", "vlm"):
