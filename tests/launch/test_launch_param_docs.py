@@ -219,7 +219,7 @@ def test_node_defaults_are_their_cores() -> None:
 NODE_CORES = {
     "safety": ("go2vlm.safety.limits:Limits", "go2vlm.safety.guard:GuardConfig", "go2vlm.safety.health:HealthPolicy"),
     "target_tracker": ("go2vlm.perception.tracking:TrackingParams",),
-    # "object_memory": ("go2vlm.perception.tracking:TrackingParams", "go2vlm.world.memory:MemoryParams"),
+    "object_memory": ("go2vlm.perception.tracking:TrackingParams", "go2vlm.world.memory:MemoryParams"),
 }
 
 

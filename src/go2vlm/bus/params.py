@@ -17,7 +17,7 @@ config with `core_params`:
         min_shape_score: float = from_core(TrackingParams, "min_shape_score")
 
         def tracking_params(self) -> TrackingParams:
-            return core_params(TrackingParams, self, camera_pitch_rad=math.radians(self.camera_pitch_deg))
+            return core_params(TrackingParams, self, camera_height_m=profile(self.robot).head_camera_height)
 """
 
 from __future__ import annotations

@@ -36,6 +36,7 @@ import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.perception.ranging import RangeEstimator
+from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.vocabulary.words import ROUND_SHAPES, SHAPES
 from go2vlm.world.poses import Pose2D, wrap_angle
@@ -60,6 +61,12 @@ class CameraMount:
     left_m: float = spec.HEAD_CAMERA_POS[1]
     height_m: float = spec.HEAD_CAMERA_HEIGHT
     pitch_rad: float = 0.0
+
+    @classmethod
+    def of(cls, robot: RobotProfile) -> CameraMount:
+        """The head camera of `robot`, as its profile has it (the one camera mount)."""
+        cam = robot.head_camera
+        return cls(cam.pos[0], cam.pos[1], robot.head_camera_height, math.radians(cam.pitch_deg))
 
 
 @dataclass(frozen=True)
