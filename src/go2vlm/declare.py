@@ -60,7 +60,7 @@ def param(
     return dataclasses.field(default=default, metadata=meta)
 
 
-def from_core(core: type, name: str, **changes: Any) -> Any:
+def from_core(core: type, name: str, **changes: object) -> Any:
     """A node parameter that is `core`'s field `name`: its default, help, bounds and live flag, as the
     core declares them with `param`. `changes` overrides one of those (e.g. a node-side `live=True`)
     where the node's use differs; a link to the core's field goes with it (`CORE`)."""
