@@ -28,7 +28,9 @@ from pathlib import Path
 from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, Node
 from go2vlm.bus.domain import kernel_rmem_max
 from go2vlm.msgs.sensor_msgs import Image
-from go2vlm.testing.image_frames import send_frames
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: testing_support/ (dev-only)
+from testing_support.image_frames import send_frames  # noqa: E402
 
 TOPIC = "/bench/images"
 CYCLONE_DEFAULTS = (

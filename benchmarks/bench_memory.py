@@ -48,8 +48,10 @@ from go2vlm.msgs.nav_msgs import Odometry  # noqa: E402
 from go2vlm.msgs.sensor_msgs import LaserScan  # noqa: E402
 from go2vlm.msgs.std_msgs import Header  # noqa: E402
 from go2vlm.msgs.vision_msgs import detection_array  # noqa: E402
-from go2vlm.testing.world_views import CAM, cylinder_box, cylinder_scan  # noqa: E402
 from go2vlm.world.poses import Pose2D  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: testing_support/ (dev-only)
+from testing_support.world_views import CAM, cylinder_box, cylinder_scan  # noqa: E402
 
 # Three cylinders round the robot (the colour check needs their colours in the frames).
 OBJECTS = {"red cylinder": ((3.0, 0.5), (0, 0, 230)), "green cylinder": ((-1.0, 3.0), (0, 200, 0)),

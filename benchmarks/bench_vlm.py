@@ -34,7 +34,6 @@ import random
 import statistics
 import sys
 import time
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +41,7 @@ import numpy as np
 
 # Before torch: the node sets this too; the benchmark must measure the same allocator.
 os.environ.setdefault("PYTORCH_CUDA_ALLOC_CONF", "expandable_segments:True")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository root: testing_support/ (dev-only)
 
 
 # -- helpers -----------------------------------------------------------------------------------
@@ -125,7 +125,7 @@ def free_memory() -> None:
 
 
 def resolve_model(args: argparse.Namespace) -> str:
-    from go2vlm.testing import tiny_qwen as tiny
+    from testing_support import tiny_qwen as tiny
 
     if args.model:
         return args.model
@@ -171,7 +171,7 @@ def make_backend(args: argparse.Namespace, model: str, quantization: str) -> Any
 
 def postprocess(gen: Any) -> tuple[float, int]:
     """What the node does after generate(): parse, rescale, build the message. Returns (ms, boxes)."""
-    from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
+    from go2vlm.vocabulary.answers import answer_boxes
 
     try:  # the message types need cyclonedds; a bare GPU box may lack it (latency/sizes still run)
         from go2vlm.msgs.std_msgs import Header
@@ -180,14 +180,7 @@ def postprocess(gen: Any) -> tuple[float, int]:
         detections_msg = None  # type: ignore[assignment]
 
     t0 = time.perf_counter()
-    parsed = parse_grounding(gen.text)
-    boxes = finalize_boxes(
-        parsed.boxes,
-        coords=gen.coords,
-        resized_hw=gen.resized_hw,
-        original_hw=gen.original_hw,
-        counters=Counter(),
-    )
+    _, boxes = answer_boxes(gen)
     if detections_msg is not None:
         detections_msg(boxes, Header())
     return (time.perf_counter() - t0) * 1e3, len(boxes)
@@ -298,8 +291,8 @@ def bench_freshness(args: argparse.Namespace, inner: Any, hz: float, extra_ms: f
     from go2vlm.msgs.sensor_msgs import Image
     from go2vlm.msgs.std_msgs import Header
     from go2vlm.msgs.vision_msgs import Detection2DArray
-    from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
     from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, detections_msg, image_to_rgb
+    from go2vlm.vocabulary.answers import answer_boxes
 
     backend = _Preloaded(inner, extra_ms)
     h, w = args.latency_size
@@ -321,11 +314,7 @@ def bench_freshness(args: argparse.Namespace, inner: Any, hz: float, extra_ms: f
             if self._stop.is_set():  # shut down: do not work through the rest of the queue
                 return
             gen = backend.generate(image_to_rgb(msg), args.prompt)
-            parsed = parse_grounding(gen.text)
-            c: Counter[str] = Counter()
-            boxes = finalize_boxes(
-                parsed.boxes, coords=gen.coords, resized_hw=gen.resized_hw, original_hw=gen.original_hw, counters=c
-            )
+            _, boxes = answer_boxes(gen)
             self.pub.publish(detections_msg(boxes, msg.header))
             self.processed += 1
 
@@ -406,7 +395,7 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS
+    from go2vlm.geometry.qwen import DEFAULT_MAX_PIXELS
     from go2vlm.perception.vlm.prompts import detect_prompt
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -1,4 +1,5 @@
-"""Count the explicit `Any`s in src/go2vlm, by the place they stand (docs/typing.md explains each kind).
+"""Count the explicit `Any`s in src/go2vlm and testing_support (what mypy checks), by the place they
+stand (docs/typing.md explains each kind).
 
     python scripts/count_any.py              # the total and the table by kind
     python scripts/count_any.py --files      # ... and the files with the most
@@ -14,7 +15,9 @@ import ast
 from collections import Counter
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "go2vlm"
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src" / "go2vlm"
+CHECKED = (SRC, ROOT / "testing_support")
 
 
 # The bus's generic endpoints (and the cyclonedds ones under them): [Any] where any message type goes.
@@ -55,17 +58,17 @@ def _kind(node: ast.AST, parents: dict[ast.AST, ast.AST]) -> str:
     return "other"
 
 
-def count(src: Path = SRC) -> tuple[Counter[str], Counter[str]]:
-    """(count by kind, count by file) of the explicit `Any`s under `src`."""
+def count(roots: tuple[Path, ...] = CHECKED) -> tuple[Counter[str], Counter[str]]:
+    """(count by kind, count by file) of the explicit `Any`s under `roots`."""
     kinds: Counter[str] = Counter()
     files: Counter[str] = Counter()
-    for path in sorted(src.rglob("*.py")):
+    for path in sorted(p for root in roots for p in root.rglob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
         parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
         for node in ast.walk(tree):
             if _is_any(node):
                 kinds[_kind(node, parents)] += 1
-                files[path.relative_to(src).as_posix()] += 1
+                files[path.relative_to(ROOT).as_posix()] += 1
     return kinds, files
 
 
@@ -74,7 +77,7 @@ def main() -> None:
     ap.add_argument("--files", action="store_true", help="also list the 15 files with the most")
     args = ap.parse_args()
     kinds, files = count()
-    print(f"explicit Any in src/go2vlm: {sum(kinds.values())}")
+    print(f"explicit Any in src/go2vlm and testing_support: {sum(kinds.values())}")
     for kind, n in kinds.most_common():
         print(f"{n:6d}  {kind}")
     if args.files:

@@ -6,7 +6,7 @@
     nice -n 10 .venv/bin/python scripts/train_tiny_grounder.py --dataset household ... \\
         --out tests/data/tiny_grounder_household      # the exact command is in its go2vlm_grounder.json
 
-Runs this checkout's code (its src/ first on the path) whatever go2vlm the environment has installed.
+Runs this checkout's code (its src/ and testing_support/ first on the path) whatever go2vlm is installed.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ import os
 import sys
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src"
-sys.path.insert(0, str(SRC))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "src"), str(ROOT)]  # go2vlm and the dev-only testing_support
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from go2vlm.testing.train_grounder import main  # noqa: E402
+from testing_support.train_grounder import main  # noqa: E402
 
 if __name__ == "__main__":
     sys.exit(main())

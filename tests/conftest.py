@@ -1,7 +1,7 @@
 """Shared test set-up.
 
-- The tests import this checkout's `src/` (also in the processes they start), so a worktree tests
-  its own code whatever `.venv` it borrows.
+- The tests import this checkout's `src/` and `testing_support/` (also in the processes they start),
+  so a worktree tests its own code whatever `.venv` it borrows.
 - Every test session gets a DDS domain that nothing on this host is using: a lock file per domain
   keeps concurrent sessions apart, and a discovery probe skips domains where any participant (a
   running demo, a ROS 2 node) already speaks. Traffic stays on loopback.
@@ -19,9 +19,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
-sys.path.insert(0, SRC)
-os.environ["PYTHONPATH"] = os.pathsep.join([SRC, *filter(None, [os.environ.get("PYTHONPATH")])])
+ROOT = str(Path(__file__).resolve().parents[1])  # for testing_support/, the dev-only helpers
+SRC = str(Path(ROOT) / "src")
+sys.path[:0] = [SRC, ROOT]
+os.environ["PYTHONPATH"] = os.pathsep.join([SRC, ROOT, *filter(None, [os.environ.get("PYTHONPATH")])])
 os.environ["GO2VLM_IFACE"] = "lo"
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ["XDG_STATE_HOME"] = tempfile.mkdtemp(prefix="go2vlm-test-state-")

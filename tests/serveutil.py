@@ -1,4 +1,4 @@
-"""`transformers serve` of a checkpoint as a pytest fixture body (go2vlm.testing.serve underneath)."""
+"""`transformers serve` of a checkpoint as a pytest fixture body (testing_support.serve underneath)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ def served(ckpt: Path, tmp_path_factory: pytest.TempPathFactory, name: str) -> I
     pytest.importorskip("fastapi")
     pytest.importorskip("uvicorn")
     pytest.importorskip("openai")
-    from go2vlm.testing.serve import ServeFailed, serve_checkpoint
+    from testing_support.serve import ServeFailed, serve_checkpoint
 
     log = tmp_path_factory.mktemp(name) / "serve.log"
     try:

@@ -114,7 +114,7 @@ def test_bad_eval_options_are_clear_errors(tmp_path: Path) -> None:
 def test_vlm_variant_scores_every_answer(tmp_path: Path, grounder_ckpt: Path, grounder_server: str) -> None:  # noqa: F811
     """Two smoke episodes with the tiny sim-trained Qwen2.5-VL behind a real `transformers serve`: every
     answer is scored against the ground truth of its frame, and the latency and tracking are recorded."""
-    from go2vlm.testing.tiny_grounder import grounder_node_params
+    from testing_support.tiny_grounder import grounder_node_params
 
     params = [a for k, v in grounder_node_params().items() for a in ("--param", f"vlm.{k}={v}")]
     proc = _eval(tmp_path, "--suite", "smoke", "--perception", "vlm", "--episodes", "2", "--base-url", grounder_server,

@@ -38,7 +38,7 @@ RTF = 0.5
 
 
 def run_vlm_episode(k: int, model: str, base_url: str | None = None) -> dict[str, Any]:
-    from go2vlm.testing.tiny_grounder import grounder_node_params
+    from testing_support.tiny_grounder import grounder_node_params
 
     ep = load_suite(str(SUITE)).episode(k, "vlm")
     params = vlm_node_params("vlm", model, base_url, {"vlm": grounder_node_params()})

@@ -1,6 +1,6 @@
 """`go2vlm demo --goal "go to the blue cylinder" --perception vlm` through a real OpenAI-compatible
 server on loopback that answers 5 s after each request (the shipped tiny grounder behind `transformers
-serve`, behind a proxy that holds every request 5 s: go2vlm.testing.serve.delaying_proxy), from the
+serve`, behind a proxy that holds every request 5 s: testing_support.serve.delaying_proxy), from the
 demo's own spawn, where the cylinder is behind the robot. Every answer is 5+ s old when it comes, so
 the search stops and looks, the object memory places the answers at the pose of their frames, and the
 commander walks to the remembered cylinder and stops on an answer about a frame taken there.
@@ -23,7 +23,7 @@ pytest.importorskip("mujoco")
 from busutil import GO2VLM, env  # noqa: E402
 from testing.conftest import grounder_ckpt, grounder_server  # noqa: E402, F401
 
-from go2vlm.testing.serve import delaying_proxy  # noqa: E402
+from testing_support.serve import delaying_proxy  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
@@ -35,7 +35,7 @@ def test_go_to_through_a_server_that_answers_5_s_late(
     grounder_server: str,  # noqa: F811
     tmp_path: Path,
 ) -> None:
-    from go2vlm.testing.tiny_grounder import grounder_node_params
+    from testing_support.tiny_grounder import grounder_node_params
 
     out = tmp_path / "run"
     params = [f"vlm.{k}={v}" for k, v in {**grounder_node_params(), "timeout_s": 60}.items()]

@@ -29,7 +29,7 @@ def sign_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str,
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
     from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT
-    from go2vlm.testing.tiny_qwen import cached_tiny_checkpoint
+    from testing_support.tiny_qwen import cached_tiny_checkpoint
 
     ckpt = cached_tiny_checkpoint(answer=SIGN_ANSWER, steps=150, prompts=[DEFAULT_PROMPT])
     for url in served(ckpt, tmp_path_factory, "sign_serve"):

@@ -154,7 +154,7 @@ def test_kill_9_the_vlm_mid_go_to(procs: Procs, tmp_path: Path) -> None:
     import yaml
 
     from go2vlm.launch.launcher import resolve
-    from go2vlm.testing.tiny_grounder import grounder_checkpoint, grounder_node_params
+    from testing_support.tiny_grounder import grounder_checkpoint, grounder_node_params
 
     graph_file = tmp_path / "episode_vlm.yaml"
     nodes = yaml.safe_load(resolve("episode_vlm").read_text())

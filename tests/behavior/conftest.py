@@ -21,7 +21,7 @@ STEPS = 100
 
 def decision_checkpoint(answer: str, steps: int = STEPS) -> Path:
     from go2vlm.perception.vlm.prompts import DECISION_PROMPT
-    from go2vlm.testing.tiny_qwen import cached_tiny_checkpoint
+    from testing_support.tiny_qwen import cached_tiny_checkpoint
 
     # Trained on the decision prompt itself, so the answer is exact for it.
     return cached_tiny_checkpoint(answer=answer, steps=steps, prompts=[DECISION_PROMPT])

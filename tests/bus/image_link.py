@@ -15,7 +15,7 @@ import time
 
 from go2vlm.bus import PROFILES, Node
 from go2vlm.msgs.sensor_msgs import Image
-from go2vlm.testing.image_frames import send_frames
+from testing_support.image_frames import send_frames
 
 TOPIC = "/bus/large_images"
 

@@ -204,31 +204,49 @@ def test_bus_md_says_which_parameters_change_at_runtime() -> None:
 
 
 def test_node_defaults_are_their_cores() -> None:
-    """A node parameter that its pure core also has defaults to the core's value (one source): same
-    names through bus.core_params, and the gate's, whose names differ, by this table."""
+    """A node parameter that its pure core also has defaults to the core's value (one source): the
+    commander's by the same names through bus.core_params."""
     from go2vlm.behavior.mission import MissionParams
-    from go2vlm.perception.tracking import TrackingParams
-    from go2vlm.safety.guard import GuardConfig
-    from go2vlm.safety.health import HealthPolicy
-    from go2vlm.safety.limits import Limits
 
-    pairs = {"commander": MissionParams(), "target_tracker": TrackingParams()}
-    for kind, core in pairs.items():
-        _, config = _module_and_config(kind)
-        ours = _defaults(config)
-        shared = [f.name for f in dataclasses.fields(core) if f.name in ours]
-        assert len(shared) >= 8, kind
-        assert {n: ours[n] for n in shared} == {n: getattr(core, n) for n in shared}, kind
-    gate = _defaults(_module_and_config("safety")[1])
-    lim, guard, health = Limits(), GuardConfig(), HealthPolicy()
-    assert (gate["max_vx_forward"], gate["max_vx_backward"], gate["max_vy"], gate["max_vyaw"]) == (
-        lim.vx_forward, lim.vx_backward, lim.vy, lim.wz
-    )  # fmt: skip
-    assert (gate["accel_linear"], gate["accel_angular"]) == (lim.accel_linear, lim.accel_angular)
-    assert (gate["margin"], gate["blind_speed"], gate["scan_timeout_s"], gate["reaction_s"]) == (
-        guard.margin, guard.blind_speed, guard.scan_timeout_s, guard.reaction_s
-    )  # fmt: skip
-    assert (gate["health_stale_s"], gate["health_clear_s"], gate["health_cap_scale"]) == (
-        health.stale_s, health.clear_s, health.cap_scale
-    )  # fmt: skip
-    assert gate["health_require_state"] == health.require_state
+    core = MissionParams()
+    ours = _defaults(_module_and_config("commander")[1])
+    shared = [f.name for f in dataclasses.fields(core) if f.name in ours]
+    assert len(shared) >= 8
+    assert {n: ours[n] for n in shared} == {n: getattr(core, n) for n in shared}
+
+
+# node kind -> the pure cores whose declared fields (go2vlm/declare.py `param`) it takes over
+NODE_CORES = {
+    "safety": ("go2vlm.safety.limits:Limits", "go2vlm.safety.guard:GuardConfig", "go2vlm.safety.health:HealthPolicy"),
+    "target_tracker": ("go2vlm.perception.tracking:TrackingParams",),
+    "object_memory": ("go2vlm.perception.tracking:TrackingParams", "go2vlm.world.memory:MemoryParams"),
+}
+
+
+def _cls(path: str) -> type:
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+
+
+@pytest.mark.parametrize("kind", sorted(NODE_CORES))
+def test_shared_parameters_are_declared_once_on_the_core(kind: str) -> None:
+    """Every core field declared as a parameter that the node has is taken over with `from_core`
+    (default, help, bounds, live: the core's), and the node never spells a core field's help again."""
+    from go2vlm.declare import CORE
+
+    config = _module_and_config(kind)[1]
+    cores = [_cls(c) for c in NODE_CORES[kind]]
+    declared = {(core, f.name): f for core in cores for f in dataclasses.fields(core) if f.metadata.get("help")}
+    helps = {f.metadata["help"] for f in declared.values()}
+    linked = 0
+    for f in dataclasses.fields(config):
+        link = f.metadata.get(CORE)
+        if link is None:
+            assert f.name not in {name for _, name in declared}, f"{kind}.{f.name}: use from_core"
+            assert f.metadata.get("help") not in helps, f"{kind}.{f.name} repeats a core's help: use from_core"
+            continue
+        linked += 1
+        core_field = declared[link]
+        assert {k: v for k, v in f.metadata.items() if k != CORE} == dict(core_field.metadata), f.name
+        assert _defaults(config)[f.name] == getattr(link[0](), link[1]), f.name
+    assert linked >= 4, kind

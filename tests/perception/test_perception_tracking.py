@@ -19,7 +19,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.geometry.camera import PinholeCamera
-from go2vlm.perception.tracking import Grounding, TargetTracking, TrackingParams, label_match, parse_label
+from go2vlm.perception.tracking import Grounding, TargetTracking, TrackingParams
+from go2vlm.vocabulary.words import label_match, parse_label
 
 W, H = 160, 120
 BGR = {"red": (0, 0, 230), "green": (0, 200, 0), "blue": (230, 60, 0), "yellow": (0, 220, 240)}

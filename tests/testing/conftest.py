@@ -14,7 +14,7 @@ def grounder_ckpt() -> Path:
     """tests/data/tiny_grounder (skipped, not failed, where the vlm extra is not installed)."""
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
-    from go2vlm.testing.tiny_grounder import grounder_checkpoint
+    from testing_support.tiny_grounder import grounder_checkpoint
 
     return grounder_checkpoint()
 

@@ -16,7 +16,7 @@ import pytest
 
 from go2vlm.apps.episodes.suites import load_suite, world_bodies
 from go2vlm.behavior.goals import parse_goal
-from go2vlm.testing.sim_dataset import HOUSEHOLD, PRIMITIVES, FrameRenderer, sample_frames
+from testing_support.sim_dataset import HOUSEHOLD, PRIMITIVES, FrameRenderer, sample_frames
 
 TEST_SEED = 4243  # neither the build's training stream (0) nor its held-out ones (1000003, 2000006)
 
@@ -68,13 +68,13 @@ def test_household_frames_have_boxes_rooms_and_lighting() -> None:
 def household_ckpt() -> Path:
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
-    from go2vlm.testing.tiny_grounder import household_grounder_checkpoint
+    from testing_support.tiny_grounder import household_grounder_checkpoint
 
     return household_grounder_checkpoint()
 
 
 def test_shipped_household_checkpoint_files_and_figures(household_ckpt: Path) -> None:
-    from go2vlm.testing.tiny_grounder import META_FILE, grounder_spec
+    from testing_support.tiny_grounder import META_FILE, grounder_spec
 
     assert grounder_spec(household_ckpt) is HOUSEHOLD
     assert (household_ckpt / "model.safetensors").stat().st_size < 12_000_000

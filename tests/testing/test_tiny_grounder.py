@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from go2vlm.perception.vlm.geometry import CoordSystem
-from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding
+from go2vlm.geometry.qwen import CoordSystem
 from go2vlm.perception.vlm.prompts import detect_prompt
-from go2vlm.testing.sim_dataset import (
+from go2vlm.vocabulary.answers import Box, finalize_boxes, parse_grounding
+from testing_support.sim_dataset import (
     ALL_LABELS,
     Frame,
     FrameRenderer,
@@ -27,7 +27,7 @@ from go2vlm.testing.sim_dataset import (
     match_boxes,
     sample_frames,
 )
-from go2vlm.testing.tiny_grounder import (
+from testing_support.tiny_grounder import (
     EVAL_SEED_OFFSET,
     GROUNDER_MAX_PIXELS,
     META_FILE,

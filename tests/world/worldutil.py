@@ -1,4 +1,4 @@
-"""For the world tests: the synthetic views of go2vlm.testing.world_views, and a robot stand-in
+"""For the world tests: the synthetic views of testing_support.world_views, and a robot stand-in
 (odometry, a CameraInfo, a VLM's answers) that records what the object memory says."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from go2vlm.msgs.sensor_msgs import CameraInfo
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray
 from go2vlm.msgs.visualization_msgs import MarkerArray
-from go2vlm.testing.world_views import CAM, MOUNT, cylinder_box, cylinder_scan
 from go2vlm.world.objects_msg import remembered
+from testing_support.world_views import CAM, MOUNT, cylinder_box, cylinder_scan
 
 __all__ = ["CAM", "CYL", "MOUNT", "Robot", "cylinder_box", "cylinder_scan"]
 

@@ -17,11 +17,21 @@ from dataclasses import dataclass
 
 from go2vlm.behavior.decisions import MAX_TURN_DEG
 from go2vlm.errors import UsageError
+from go2vlm.vocabulary.words import (
+    COLORS,
+    EN_COLOR_WORDS,
+    EN_SHAPE_WORDS,
+    POSTURES,
+    SHAPES,
+    ZH_COLOR_WORDS,
+    ZH_SHAPE_WORDS,
+)
 
 __all__ = [
     "COLORS",
     "GOAL_KINDS",
     "MOTION_KINDS",
+    "POSTURE_GOALS",
     "SHAPES",
     "TIMED_KINDS",
     "Goal",
@@ -35,29 +45,14 @@ __all__ = [
 GOAL_KINDS = ("follow", "go_to", "look_for", "stop", "sit", "stand", "turn")
 MOTION_KINDS = ("follow", "go_to", "look_for")  # kinds that need a target
 TIMED_KINDS = (*MOTION_KINDS, "turn")  # kinds that run for a while (the commander is busy)
-COLORS = ("red", "green", "blue", "yellow")
-SHAPES = ("ball", "box", "cylinder")
-
-_EN_COLORS = {
-    "red": "red", "crimson": "red", "scarlet": "red",
-    "green": "green", "lime": "green",
-    "blue": "blue", "navy": "blue",
-    "yellow": "yellow", "golden": "yellow",
-}  # fmt: skip
-_EN_SHAPES = {
-    "ball": "ball", "balls": "ball", "sphere": "ball", "spheres": "ball", "orb": "ball", "circle": "ball",
-    "box": "box", "boxes": "box", "cube": "box", "cubes": "box", "block": "box", "blocks": "box",
-    "crate": "box", "square": "box",
-    "cylinder": "cylinder", "cylinders": "cylinder", "pillar": "cylinder", "column": "cylinder",
-    "can": "cylinder", "tube": "cylinder", "pole": "cylinder", "post": "cylinder",
-}  # fmt: skip
-# Chinese: longest first so 圆柱体 wins over 圆柱, 圆球 over 球.
-_ZH_COLORS = {"红": "red", "绿": "green", "綠": "green", "蓝": "blue", "藍": "blue", "黄": "yellow", "黃": "yellow"}
-_ZH_SHAPES = [
-    ("圆柱体", "cylinder"), ("圆柱", "cylinder"), ("柱子", "cylinder"), ("柱体", "cylinder"), ("罐子", "cylinder"),
-    ("立方体", "box"), ("正方体", "box"), ("箱子", "box"), ("盒子", "box"), ("方块", "box"), ("方盒", "box"),
-    ("圆球", "ball"), ("球体", "ball"), ("小球", "ball"), ("球", "ball"), ("箱", "box"), ("盒", "box"),
-]  # fmt: skip
+# The words are the vocabulary's (go2vlm/vocabulary/words.py), the same objects.
+_EN_COLORS = EN_COLOR_WORDS
+_EN_SHAPES = EN_SHAPE_WORDS
+_ZH_COLORS = ZH_COLOR_WORDS
+_ZH_SHAPES = ZH_SHAPE_WORDS
+POSTURE_GOALS = ("sit", "stand")  # goal kinds sent as they are on /go2/command: words of POSTURES
+if not set(POSTURE_GOALS) <= set(POSTURES):
+    raise ImportError(f"posture goals {POSTURE_GOALS} are not all robot postures {POSTURES}")
 
 _EN_FILLER = {
     "the", "a", "an", "that", "this", "some", "one", "please", "robot", "dog", "go2", "object", "thing",

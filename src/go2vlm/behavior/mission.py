@@ -83,7 +83,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.behavior.goals import TIMED_KINDS, Goal, GoalParseError, parse_goal
+from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
@@ -217,7 +217,7 @@ class Mission:
             strategy.reset(now)
         if goal.kind == "stop":
             self._enter("stopped", "stop requested", now)
-        elif goal.kind in ("sit", "stand"):
+        elif goal.kind in POSTURE_GOALS:
             self._postures.append(goal.kind)
             self._enter("done", f"sent {goal.kind!r} on /go2/command", now)
         elif goal.kind == "turn":  # the whitelisted turn of a VLM decision, asked for as a goal

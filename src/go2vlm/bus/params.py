@@ -8,17 +8,16 @@ for every change at runtime (bus/param_services.py; only parameters declared `li
 
 A bad value is a `ParamError` naming the node, the parameter, the value and what was expected.
 
-A node over a pure core takes each default from the core's params dataclass, so that it is written
-once, and builds the core's params from its config with `core_params`:
-
-    _MP = MissionParams()
+A node over a pure core takes each setting the core declares (go2vlm/declare.py: default, help,
+bounds, live, written once on the core's field) with `from_core`, and builds the core's params from its
+config with `core_params`:
 
     @dataclass
-    class CommanderConfig:
-        kp_angular: float = param(_MP.kp_angular, help="...", min=0.0, live=True)
+    class TargetTrackerConfig:
+        min_shape_score: float = from_core(TrackingParams, "min_shape_score")
 
-        def mission_params(self) -> MissionParams:
-            return core_params(MissionParams, self, planner=PlannerParams(margin=self.planner_margin_m))
+        def tracking_params(self) -> TrackingParams:
+            return core_params(TrackingParams, self, camera_height_m=profile(self.robot).head_camera_height)
 """
 
 from __future__ import annotations
@@ -33,6 +32,7 @@ from typing import Any, TypeVar
 
 import yaml
 
+from go2vlm.declare import CORE, from_core, param
 from go2vlm.errors import ConfigError
 
 __all__ = [
@@ -42,7 +42,9 @@ __all__ = [
     "build_config",
     "build_node_config",
     "core_params",
+    "core_values",
     "describe_params",
+    "from_core",
     "load_params_file",
     "param",
     "parse_overrides",
@@ -54,37 +56,6 @@ T = TypeVar("T")
 
 class ParamError(ConfigError):
     """A parameter value that is missing, of the wrong type or out of range."""
-
-
-def param(
-    default: Any = dataclasses.MISSING,
-    *,
-    help: str = "",
-    choices: Iterable[Any] | None = None,
-    min: float | None = None,
-    max: float | None = None,
-    live: bool = False,
-) -> Any:
-    """Declare a parameter. A factory default (`list`, `dict`, `tuple` or a dataclass) makes a fresh
-    value for every config; a dataclass-typed parameter is set from a mapping of its fields.
-
-    `live=True`: the parameter may change while the node runs (`go2vlm param set`, `ros2 param set`),
-    because the node reads it from `self.config` each time or rebuilds what it derives from it in
-    `on_params_changed`. Every other parameter is read-only at runtime (DescribeParameters says so and
-    a change is refused): a value read once at start-up can never silently accept a new one."""
-    meta = {
-        "help": help,
-        "choices": tuple(choices) if choices is not None else None,
-        "min": min,
-        "max": max,
-        "live": live,
-    }
-    if default in (list, dict, tuple) or (isinstance(default, type) and dataclasses.is_dataclass(default)):
-        return dataclasses.field(default_factory=default, metadata=meta)
-    if isinstance(default, (list, dict)):
-        value = default
-        return dataclasses.field(default_factory=lambda: type(value)(value), metadata=meta)
-    return dataclasses.field(default=default, metadata=meta)
 
 
 def _parse_scalar(text: str) -> Any:
@@ -246,14 +217,23 @@ def build_node_config(config_cls: type, values: Mapping[str, Any], node: str = "
     return build_config(config_cls, own, node, also_known=BASE_PARAMS), build_config(NodeParams, base, node)
 
 
-def core_params(core_cls: type[T], config: Any, **given: Any) -> T:
-    """An instance of a pure core's params dataclass from a node's config: every field of the core that
-    the config has under the same name, then `given` (what the node names or derives differently)."""
+def core_values(core_cls: type, config: Any) -> dict[str, Any]:
+    """The values of a pure core's fields in a node's config, by the core's names: every config field
+    taken over from the core (`from_core`, under its own name or another), and every other field of
+    the core that the config has under the same name."""
     own = {f.name for f in dataclasses.fields(config)}
-    core_fields = dataclasses.fields(core_cls)  # type: ignore[arg-type]  # T is a dataclass by contract
-    values = {f.name: getattr(config, f.name) for f in core_fields if f.init and f.name in own}
-    values.update(given)
-    return core_cls(**values)
+    values = {f.name: getattr(config, f.name) for f in dataclasses.fields(core_cls) if f.init and f.name in own}
+    for f in dataclasses.fields(config):
+        link = f.metadata.get(CORE)
+        if link is not None and link[0] is core_cls:
+            values[link[1]] = getattr(config, f.name)
+    return values
+
+
+def core_params(core_cls: type[T], config: Any, **given: Any) -> T:
+    """An instance of a pure core's params dataclass from a node's config: its `core_values`, then
+    `given` (what the node derives differently)."""
+    return core_cls(**{**core_values(core_cls, config), **given})
 
 
 def load_params_file(path: str | Path, node: str) -> dict[str, Any]:

@@ -25,6 +25,7 @@ from go2vlm.bus import exit_code, interrupt_on_signals, signal_of
 from go2vlm.bus.topics import EMERGENCY_STOP, GO2_COMMAND, GO2_STATUS, SAFETY_STATUS, TELEOP_CMD_VEL
 from go2vlm.cli.args import add_dds_args, positive
 from go2vlm.robots.go2.protocol import POSTURES
+from go2vlm.vocabulary.words import POSTURE_HELP
 
 CLI_LIMITS = (0.6, 0.4, 1.0)  # |vx| m/s, |vy| m/s, |vyaw| rad/s
 MAX_MOVE_S = 10.0
@@ -45,7 +46,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--timeout", type=positive, default=3.0, help="seconds to find the robot and for each answer")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     for name in POSTURES:
-        v = verbs.add_parser(name, help=f"sport: {name}")
+        v = verbs.add_parser(name, help=POSTURE_HELP[name])
         v.set_defaults(func=cmd_posture, posture=name)
     mv = verbs.add_parser("move", help="teleop X m/s, Y m/s, Z rad/s for --duration s through the safety gate")
     mv.add_argument("x", type=float)

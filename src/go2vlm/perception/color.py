@@ -21,17 +21,11 @@ import cv2
 import numpy as np
 
 from go2vlm.geometry.target import circle_target
+from go2vlm.vocabulary.pixels import color_mask
+from go2vlm.vocabulary.words import COLOR_HSV, Hsv, HsvRange
 
-Hsv = tuple[int, int, int]
-HsvRange = tuple[Hsv, Hsv]
-
-# Presets: red is the follow article's pair of ranges; the others are common starting points to tune on site.
-PRESETS: dict[str, tuple[HsvRange, ...]] = {
-    "red": (((0, 120, 70), (10, 255, 255)), ((170, 120, 70), (180, 255, 255))),
-    "green": (((35, 80, 60), (85, 255, 255)),),
-    "blue": (((100, 120, 60), (130, 255, 255)),),
-    "yellow": (((20, 120, 100), (35, 255, 255)),),
-}
+# Presets: the vocabulary's colours (red is the follow article's pair of ranges).
+PRESETS = COLOR_HSV
 
 
 @dataclass(frozen=True)
@@ -50,9 +44,6 @@ class Detection:
     def normalized(self) -> tuple[float, float, float]:
         """The /detected_target point (geometry/target.py)."""
         return circle_target(self.cx, self.cy, self.radius, self.width, self.height)
-
-
-_KERNEL = np.ones((3, 3), np.uint8)  # OpenCV's default for erode and dilate
 
 
 def _check_hsv(value: Sequence[Any], what: str) -> Hsv:  # a parameter's value, checked here
@@ -84,20 +75,6 @@ def resolve_ranges(preset_or_ranges: str | Sequence[Sequence[Sequence[int]] | Se
     if not out:
         raise ValueError("no HSV ranges given")
     return tuple(out)
-
-
-def color_mask(bgr: np.ndarray, ranges: Sequence[HsvRange], iterations: int = 2) -> np.ndarray:
-    """The cleaned binary mask (uint8 0/255) of pixels inside any of the ranges."""
-    if bgr.ndim != 3 or bgr.shape[2] != 3 or bgr.dtype != np.uint8:
-        raise ValueError(f"expected an (H, W, 3) uint8 BGR image, got shape {bgr.shape} dtype {bgr.dtype}")
-    hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-    mask = cv2.inRange(hsv, ranges[0][0], ranges[0][1])
-    for lo, hi in ranges[1:]:
-        mask = cv2.bitwise_or(mask, cv2.inRange(hsv, lo, hi))
-    if iterations > 0:
-        mask = cv2.erode(mask, _KERNEL, iterations=iterations)
-        mask = cv2.dilate(mask, _KERNEL, iterations=iterations)
-    return mask
 
 
 def detect_color(

@@ -30,7 +30,8 @@ from go2vlm.msgs.geometry_msgs import Point, PointStamped
 from go2vlm.msgs.image import numpy_to_image, to_bgr
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Header
-from go2vlm.perception.color import PRESETS, HsvRange, annotate, detect_color, resolve_ranges
+from go2vlm.perception.color import PRESETS, annotate, detect_color, resolve_ranges
+from go2vlm.vocabulary.words import HsvRange
 
 __all__ = ["ColorDetectorConfig", "ColorDetectorNode"]
 

@@ -1,6 +1,6 @@
 """Classical colour-shape grounding: "the blue cylinder" -> a box in the image, without weights.
 
-Colour: the HSV presets and mask of `perception/color.py` (red/green/blue/yellow). Every external
+Colour: the vocabulary's HSV ranges and mask (vocabulary/words.py, pixels.py). Every external
 contour of the colour (not only the largest) is a candidate and gets shape scores from its outline:
 
 * ball     -- round: a circle fitted to the outline (ignoring points on the image border, so a ball
@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from go2vlm.perception.color import PRESETS, color_mask
+from go2vlm.vocabulary.pixels import color_mask
+from go2vlm.vocabulary.words import COLOR_HSV as PRESETS
+from go2vlm.vocabulary.words import SHAPES
 
 __all__ = ["SHAPES", "Candidate", "ShapeScores", "ground", "shape_scores"]
-
-SHAPES = ("ball", "box", "cylinder")  # the shapes the grounder knows
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.bus import Node, core_params, param
+from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import (
     CAMERA_IMAGE,
     CAMERA_INFO,
@@ -75,6 +75,7 @@ from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, bbox_2d, detection_array, detection_boxes
 from go2vlm.perception.ranging import check_object_sizes
 from go2vlm.perception.tracking import Grounding, Observation, TargetTracking, TrackingParams
+from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, profile
 from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
@@ -82,56 +83,46 @@ __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
-_TP = TrackingParams()
 
 
 @dataclass
 class TargetTrackerConfig:
-    """The target_tracker's parameters; each default the TargetTracking core knows is its TrackingParams'."""
+    """The target_tracker's parameters: those of the TargetTracking core are its TrackingParams' fields
+    (`from_core`: default, help, bounds, written there once); the camera mount is the robot profile's."""
 
     query: str = param("", help="label to track until /target/query says otherwise, e.g. 'red ball'")
-    grounding: str = param(_TP.grounding, choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    grounding: str = from_core(TrackingParams, "grounding")
     image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
     camera_info_topic: str = param(CAMERA_INFO.name, help="sensor_msgs/CameraInfo input")
-    reground_period_s: float = param(_TP.reground_period_s, help="color: re-ground this often while tracking", min=0.0)
-    min_shape_score: float = param(_TP.min_shape_score, help="color: shape score the grounder needs", min=0.0, max=1.0)
-    min_label_color: float = param(
-        _TP.min_label_color, help="an answer's box must hold this fraction of the colour its label names", min=0.0,
-        max=1.0,
+    reground_period_s: float = from_core(TrackingParams, "reground_period_s")
+    min_shape_score: float = from_core(TrackingParams, "min_shape_score")
+    min_label_color: float = from_core(TrackingParams, "min_label_color")
+    max_answer_age_s: float = from_core(TrackingParams, "max_answer_age_s")
+    max_grounding_age_s: float = from_core(TrackingParams, "max_grounding_age_s")
+    max_unconfirmed_answers: int = from_core(TrackingParams, "max_unconfirmed_answers")
+    robot: str = param(
+        DEFAULT_ROBOT, help="the robot whose head camera this is: its height and pitch, for ranging",
+        choices=tuple(PROFILES),
     )  # fmt: skip
-    max_answer_age_s: float = param(
-        _TP.max_answer_age_s, help="refuse answers about frames older than this", min=0.1, max=60.0
-    )
-    max_grounding_age_s: float = param(
-        _TP.max_grounding_age_s, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
-    )
-    max_unconfirmed_answers: int = param(
-        _TP.max_unconfirmed_answers, help="vlm: drop a track this many answers in a row did not confirm (0 = never)",
-        min=0, max=100,
-    )  # fmt: skip
-    camera_height_m: float = param(_TP.camera_height_m, help="camera height above the floor (ranging)", min=0.05)
-    camera_pitch_deg: float = param(
-        math.degrees(_TP.camera_pitch_rad), help="camera pitch, + = looking down", min=-45.0, max=45.0
-    )
     default_hfov_deg: float = param(
         round(spec.head_camera_hfov_deg(640, 480), 1),
         help="horizontal FOV used until a CameraInfo arrives",
         min=10.0,
         max=170.0,
     )
-    object_sizes: dict[str, float] = param(
-        _TP.object_sizes, help="ranging before calibration: ball/cylinder radius, box width (m)"
-    )
+    object_sizes: dict[str, float] = from_core(TrackingParams, "object_sizes")
     status_period_s: float = param(1.0, help="/target_tracker/status period besides on-change", min=0.1, max=60.0)
 
     def validate(self) -> None:
         check_object_sizes(self.object_sizes)
 
     def tracking_params(self) -> TrackingParams:
+        head = profile(self.robot)
         return core_params(
             TrackingParams,
             self,
-            camera_pitch_rad=math.radians(self.camera_pitch_deg),
+            camera_height_m=head.head_camera_height,
+            camera_pitch_rad=math.radians(head.head_camera.pitch_deg),
             object_sizes={k: float(v) for k, v in self.object_sizes.items()},
         )
 

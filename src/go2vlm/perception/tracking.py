@@ -7,8 +7,8 @@ frame out, driven by the frames' own stamps so it can be tested exhaustively.
     why = tracking.add_answer(Grounding(stamp, (("blue cylinder", (x1, y1, x2, y2)),)))  # a VLM answer
 
 Rules
-- The query is a label: "<colour> <shape>" in the grounder's words (red/green/blue/yellow, ball/box/
-  cylinder, either may be left out) or free text for a VLM ("person"). No query: `idle`. A free-text
+- The query is a label: "<colour> <shape>" in the vocabulary's words (vocabulary/words.py: COLORS, SHAPES;
+  either may be left out) or free text for a VLM ("person"). No query: `idle`. A free-text
   query with the colour-shape grounder: `ungroundable` (it cannot find it), never a box.
 - Grounding answers: `grounding="color"` runs the colour-shape grounder (perception/grounding.py) on
   a frame whenever there is no track, and every `reground_period_s` (frame stamps) while tracking;
@@ -39,85 +39,32 @@ Rules
 from __future__ import annotations
 
 import math
-import re
 from collections import Counter, deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
+from go2vlm.declare import param
 from go2vlm.geometry.camera import PinholeCamera
-from go2vlm.perception.color import PRESETS, color_mask
-from go2vlm.perception.grounding import SHAPES, ground
+from go2vlm.perception.grounding import ground
 from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
 from go2vlm.perception.tracker import HistTracker
 from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
+from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
+from go2vlm.vocabulary.words import Label, label_match, parse_label
 
 __all__ = [
     "STATES",
     "Box",
     "Grounding",
-    "Label",
     "Observation",
     "TargetTracking",
     "TrackingParams",
-    "box_fraction",
-    "label_match",
-    "parse_label",
 ]
 
 Box = tuple[float, float, float, float]  # x1, y1, x2, y2 in pixels
 STATES = ("idle", "searching", "tracking", "lost", "ungroundable")
 STAMP_EPS_S = 1e-6  # stamps this close are the same frame's (float seconds from sec + nanosec)
-
-
-@dataclass(frozen=True)
-class Label:
-    """What a query or an answer names: the grounder's colour and shape words, if any, and the text."""
-
-    text: str
-    color: str | None = None
-    shape: str | None = None
-
-    @property
-    def classical(self) -> bool:
-        """The colour-shape grounder can find it (it names a colour or a shape it knows)."""
-        return self.color is not None or self.shape is not None
-
-
-# Shape words the grounder's names stand for (body names in the sim: red_sphere).
-_SHAPE_WORDS = {"sphere": "ball", "cube": "box"}
-
-
-def _words(text: str) -> list[str]:
-    return re.sub(r"[\W_]+", " ", text.lower()).split()
-
-
-def parse_label(text: str) -> Label:
-    """ "blue cylinder" (or "blue_cylinder") -> Label(color="blue", shape="cylinder"); "person" -> free text."""
-    words = _words(text)
-    color = next((w for w in words if w in PRESETS), None)
-    shape = next((_SHAPE_WORDS.get(w, w) for w in words if _SHAPE_WORDS.get(w, w) in SHAPES), None)
-    return Label(" ".join(text.split()), color, shape)
-
-
-def label_match(query: Label, label: str) -> int:
-    """How well an answer's label names the query: 2 exactly, 1 compatibly, 0 not at all. With a
-    colour or shape in the query, the answer's must agree ("red box" is not "red ball", "box" is not
-    "red box"); free text matches when all its words are in the answer's label."""
-    if not label.strip():
-        return 0
-    other = parse_label(label)
-    if query.classical:
-        if query.color is not None and other.color != query.color:
-            return 0
-        if query.shape is not None and other.shape != query.shape:
-            return 0
-        return 2 if (other.color, other.shape) == (query.color, query.shape) else 1
-    want, have = set(_words(query.text)), set(_words(label))
-    if not want or not want <= have:
-        return 0
-    return 2 if have == want else 1
 
 
 @dataclass(frozen=True)
@@ -147,18 +94,31 @@ class Observation:
 
 @dataclass(frozen=True)
 class TrackingParams:
-    grounding: str = "color"  # color | vlm
-    reground_period_s: float = 0.5  # color: re-ground this often while tracking
-    min_shape_score: float = 0.35  # color: the grounder's shape score needed
-    min_label_color: float = 0.15  # an answer's box must hold this fraction of the label's colour
-    max_answer_age_s: float = 5.0  # refuse answers about frames older than this (vs the newest frame)
-    max_grounding_age_s: float = 15.0  # drop a track no answer confirmed for this long; 0 = never
-    max_unconfirmed_answers: int = 3  # vlm: drop a track this many answers in a row did not confirm; 0 = never
+    """The tracking rules' settings; those declared with `param` are the target_tracker's parameters too
+    (go2vlm/declare.py: the node takes them over with `from_core`)."""
+
+    grounding: str = param("color", choices=("color", "vlm"), help="color: no model; vlm: /vlm/detections")
+    reground_period_s: float = param(0.5, help="color: re-ground this often while tracking", min=0.0)
+    min_shape_score: float = param(0.35, help="color: shape score the grounder needs", min=0.0, max=1.0)
+    min_label_color: float = param(
+        0.15, help="an answer's box must hold this fraction of the colour its label names", min=0.0, max=1.0
+    )
+    max_answer_age_s: float = param(
+        5.0, help="refuse answers about frames older than this (vs the newest frame)", min=0.1, max=60.0
+    )
+    max_grounding_age_s: float = param(
+        15.0, help="drop a track no answer confirmed for this long (0 = never)", min=0.0, max=600.0
+    )
+    max_unconfirmed_answers: int = param(
+        3, help="vlm: drop a track this many answers in a row did not confirm (0 = never)", min=0, max=100
+    )
     stamp_tolerance_s: float = 0.15  # an answer's frame: the stored frame closest to its stamp, this close
     history: int = 40  # frames kept for catching up (4 s at 10 Hz)
-    camera_height_m: float = HEAD_CAMERA_HEIGHT
+    camera_height_m: float = HEAD_CAMERA_HEIGHT  # the node's: its robot profile's head camera
     camera_pitch_rad: float = 0.0
-    object_sizes: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_SIZES))
+    object_sizes: dict[str, float] = param(
+        DEFAULT_SIZES, help="ranging before calibration: ball/cylinder radius, box width (m)"
+    )
 
     def __post_init__(self) -> None:
         if self.grounding not in ("color", "vlm"):
@@ -297,7 +257,7 @@ class TargetTracking:
     def _label_mask(self, bgr: np.ndarray) -> np.ndarray | None:
         """The pixels of the colour the query names (None: it names none)."""
         color = self.query.color if self.query else None
-        return None if color is None else color_mask(bgr, PRESETS[color], iterations=0)
+        return None if color is None else label_color_mask(bgr, color)
 
     def _frame_index(self, stamp: float) -> int | None:
         frames = self._history
@@ -334,13 +294,14 @@ class TargetTracking:
                 reason, detail = "bad_box", f"{box} is outside the {w}x{h} image"
                 continue
             frac = 1.0
-            if mask is not None:
-                frac = box_fraction(mask, (x1, y1, x2, y2))
-                if frac < p.min_label_color:
+            if mask is not None and self.query.color is not None:
+                frac, why = color_in_box(
+                    mask, (x1, y1, x2, y2), label=label, color=self.query.color, min_fraction=p.min_label_color,
+                    shown=box,
+                )  # fmt: skip
+                if why:
                     if reason == "bad_box":
-                        reason = "color_mismatch"
-                        where = tuple(round(v) for v in box)
-                        detail = f"{label!r} box {where} is {100 * frac:.0f} % {self.query.color}"
+                        reason, detail = "color_mismatch", why
                     continue
             candidates.append((score, frac, (x1, y1, x2, y2)))
         if not candidates:
@@ -412,10 +373,3 @@ class TargetTracking:
             distance, method = reading.distance, reading.method
             bearing = cam.bearing((box[0] + box[2]) / 2.0)
         return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
-
-
-def box_fraction(mask: np.ndarray, box: Box) -> float:
-    """Fraction of a box's pixels set in a mask (0..1)."""
-    x1, y1, x2, y2 = (int(round(v)) for v in box)
-    roi = mask[max(0, y1) : max(0, y2), max(0, x1) : max(0, x2)]
-    return float(cv2.countNonZero(roi)) / max(1, roi.size)

@@ -42,12 +42,14 @@ class SpeedCeilings:
 @dataclass(frozen=True)
 class HeadCamera:
     """The camera in the robot's head: where it sits in the base frame (m, looking along base +x),
-    its vertical field of view (degrees) and the image size the real camera streams."""
+    its pitch (degrees, + = looking down), its vertical field of view (degrees) and the image size the
+    real camera streams. The one camera mount: ranging and placement read it, no node declares it."""
 
     pos: tuple[float, float, float]
     fovy_deg: float
     width: int
     height: int
+    pitch_deg: float = 0.0
 
     def hfov_deg(self, width: int, height: int) -> float:
         """The horizontal field of view at this image size (square pixels)."""

@@ -80,6 +80,7 @@ command or silence. Before the first /clock the sim-time ticks wait; the same bo
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -87,14 +88,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from go2vlm.bus import QOS_ANY, Node, param
+from go2vlm.bus import QOS_ANY, Node, core_params, core_values, from_core, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.bus.topics import CMD_VEL, EMERGENCY_STOP, LOWSTATE, SAFETY_STATUS, SCAN
+from go2vlm.declare import CORE
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
 from go2vlm.msgs.unitree import LowState
-from go2vlm.robot_profile import CEILING_BOUND, DEFAULT_ROBOT, PROFILES, RobotProfile, profile
+from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, RobotProfile, profile
 from go2vlm.safety.commander import GateWatch
 from go2vlm.safety.estop import (
     RELEASE_TOKEN,
@@ -123,10 +125,7 @@ from go2vlm.safety.mux import DEFAULT_INPUTS, DEFAULT_WALL_TIMEOUT_S, InputSpec,
 __all__ = ["SafetyGateConfig", "SafetyGateNode", "gate_latch_path", "parse_inputs"]
 
 LOG_PERIOD_S = 1.0  # at most one state-change INFO line per second
-# The defaults of the parameters below are the pure cores' own (mux, limits, guard, health).
-_LIM = Limits()
-_GUARD = GuardConfig()
-_HEALTH = HealthPolicy()
+# The parameters the pure cores share (limits, guard, health) are declared on their fields (from_core).
 _INPUT_TIMEOUT_S = InputSpec.timeout_s
 
 
@@ -172,19 +171,12 @@ class SafetyGateConfig:
         help="input topics: [{name, topic, priority, timeout_s}], higher priority wins",
     )
     rate_hz: float = param(50.0, help="fixed /cmd_vel output rate", min=20.0, max=500.0)
-    max_vx_forward: float = param(
-        _LIM.vx_forward, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True
-    )
-    max_vx_backward: float = param(
-        _LIM.vx_backward, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward,
-        live=True,
-    )  # fmt: skip
-    max_vy: float = param(_LIM.vy, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
-    max_vyaw: float = param(_LIM.wz, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
-    accel_linear: float = param(
-        _LIM.accel_linear, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
-    )
-    accel_angular: float = param(_LIM.accel_angular, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
+    max_vx_forward: float = from_core(Limits, "vx_forward")
+    max_vx_backward: float = from_core(Limits, "vx_backward")
+    max_vy: float = from_core(Limits, "vy")
+    max_vyaw: float = from_core(Limits, "wz")
+    accel_linear: float = from_core(Limits, "accel_linear")
+    accel_angular: float = from_core(Limits, "accel_angular")
     release_token: str = param(
         RELEASE_TOKEN, help="the /emergency_stop/release text that releases the e-stop (exact match)"
     )
@@ -207,14 +199,10 @@ class SafetyGateConfig:
     health_topic: str = param(
         "", help="unitree_go/msg/LowState topic of the robot's state; '' = the robot profile's health topic"
     )
-    health_require_state: bool = param(
-        _HEALTH.require_state, help="stop until the first state sample (else armed by it)"
-    )
-    health_stale_s: float = param(_HEALTH.stale_s, help="state stream silent this long: stop", min=0.05, max=10.0)
-    health_clear_s: float = param(
-        _HEALTH.clear_s, help="a lower health level is taken after it held this long", min=0.0
-    )
-    health_cap_scale: float = param(_HEALTH.cap_scale, help="speed limits factor at health level cap", min=0.0, max=1.0)
+    health_require_state: bool = from_core(HealthPolicy, "require_state")
+    health_stale_s: float = from_core(HealthPolicy, "stale_s")
+    health_clear_s: float = from_core(HealthPolicy, "clear_s")
+    health_cap_scale: float = from_core(HealthPolicy, "cap_scale")
     health_tilt_deg: list[float] = param(
         list(TILT_DEG.steps), help="max(|roll|, |pitch|) thresholds [warn, cap, stop, down], degrees"
     )
@@ -226,17 +214,10 @@ class SafetyGateConfig:
     )
     guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
     scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the collision guard")
-    margin: float = param(_GUARD.margin, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
-    blind_speed: float = param(
-        _GUARD.blind_speed, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
-    )
-    scan_timeout_s: float = param(
-        _GUARD.scan_timeout_s, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0
-    )
-    reaction_s: float = param(
-        _GUARD.reaction_s, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)",
-        min=0.0, max=2.0,
-    )  # fmt: skip
+    margin: float = from_core(GuardConfig, "margin")
+    blind_speed: float = from_core(GuardConfig, "blind_speed")
+    scan_timeout_s: float = from_core(GuardConfig, "scan_timeout_s")
+    reaction_s: float = from_core(GuardConfig, "reaction_s")
 
     def validate(self) -> None:
         dds_topic_name(self.scan_topic)
@@ -281,28 +262,15 @@ def health_policy(c: SafetyGateConfig) -> HealthPolicy:
             ladders[name] = Ladder(warn, cap, stop, down, hysteresis=base.hysteresis, rising=base.rising)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"health_{name}: {exc}") from None
-    return HealthPolicy(
-        **ladders,
-        stale_s=c.health_stale_s,
-        clear_s=max(c.health_clear_s, 1e-3),
-        cap_scale=c.health_cap_scale,
-        require_state=c.health_require_state,
-    )
+    return core_params(HealthPolicy, c, **ladders, clear_s=max(c.health_clear_s, 1e-3))
 
 
-LIMIT_PARAMS = ("max_vx_forward", "max_vx_backward", "max_vy", "max_vyaw", "accel_linear", "accel_angular")
+# The gate's names of the Limits fields (max_vx_forward, ...): may be lowered, never raised, at runtime.
+LIMIT_PARAMS = tuple(f.name for f in dataclasses.fields(SafetyGateConfig) if f.metadata.get(CORE, (None,))[0] is Limits)
 
 
 def limits_of(c: SafetyGateConfig) -> Limits:
-    return Limits(
-        c.max_vx_forward,
-        c.max_vx_backward,
-        c.max_vy,
-        c.max_vyaw,
-        c.accel_linear,
-        c.accel_angular,
-        c.robot_profile.ceilings,
-    )
+    return core_params(Limits, c, ceiling=c.robot_profile.ceilings)
 
 
 class SafetyGateNode(Node):
@@ -322,13 +290,7 @@ class SafetyGateNode(Node):
             c.start_engaged or bool(was_engaged),
             c.wall_timeout_s,
             CollisionGuard(
-                GuardConfig.of(
-                    c.robot_profile,
-                    margin=c.margin,
-                    blind_speed=c.blind_speed,
-                    scan_timeout_s=c.scan_timeout_s,
-                    reaction_s=c.reaction_s,
-                ),
+                GuardConfig.of(c.robot_profile, **core_values(GuardConfig, c)),
                 enabled=c.guard,
             ),
         )

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from go2vlm.declare import param
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, RobotProfile
 from go2vlm.safety.limits import ZERO, Limits, Velocity
@@ -50,10 +51,16 @@ TINY = 1e-3  # m/s, rad/s: a scaled command below this is a stop
 
 @dataclass(frozen=True)
 class GuardConfig:
-    margin: float = 0.3  # m between the footprint and any obstacle when stopped
-    blind_speed: float = 0.2  # m/s: fastest footprint point without a fresh scan
-    scan_timeout_s: float = 0.5  # a scan older than this is no scan
-    reaction_s: float = 0.1  # s the robot keeps going before braking (gate tick + robot latency)
+    # Declared with `param`: the safety gate's parameters too (read-only).
+    margin: float = param(0.3, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
+    blind_speed: float = param(
+        0.2, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
+    )
+    scan_timeout_s: float = param(0.5, help="guard: a scan older than this (s) is no scan", min=0.05, max=5.0)
+    reaction_s: float = param(
+        0.1, help="guard: time (s) the robot keeps going before it brakes (gate tick + robot latency)",
+        min=0.0, max=2.0,
+    )  # fmt: skip
     half_length: float = PROFILES[DEFAULT_ROBOT].footprint_length / 2
     half_width: float = PROFILES[DEFAULT_ROBOT].footprint_width / 2
     frame: str = PROFILES[DEFAULT_ROBOT].frames.base

@@ -35,6 +35,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+from go2vlm.declare import param
+
 __all__ = [
     "BATTERY_PCT",
     "MOTOR_TEMP_C",
@@ -113,10 +115,11 @@ class HealthPolicy:
     tilt_deg: Ladder = TILT_DEG
     motor_temp_c: Ladder = MOTOR_TEMP_C
     battery_pct: Ladder = BATTERY_PCT
-    stale_s: float = 0.5  # no state sample for this long: STOP
-    clear_s: float = 2.0  # a lower level must hold this long before it is taken
-    cap_scale: float = 0.5  # the speed limits' factor at CAP
-    require_state: bool = False  # STOP until the first state sample
+    # Declared with `param`: the safety gate's parameters too (health_stale_s, ...; read-only).
+    stale_s: float = param(0.5, help="state stream silent this long: stop", min=0.05, max=10.0)
+    clear_s: float = param(2.0, help="a lower health level is taken after it held this long", min=0.0)
+    cap_scale: float = param(0.5, help="speed limits factor at health level cap", min=0.0, max=1.0)
+    require_state: bool = param(False, help="stop until the first state sample (else armed by it)")
 
     def __post_init__(self) -> None:
         for name in ("stale_s", "clear_s"):

@@ -14,7 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, SpeedCeilings
+from go2vlm.declare import param
+from go2vlm.robot_profile import CEILING_BOUND, DEFAULT_ROBOT, PROFILES, SpeedCeilings
 
 __all__ = ["ABSURD", "ZERO", "Limits", "Velocity"]
 
@@ -48,12 +49,19 @@ def _limit(value: float, ceiling: float) -> float:
 
 @dataclass(frozen=True)
 class Limits:
-    vx_forward: float = 0.5
-    vx_backward: float = 0.5
-    vy: float = 0.5
-    wz: float = 1.0
-    accel_linear: float = 1.0  # m/s^2
-    accel_angular: float = 3.0  # rad/s^2
+    """Velocity and acceleration limits; declared with `param`, they are the safety gate's parameters
+    too (the gate's names: max_vx_forward, ...; live: they may be lowered while it runs)."""
+
+    vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True)
+    vx_backward: float = param(
+        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True
+    )
+    vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
+    wz: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
+    accel_linear: float = param(
+        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
+    )
+    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
     ceiling: SpeedCeilings = PROFILES[DEFAULT_ROBOT].ceilings  # the commanded robot's own range
 
     def __post_init__(self) -> None:

@@ -1,13 +1,13 @@
 """Labels as the object memory compares them: one spelling per object, and how well a question names it.
 
-The words are the target_tracker's (perception/tracking.py: the colour-shape grounder's colours and
+The words are the vocabulary's (go2vlm/vocabulary/words.py: the colour-shape grounder's colours and
 shapes, body names such as `red_sphere` read as "red ball"), so that an answer, a goal and a
 remembered object mean the same thing by the same words.
 """
 
 from __future__ import annotations
 
-from go2vlm.perception.tracking import label_match, parse_label
+from go2vlm.vocabulary.words import label_match, parse_label
 
 __all__ = ["label_fits", "normalize_label"]
 

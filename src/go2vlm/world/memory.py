@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from go2vlm.declare import param
 from go2vlm.world.labels import label_fits
 from go2vlm.world.placement import Placed
 from go2vlm.world.poses import wrap_angle
@@ -54,22 +55,33 @@ def confidence_of(logodds: float) -> float:
 
 @dataclass(frozen=True)
 class MemoryParams:
-    max_objects: int = 64
-    gate_sigma: float = 3.5  # a sighting joins an object within this many sigmas ...
-    gate_min_m: float = 0.5  # ... or this close
+    """The memory's settings; those declared with `param` are the object_memory node's parameters too
+    (go2vlm/declare.py: the node takes them over with `from_core`)."""
+
+    max_objects: int = param(64, help="objects remembered at most", min=1, max=10_000)
+    gate_sigma: float = param(
+        3.5, help="a sighting joins an object within this many sigmas", min=0.5, max=10.0, live=True
+    )
+    gate_min_m: float = param(0.5, help="... or this close (m)", min=0.0, max=5.0, live=True)
     gate_max_m: float = 2.0  # ... and never farther
-    hit: float = 1.0  # log-odds a sighting adds
-    miss: float = 0.1  # log-odds an answer that should have seen it, and did not, takes
+    hit: float = param(1.0, help="log-odds a sighting adds", min=0.01, max=5.0, live=True)
+    miss: float = param(
+        0.1, help="log-odds an answer that should have seen it, and did not, takes", min=0.0, max=5.0, live=True
+    )
     prior: float = -1.0  # log-odds before the first sighting (after it: 0, confidence 0.5)
     max_logodds: float = 4.0  # confidence 0.98: a long-remembered object can still be forgotten
-    forget_below: float = -1.0  # confidence 0.27
+    forget_below: float = param(-1.0, help="forgotten below this log-odds (-1: confidence 0.27)", min=-20.0,
+                                max=-0.01, live=True)  # fmt: skip
     min_sigma_m: float = 0.03  # a position is never believed closer than this: new views still count
     bias_fraction: float = 0.6  # ... nor closer than this part of its best sighting's sigma (errors from
     # one view point repeat: many far sightings are no better than a few, and a near one must still fit)
     bearing_only_max_m: float = 3.0  # a sighting without range confirms an object this close
     view_margin_rad: float = 0.05  # a miss counts only with the object this far inside the view ...
     view_min_m: float = 0.5  # ... its surface at least this far from the camera ...
-    view_max_m: float = 5.0  # ... and at most this far
+    view_max_m: float = param(
+        5.0, help="... and at most this far: an object farther than this is not missed (m)", min=0.5, max=50.0,
+        live=True,
+    )  # fmt: skip
     occlusion_m: float = 0.3  # a scan return this much nearer, in front of it, hides it
     merge_m: float = 0.3  # two objects of one label closer than this are one
 

@@ -85,7 +85,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from go2vlm.bus import Node, param
+from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import (
     CAMERA_IMAGE,
     CAMERA_INFO,
@@ -116,11 +116,13 @@ from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, LaserScan
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import Detection2DArray, detection_boxes
-from go2vlm.perception.color import PRESETS, color_mask
-from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, check_object_sizes
-from go2vlm.perception.tracking import TrackingParams, box_fraction, parse_label
+from go2vlm.perception.ranging import RangeEstimator, check_object_sizes
+from go2vlm.perception.tracking import TrackingParams
+from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, profile
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.statefiles import StateFileError, read_bounded, state_file, write_atomic
+from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
+from go2vlm.vocabulary.words import parse_label
 from go2vlm.world.labels import normalize_label
 from go2vlm.world.memory import MemoryParams, ObjectMemory, View
 from go2vlm.world.memory_file import MAX_FILE_BYTES, STATE_KIND, MemoryFileError, dumps, loads
@@ -137,7 +139,6 @@ QUERY_SETTLE_S = 0.5  # answers about frames this soon after a new query may be 
 MAX_PENDING = 32
 MAX_RANGERS = 128
 MARKER_PERIOD_S = 0.5
-_MEM, _MOUNT = MemoryParams(), CameraMount()
 
 
 @dataclass
@@ -161,45 +162,32 @@ class ObjectMemoryConfig:
                              max=600.0)  # fmt: skip
     pose_wait_s: float = param(1.0, help="an answer newer than the newest pose waits this long (s)", min=0.0,
                                max=10.0)  # fmt: skip
-    camera_forward_m: float = param(_MOUNT.forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0)
-    camera_left_m: float = param(_MOUNT.left_m, help="camera left of the base centre", min=-1.0, max=1.0)
-    camera_height_m: float = param(_MOUNT.height_m, help="camera above the floor (ranging)", min=0.05, max=3.0)
-    camera_pitch_deg: float = param(0.0, help="camera pitch, + = looking down", min=-45.0, max=45.0)
-    object_sizes: dict[str, float] = param(
-        dict(DEFAULT_SIZES), help="ranging before calibration: ball/cylinder radius, box width"
-    )
-    min_label_color: float = param(
-        TrackingParams.min_label_color, help="a box must hold this fraction of its label's colour", min=0.0, max=1.0
-    )
-    max_objects: int = param(_MEM.max_objects, help="objects remembered at most", min=1, max=10_000)
-    gate_sigma: float = param(_MEM.gate_sigma, help="a sighting joins an object within this many sigmas", min=0.5,
-                              max=10.0, live=True)  # fmt: skip
-    gate_min_m: float = param(_MEM.gate_min_m, help="... or this close (m)", min=0.0, max=5.0, live=True)
-    hit: float = param(_MEM.hit, help="log-odds a sighting adds", min=0.01, max=5.0, live=True)
-    miss: float = param(_MEM.miss, help="log-odds an answer that should have seen it takes", min=0.0, max=5.0,
-                        live=True)  # fmt: skip
-    forget_below: float = param(_MEM.forget_below, help="forgotten below this log-odds", min=-20.0, max=-0.01,
-                                live=True)  # fmt: skip
-    view_max_m: float = param(_MEM.view_max_m, help="an object farther than this is not missed (m)", min=0.5,
-                              max=50.0, live=True)  # fmt: skip
+    robot: str = param(
+        DEFAULT_ROBOT, help="the robot whose head camera this is: its mount and pitch, for placing and ranging",
+        choices=tuple(PROFILES),
+    )  # fmt: skip
+    object_sizes: dict[str, float] = from_core(TrackingParams, "object_sizes")
+    min_label_color: float = from_core(TrackingParams, "min_label_color")
+    max_objects: int = from_core(MemoryParams, "max_objects")
+    gate_sigma: float = from_core(MemoryParams, "gate_sigma")
+    gate_min_m: float = from_core(MemoryParams, "gate_min_m")
+    hit: float = from_core(MemoryParams, "hit")
+    miss: float = from_core(MemoryParams, "miss")
+    forget_below: float = from_core(MemoryParams, "forget_below")
+    view_max_m: float = from_core(MemoryParams, "view_max_m")
     publish_period_s: float = param(0.05, help="/objects at most this often (s)", min=0.0, max=10.0)
     status_period_s: float = param(1.0, help="/object_memory/status period besides on a new refusal", min=0.1,
                                    max=60.0)  # fmt: skip
 
     def validate(self) -> None:
         check_object_sizes(self.object_sizes)
-        MemoryParams(**self._memory_values())
-
-    def _memory_values(self) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in ("max_objects", "gate_sigma", "gate_min_m", "hit", "miss",
-                                              "forget_below", "view_max_m")}  # fmt: skip
+        self.memory_params()
 
     def memory_params(self) -> MemoryParams:
-        return MemoryParams(**self._memory_values())
+        return core_params(MemoryParams, self)
 
     def mount(self) -> CameraMount:
-        return CameraMount(self.camera_forward_m, self.camera_left_m, self.camera_height_m,
-                           math.radians(self.camera_pitch_deg))  # fmt: skip
+        return CameraMount.of(profile(self.robot))
 
 
 class ObjectMemoryNode(Node):
@@ -392,19 +380,19 @@ class ObjectMemoryNode(Node):
         if abs(stamp_f - stamp) > FRAME_WINDOW_S:
             self.count("color_unchecked")
             return ""
-        mask = color_mask(small, PRESETS[color], iterations=0)
-        frac = box_fraction(mask, tuple(v * scale for v in box))  # type: ignore[arg-type]
-        if frac < self.config.min_label_color:
-            return f"{label!r} box {tuple(round(v) for v in box)} is {100 * frac:.0f} % {color}"
-        return ""
+        x1, y1, x2, y2 = (v * scale for v in box)
+        mask = label_color_mask(small, color)
+        return color_in_box(
+            mask, (x1, y1, x2, y2), label=label, color=color, min_fraction=self.config.min_label_color, shown=box
+        )[1]
 
     def _ranger(self, label: str) -> RangeEstimator:
         r = self._rangers.get(label)
         if r is None:
             cfg = self.config
             sizes = {k: float(v) for k, v in cfg.object_sizes.items()}
-            r = RangeEstimator(parse_label(label).shape, camera_height=cfg.camera_height_m,
-                               camera_pitch=math.radians(cfg.camera_pitch_deg), default_sizes=sizes)  # fmt: skip
+            r = RangeEstimator(parse_label(label).shape, camera_height=self.mount.height_m,
+                               camera_pitch=self.mount.pitch_rad, default_sizes=sizes)  # fmt: skip
             self._rangers[label] = r
             if len(self._rangers) > MAX_RANGERS:
                 self._rangers.popitem(last=False)

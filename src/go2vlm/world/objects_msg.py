@@ -26,12 +26,12 @@ from go2vlm.msgs.vision_msgs import (
     ObjectHypothesisWithPose,
 )
 from go2vlm.msgs.visualization_msgs import Marker, MarkerArray
+from go2vlm.vocabulary.words import COLOR_RGB, parse_label
 from go2vlm.world.memory import MemoryObject
 
 __all__ = ["Remembered", "detection_of", "markers_of", "objects_array", "remembered"]
 
 Z_VAR = 0.01  # m^2: the centre's height is half the seen height, roughly
-COLORS = {"red": (0.9, 0.1, 0.1), "green": (0.1, 0.8, 0.1), "blue": (0.1, 0.3, 0.95), "yellow": (0.95, 0.85, 0.1)}
 
 
 @dataclass(frozen=True)
@@ -92,13 +92,12 @@ def remembered(d: Detection3D) -> Remembered | None:
                       (c[0], c[1], c[7]))  # fmt: skip
 
 
+_MARKER_SHAPES = {"ball": Marker.SPHERE, "box": Marker.CUBE, "cylinder": Marker.CYLINDER}  # a test checks: all SHAPES
+
+
 def _shape(label: str) -> int:
-    words = label.split()
-    if "ball" in words:
-        return Marker.SPHERE
-    if "cylinder" in words:
-        return Marker.CYLINDER
-    return Marker.CUBE
+    shape = parse_label(label).shape
+    return _MARKER_SHAPES[shape] if shape is not None else Marker.CUBE
 
 
 def markers_of(objects: Iterable[MemoryObject], frame_id: str, stamp: float) -> MarkerArray:
@@ -107,7 +106,7 @@ def markers_of(objects: Iterable[MemoryObject], frame_id: str, stamp: float) -> 
     header = Header(stamp=Time.from_sec(max(0.0, stamp)), frame_id=frame_id)
     out = [Marker(header=header, ns="objects", action=Marker.DELETEALL)]
     for k, o in enumerate(objects):
-        r, g, b = next((COLORS[w] for w in o.label.split() if w in COLORS), (0.6, 0.6, 0.6))
+        r, g, b = next((COLOR_RGB[w] for w in o.label.split() if w in COLOR_RGB), (0.6, 0.6, 0.6))
         centre = Pose(position=Point(x=o.x, y=o.y, z=o.z))
         out.append(
             Marker(

@@ -36,7 +36,9 @@ import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.perception.ranging import RangeEstimator
+from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.vocabulary.words import ROUND_SHAPES, SHAPES
 from go2vlm.world.poses import Pose2D, wrap_angle
 
 __all__ = ["CameraMount", "Placed", "PlacementError", "PlacementParams", "check_box", "place", "rebase"]
@@ -59,6 +61,12 @@ class CameraMount:
     left_m: float = spec.HEAD_CAMERA_POS[1]
     height_m: float = spec.HEAD_CAMERA_HEIGHT
     pitch_rad: float = 0.0
+
+    @classmethod
+    def of(cls, robot: RobotProfile) -> CameraMount:
+        """The head camera of `robot`, as its profile has it (the one camera mount)."""
+        cam = robot.head_camera
+        return cls(cam.pos[0], cam.pos[1], robot.head_camera_height, math.radians(cam.pitch_deg))
 
 
 @dataclass(frozen=True)
@@ -165,7 +173,7 @@ def place(
     lat_c = math.tan(b_c)  # + left
     reading = ranger.estimate((x1, y1, x2, y2), cam)
     size_known = ranger.size
-    if shape in ("ball", "cylinder"):
+    if shape in ROUND_SHAPES:
         half_depth, width = size_known, 2.0 * size_known
     elif shape == "box":
         half_depth, width = size_known / 2.0, size_known
@@ -188,13 +196,13 @@ def place(
             rng, method = lidar, "lidar"
     if (x1 <= p.border_px) != (x2 >= cam.width - p.border_px):  # cut by one side of the image
         half = math.asin(min(1.0, size_known / (rng + size_known))) if rng is not None else 0.0
-        if shape not in ("ball", "cylinder") or rng is None or b_l - b_r < half:
+        if shape not in ROUND_SHAPES or rng is None or b_l - b_r < half:
             rng, method = None, "cut"  # its middle is not the object's, nor its width
         else:  # a round object more than half in view: its centre is a half-angle inside the uncut edge
             b_c = b_r + half if x1 <= p.border_px else b_l - half
             lat_c = math.tan(b_c)
             stretch = math.sqrt(1.0 + lat_c * lat_c)
-    if shape not in ("ball", "cylinder", "box"):
+    if shape not in SHAPES:
         width = max(0.05, (rng if rng is not None else 1.0) * (math.tan(b_l) - math.tan(b_r)))
         half_depth = width / 2.0
     cx_w, cy_w = pose.to_world(mount.forward_m, mount.left_m)

@@ -20,12 +20,12 @@ def tiny_ckpt() -> Path:
     # Skip (not fail) where the vlm extra is not installed; other perception tests still run.
     pytest.importorskip("torch")
     pytest.importorskip("transformers")
-    from go2vlm.testing.tiny_qwen import DEFAULT_ANSWER, cached_tiny_checkpoint
+    from testing_support.tiny_qwen import DEFAULT_ANSWER, cached_tiny_checkpoint
 
     return cached_tiny_checkpoint(answer=DEFAULT_ANSWER, steps=300, seed=0)
 
 
 @pytest.fixture(scope="session")
 def tiny_server(tiny_ckpt: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    """`transformers serve <tiny dir>` on 127.0.0.1:<free port> (go2vlm.testing.serve); yields the /v1 base URL."""
+    """`transformers serve <tiny dir>` on 127.0.0.1:<free port> (testing_support.serve); yields the /v1 base URL."""
     yield from served(tiny_ckpt, tmp_path_factory, "serve")

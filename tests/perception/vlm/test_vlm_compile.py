@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from go2vlm.geometry.qwen import smart_resize
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings
-from go2vlm.perception.vlm.geometry import smart_resize
 from go2vlm.perception.vlm.hf_backend import TEXT_BUDGET_TOKENS, resolve_compile, static_cache_len
 
 
@@ -70,7 +70,7 @@ def test_compiled_decode_gives_eager_tokens_without_recompiling() -> None:
 
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
     from go2vlm.perception.vlm.prompts import detect_prompt
-    from go2vlm.testing.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS, cached_tiny_checkpoint
+    from testing_support.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS, cached_tiny_checkpoint
 
     # Random weights: an answer that depends on the image and the prompt (a trained tiny model
     # always says the same), so matching tokens mean matching logits.

@@ -12,16 +12,16 @@ import pytest
 from busutil import Recorder, wait_for
 
 from go2vlm.bus import QOS_DEFAULT, QOS_LATCHED, QOS_SENSOR, Node, build_config
+from go2vlm.geometry.qwen import CoordSystem
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import numpy_to_image
 from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
 from go2vlm.perception.vlm.backend import BackendError, Generation, VlmOutOfMemory
-from go2vlm.perception.vlm.geometry import CoordSystem
 from go2vlm.perception.vlm.prompts import DECISION_PROMPT, DEFAULT_PROMPT, detect_prompt
 from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, image_to_rgb
-from go2vlm.testing.tiny_qwen import DEFAULT_ANSWER
+from testing_support.tiny_qwen import DEFAULT_ANSWER
 
 EXPECTED_480x640 = {"red ball": (80.0, 120.0, 280.0, 360.0), "green box": (360.0, 40.0, 600.0, 240.0)}
 _topic_seq = iter(range(1_000_000))

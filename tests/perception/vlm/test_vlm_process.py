@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from go2vlm.geometry.qwen import smart_resize
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings
 from go2vlm.perception.vlm.factory import make_backend
-from go2vlm.perception.vlm.geometry import smart_resize
 from go2vlm.perception.vlm.process_backend import InferenceProcess, wants_process
 from go2vlm.perception.vlm.standin_backend import StandinBackend, parse_spec
 
@@ -72,7 +72,7 @@ def test_load_errors_come_back_with_their_message() -> None:
 
 
 def test_transformers_in_its_own_process_answers_as_in_this_process(tiny_ckpt: Path) -> None:
-    from go2vlm.testing.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS
+    from testing_support.tiny_qwen import TINY_MAX_PIXELS, TINY_MIN_PIXELS
 
     def settings(process: str) -> BackendSettings:
         return BackendSettings(

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from vllm_standin import VllmStandin
 
+from go2vlm.geometry.qwen import CoordSystem, smart_resize
 from go2vlm.perception.vlm.backend import BackendSettings, visual_token_mismatch
 from go2vlm.perception.vlm.factory import make_backend
-from go2vlm.perception.vlm.geometry import CoordSystem, smart_resize
-from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
+from go2vlm.vocabulary.answers import finalize_boxes, parse_grounding
 
 pytest.importorskip("openai")
 

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.perception.vlm.geometry import smart_resize
+from go2vlm.geometry.qwen import smart_resize
 
 CHECKPOINT_MAX_PIXELS = 12845056  # Qwen2.5-VL's preprocessor_config.json
 MIN_PIXELS = 3136

@@ -102,7 +102,7 @@ class Context:
     wall_s: float
     rtf: float
     fast: bool
-    stop_distance_m: float = 0.8  # the commander's
+    stop_distance_m: float = MissionParams().stop_distance_m  # the commander's (written once, in its core)
 
 
 def box_iou(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:

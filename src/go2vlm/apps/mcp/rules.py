@@ -25,8 +25,9 @@ import math
 import re
 from dataclasses import dataclass
 
-from go2vlm.behavior.goals import COLORS, SHAPES, TIMED_KINDS, GoalParseError, parse_target, unknown_words
+from go2vlm.behavior.goals import TIMED_KINDS, GoalParseError, parse_target, unknown_words
 from go2vlm.behavior.mission import TERMINAL
+from go2vlm.vocabulary.words import COLORS, SHAPES
 
 __all__ = ["CommanderState", "Confirmations", "MotionRules", "Refused", "object_label"]
 

@@ -29,7 +29,9 @@ from pydantic import Field
 
 from go2vlm.apps.mcp.bridge_node import McpBridgeNode
 from go2vlm.apps.mcp.rules import Refused, object_label
+from go2vlm.behavior.goals import POSTURE_GOALS
 from go2vlm.bus.topics import COMMANDER_STATUS, SAFETY_STATUS
+from go2vlm.vocabulary.words import POSTURE_HELP
 
 __all__ = ["INSTRUCTIONS", "Session", "allowed_hosts", "build_server", "is_loopback", "serve_http", "serve_stdio"]
 
@@ -168,8 +170,8 @@ def build_server(
          "found), or give up after 30 s (not_found). Does not walk."),
         ("follow", object_goal("follow"), "Follow an object at a distance until stop() (never ends by itself; "
          "the deadman still applies: keep calling status())."),
-        ("sit", posture_goal("sit"), "Sit down (a posture command to the robot)."),
-        ("stand", posture_goal("stand"), "Stand up (a posture command to the robot)."),
+        *((p, posture_goal(p), f"{POSTURE_HELP[p].capitalize()} (a posture command to the robot).")
+          for p in POSTURE_GOALS),
     ):  # fmt: skip
         app.add_tool(fn, name=name, description=what + note, annotations=motion)
 

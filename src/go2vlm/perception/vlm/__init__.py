@@ -6,13 +6,13 @@ Light to import: torch/transformers/openai load only when a backend is created.
 * :mod:`.backend`, :mod:`.factory`, :mod:`.hf_backend`, :mod:`.openai_backend` -- in-process or
   OpenAI-compatible server; :mod:`.process_backend` -- the model in a process of its own;
   :mod:`.standin_backend` -- no model, a launch-bound decode's timing
-* :mod:`.parse` -- untrusted model output -> boxes, with counters
-* :mod:`.geometry` -- Qwen smart resize, coordinate conventions
+* ``go2vlm.vocabulary.answers`` -- untrusted model output -> boxes, with counters (one path for every reader)
+* ``go2vlm.geometry.qwen`` -- Qwen smart resize, coordinate conventions
 """
 
-from go2vlm.perception.vlm.geometry import CoordSystem, smart_resize, visual_tokens
-from go2vlm.perception.vlm.parse import Box, ParseResult, finalize_boxes, parse_grounding
+from go2vlm.geometry.qwen import CoordSystem, smart_resize, visual_tokens
 from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt
+from go2vlm.vocabulary.answers import Box, ParseResult, finalize_boxes, parse_grounding
 
 __all__ = [
     "DEFAULT_PROMPT",

@@ -15,7 +15,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem
+from go2vlm.geometry.qwen import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem
 
 __all__ = [
     "API_KEY_ENV",

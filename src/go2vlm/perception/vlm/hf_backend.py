@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 
 from go2vlm.errors import ConfigError
+from go2vlm.geometry.qwen import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem, coord_system_for
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation, VlmOutOfMemory, pixel_limits_of
-from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, CoordSystem, coord_system_for
 
 __all__ = [
     "TransformersBackend",
@@ -284,7 +284,7 @@ class TransformersBackend:
     def _warm_up(self) -> None:
         """Compile before the first frame: two generations on a frame of the largest size (the second
         one runs the compiled graphs once more, as every later frame will)."""
-        from go2vlm.perception.vlm.geometry import smart_resize
+        from go2vlm.geometry.qwen import smart_resize
         from go2vlm.perception.vlm.prompts import detect_prompt
 
         s = self.settings

@@ -23,20 +23,20 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.perception.vlm.backend import (
-    BackendError,
-    BackendSettings,
-    Generation,
-    checkpoint_pixel_limits,
-    resolve_api_key,
-)
-from go2vlm.perception.vlm.geometry import (
+from go2vlm.geometry.qwen import (
     DEFAULT_MAX_PIXELS,
     DEFAULT_MIN_PIXELS,
     CoordSystem,
     coord_system_for,
     smart_resize,
     visual_tokens,
+)
+from go2vlm.perception.vlm.backend import (
+    BackendError,
+    BackendSettings,
+    Generation,
+    checkpoint_pixel_limits,
+    resolve_api_key,
 )
 
 __all__ = ["OpenAIBackend", "coords_from_model_name", "encode_jpeg_data_url"]

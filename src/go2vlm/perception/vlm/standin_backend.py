@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
+from go2vlm.geometry.qwen import CoordSystem, smart_resize
 from go2vlm.perception.vlm.backend import BackendError, BackendSettings, Generation
-from go2vlm.perception.vlm.geometry import CoordSystem, smart_resize
 
 __all__ = ["StandinBackend", "StandinSpec", "parse_spec"]
 

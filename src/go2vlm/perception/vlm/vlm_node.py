@@ -54,6 +54,7 @@ import numpy as np
 from go2vlm.bus import Node, param
 from go2vlm.bus.topics import CAMERA_IMAGE, TARGET_QUERY, VLM_DECISION, VLM_DETECTIONS, VLM_STATUS, VLM_TEXT
 from go2vlm.errors import ConfigError
+from go2vlm.geometry.qwen import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.image import image_to_numpy
 from go2vlm.msgs.sensor_msgs import Image
@@ -69,10 +70,9 @@ from go2vlm.perception.vlm.backend import (
     visual_token_mismatch,
 )
 from go2vlm.perception.vlm.factory import make_backend
-from go2vlm.perception.vlm.geometry import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
 from go2vlm.perception.vlm.latest import LatestSlot, Stamped
-from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding, sanitize_text
 from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt
+from go2vlm.vocabulary.answers import Box, answer_boxes, sanitize_text
 
 __all__ = ["VlmConfig", "VlmNode", "detections_msg", "image_to_rgb"]
 
@@ -336,15 +336,7 @@ class VlmNode(Node):
         text = sanitize_text(gen.text, MAX_ANSWER_CHARS, counters)
         boxes: list[Box] = []
         if cfg.mode == "detect":
-            parsed = parse_grounding(gen.text, labels=labels)
-            counters.update(parsed.counters)
-            boxes = finalize_boxes(
-                parsed.boxes,
-                coords=gen.coords,
-                resized_hw=gen.resized_hw,
-                original_hw=gen.original_hw,
-                counters=counters,
-            )
+            _, boxes = answer_boxes(gen, labels, counters)
         if cfg.mode == "decide":
             self.pub_decision.publish(String(data=text))
         else:

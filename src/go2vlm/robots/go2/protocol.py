@@ -27,6 +27,7 @@ from go2vlm.msgs.unitree import (
     ResponseStatus,
 )
 from go2vlm.robot_profile.go2 import GO2
+from go2vlm.vocabulary.words import POSTURES as VOCABULARY_POSTURES
 
 SPORT_SERVICE = "sport"
 VIDEO_SERVICE = "videohub"
@@ -274,7 +275,9 @@ COMMANDS: dict[str, tuple[int, ...]] = {
     "hello": (HELLO,),
     "stop": (STOP_MOVE,),
 }
-POSTURES: tuple[str, ...] = tuple(COMMANDS)
+POSTURES = VOCABULARY_POSTURES  # the words are the vocabulary's; this table says what each does on a Go2
+if tuple(COMMANDS) != POSTURES:
+    raise ImportError(f"protocol.COMMANDS {tuple(COMMANDS)} differ from the vocabulary's postures {POSTURES}")
 # Allowed while the emergency stop is latched: nothing that makes the robot stand or move.
 ESTOP_ALLOWED = frozenset({"damp", "standdown", "stop"})
 ESTOP_ALLOWED_APIS = frozenset(api for name in ESTOP_ALLOWED for api in COMMANDS[name])

@@ -232,6 +232,8 @@ POSTURES: dict[str, Callable[[Go2Sim], Any]] = {
     "hello": lambda sim: sim.stop(),
     "stop": lambda sim: sim.stop(),
 }
+if tuple(POSTURES) != protocol.POSTURES:
+    raise ImportError(f"the sim's postures {tuple(POSTURES)} differ from the vocabulary's {protocol.POSTURES}")
 
 
 class SimNode(RobotEnd):

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from go2vlm.perception.vlm.geometry import (
+from go2vlm.geometry.qwen import (
     CoordSystem,
     box_to_original,
     coord_system_for,

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.testing.sim_dataset import (
+from testing_support.sim_dataset import (
     CAMERA_HW,
     PRIMITIVES,
     SPECS,
@@ -79,7 +79,7 @@ RESIZED_HW = (168, 224)  # what a 480x640 frame becomes at GROUNDER_MAX_PIXELS
 META_FILE = "go2vlm_grounder.json"
 # Held-out frames come from seed + this: another random stream than any training seed nearby.
 EVAL_SEED_OFFSET = 1_000_003
-_SHIPPED = Path(__file__).resolve().parents[3] / "tests" / "data" / "tiny_grounder"
+_SHIPPED = Path(__file__).resolve().parents[1] / "tests" / "data" / "tiny_grounder"
 _SHIPPED_HOUSEHOLD = _SHIPPED.with_name("tiny_grounder_household")
 
 
@@ -180,7 +180,7 @@ def _tokenizer_corpus(seed: int, spec: GroundingSpec = PRIMITIVES) -> list[str]:
     Qwen's pre-tokenizer splits numbers into single digits, as in the real tokenizer, so each
     coordinate costs its digits plus ", "; the corpus makes the JSON around them cheap."""
     from go2vlm.perception.vlm.prompts import detect_prompt
-    from go2vlm.testing.tiny_qwen import _TOKENIZER_CORPUS
+    from testing_support.tiny_qwen import _TOKENIZER_CORPUS
 
     rng = random.Random(seed)
     texts = ["system\nYou are a helpful assistant.\nuser\nassistant\n"] * 8
@@ -202,7 +202,7 @@ def _tokenizer_corpus(seed: int, spec: GroundingSpec = PRIMITIVES) -> list[str]:
 def _grounder_config(vocab_size: int, special_ids: dict[str, int]) -> Any:
     """Text 4 x 192 (6 heads of 32), vision 4 x 96 with window attention and two full blocks:
     about 2.4M parameters, room to localise and small enough to ship."""
-    from go2vlm.testing.tiny_qwen import _qwen_config
+    from testing_support.tiny_qwen import _qwen_config
 
     hidden, heads = 192, 6
     text = {
@@ -250,7 +250,7 @@ def build_untrained_grounder(
     import torch
     from transformers import Qwen2_5_VLForConditionalGeneration
 
-    from go2vlm.testing.tiny_qwen import QWEN_SPECIAL_TOKENS, _train_tokenizer, save_checkpoint
+    from testing_support.tiny_qwen import QWEN_SPECIAL_TOKENS, _train_tokenizer, save_checkpoint
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -485,8 +485,8 @@ def _probe(model: Any, processor: Any, probe: GroundingData, spec: GroundingSpec
     import torch
     from PIL import Image
 
-    from go2vlm.perception.vlm.parse import parse_grounding
     from go2vlm.perception.vlm.prompts import detect_prompt
+    from go2vlm.vocabulary.answers import parse_grounding
 
     hits = visible = fails = asked = 0
     rng = random.Random(0)
@@ -582,8 +582,8 @@ def evaluate(
     labels, those in view and three that are not, drawn from `seed`) and, for the primitives, all
     three in one prompt. Per label and overall: IoU>=0.5 rate on frames where it is visible, mean IoU,
     false-positive rate on frames without it, answers whose JSON did not parse."""
-    from go2vlm.perception.vlm.parse import finalize_boxes, parse_grounding
     from go2vlm.perception.vlm.prompts import detect_prompt
+    from go2vlm.vocabulary.answers import answer_boxes
 
     rng = random.Random(seed)
     asked: dict[int, list[tuple[str, ...]]] = {
@@ -599,18 +599,10 @@ def evaluate(
         for frame in frames:
             for labels in prompts_of(frame):
                 gen = backend.generate(frame.rgb, detect_prompt(labels))
-                parsed = parse_grounding(gen.text, labels=list(labels))
+                parsed, boxes = answer_boxes(gen, labels)
                 answers += 1
                 parse_fail += not parsed.found_json
                 repaired += parsed.counters["parse.json_repaired"] > 0
-                counters: Counter[str] = Counter()
-                boxes = finalize_boxes(
-                    parsed.boxes,
-                    coords=gen.coords,
-                    resized_hw=gen.resized_hw,
-                    original_hw=gen.original_hw,
-                    counters=counters,
-                )
                 for label in labels:
                     per_label[label].add(score_answer(frame, label, boxes))
                 if progress is not None:

@@ -1,8 +1,8 @@
 """Build the tiny grounder: render frames, train on CPU, evaluate on held-out frames, write the checkpoint.
 
-    python -m go2vlm.testing.train_grounder --seed 0 --frames 6000 --steps 3000 --out tests/data/tiny_grounder
-    python -m go2vlm.testing.train_grounder --eval-only --out tests/data/tiny_grounder   # figures again
-    python -m go2vlm.testing.train_grounder --dataset household ... --out tests/data/tiny_grounder_household
+    python -m testing_support.train_grounder --seed 0 --frames 6000 --steps 3000 --out tests/data/tiny_grounder
+    python -m testing_support.train_grounder --eval-only --out tests/data/tiny_grounder   # figures again
+    python -m testing_support.train_grounder --dataset household ... --out tests/data/tiny_grounder_household
 
 The checkpoint is written to a temporary sibling of ``--out`` and moved into place at the end,
 with ``go2vlm_grounder.json``: the command, seed, library versions, training time and the
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from go2vlm.testing.sim_dataset import SPECS, GroundingSpec
+from testing_support.sim_dataset import SPECS, GroundingSpec
 
 __all__ = ["main"]
 
@@ -70,7 +70,7 @@ def _evaluate(ckpt: Path, frames: int, seed: int, spec: GroundingSpec) -> dict[s
     from tqdm import tqdm
 
     from go2vlm.perception.vlm.hf_backend import TransformersBackend
-    from go2vlm.testing.tiny_grounder import EVAL_SEED_OFFSET, evaluate, grounder_settings, render_dataset
+    from testing_support.tiny_grounder import EVAL_SEED_OFFSET, evaluate, grounder_settings, render_dataset
 
     with tqdm(total=frames, desc="render held-out", unit="frame", file=sys.stderr) as bar:
         held_out = render_dataset(frames, seed + EVAL_SEED_OFFSET, progress=bar.update, keep_rgb=True, spec=spec)
@@ -115,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     given = list(sys.argv[1:] if argv is None else argv)
     command = "python scripts/train_tiny_grounder.py " + shlex.join(given)
     if args.eval_only:
-        from go2vlm.testing.tiny_grounder import META_FILE, grounder_spec
+        from testing_support.tiny_grounder import META_FILE, grounder_spec
 
         meta = _read_meta(out / META_FILE)
         figures = _evaluate(out, args.eval_frames, meta.get("seed", args.seed), grounder_spec(out))
@@ -126,8 +126,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from tqdm import tqdm
 
-    from go2vlm.testing.sim_dataset import MIN_BOX_SIDE_PX
-    from go2vlm.testing.tiny_grounder import (
+    from testing_support.sim_dataset import MIN_BOX_SIDE_PX
+    from testing_support.tiny_grounder import (
         EVAL_SEED_OFFSET,
         GROUNDER_MAX_PIXELS,
         META_FILE,

@@ -1,4 +1,7 @@
-"""Turn a VLM's answer into boxes. The answer is untrusted input.
+"""Turn a VLM's answer into boxes (the one answer text -> boxes path). The answer is untrusted input.
+
+`answer_boxes(gen, labels)` is what every reader of an answer calls (the vlm node, the tiny grounder's
+evaluation, the VLM benchmarks): parse, then map to the original image's pixels.
 
 A model (or a compromised/odd server) can answer anything: fenced or bare JSON,
 JSON cut off by ``max_new_tokens``, prose around it, ``NaN``, ``1e999``, a dict instead
@@ -19,14 +22,15 @@ import re
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
-from go2vlm.perception.vlm.geometry import CoordSystem, box_to_original
+from go2vlm.geometry.qwen import CoordSystem, box_to_original
 
 __all__ = [
     "COUNTERS",
     "Box",
     "ParseResult",
+    "answer_boxes",
     "finalize_boxes",
     "normalise_label",
     "parse_grounding",
@@ -390,3 +394,31 @@ def finalize_boxes(
             continue
         out.append(Box(label=b.label, box=(cx1, cy1, cx2, cy2), score=b.score))
     return out
+
+
+class Answer(Protocol):
+    """What a backend's generation says about one answer (perception/vlm/backend.py: Generation)."""
+
+    @property
+    def text(self) -> str: ...
+    @property
+    def coords(self) -> CoordSystem: ...
+    @property
+    def resized_hw(self) -> tuple[int, int]: ...
+    @property
+    def original_hw(self) -> tuple[int, int]: ...
+
+
+def answer_boxes(
+    gen: Answer, labels: Sequence[str] | None = None, counters: Counter[str] | None = None
+) -> tuple[ParseResult, list[Box]]:
+    """A VLM's answer -> its parse and its boxes in the original image's pixels. Never raises.
+    The parse's counters and the rescaling's go to `counters` when given (else to the parse's)."""
+    parsed = parse_grounding(gen.text, labels=labels)
+    out = parsed.counters if counters is None else counters
+    if counters is not None:
+        counters.update(parsed.counters)
+    boxes = finalize_boxes(
+        parsed.boxes, coords=gen.coords, resized_hw=gen.resized_hw, original_hw=gen.original_hw, counters=out
+    )
+    return parsed, boxes

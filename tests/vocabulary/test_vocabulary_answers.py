@@ -5,14 +5,15 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
+from dataclasses import dataclass
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from go2vlm.perception.vlm import parse as P
-from go2vlm.perception.vlm.geometry import CoordSystem
-from go2vlm.perception.vlm.parse import Box, finalize_boxes, parse_grounding, sanitize_text
+from go2vlm.geometry.qwen import CoordSystem
+from go2vlm.vocabulary import answers as P
+from go2vlm.vocabulary.answers import Box, answer_boxes, finalize_boxes, parse_grounding, sanitize_text
 
 GOOD = '[{"bbox_2d": [10, 20, 30, 40], "label": "red ball"}]'
 
@@ -208,3 +209,22 @@ def test_fuzz_grounding_shaped(items: list[dict], labels: list[str], cut: int) -
     text = "```json\n" + json.dumps(items, allow_nan=True) + "\n```"
     _check(parse_grounding(text, labels=labels), labels)
     _check(parse_grounding(text[:cut], labels=labels), labels)
+
+
+@dataclass(frozen=True)
+class _Gen:
+    text: str
+    coords: CoordSystem = CoordSystem.RESIZED_PIXELS
+    resized_hw: tuple[int, int] = (240, 320)
+    original_hw: tuple[int, int] = (480, 640)
+
+
+def test_answer_boxes_is_parse_then_rescale() -> None:
+    """The one answer -> boxes path: boxes in the original image's pixels, counters where asked."""
+    gen = _Gen('[{"bbox_2d": [10, 20, 400, 60], "label": "red ball"}, {"bbox_2d": [1, 1, 2], "label": "x"}]')
+    counters: Counter[str] = Counter()
+    parsed, boxes = answer_boxes(gen, ["red ball"], counters)
+    assert parsed.found_json and [b.label for b in boxes] == ["red ball"]
+    assert boxes[0].box == (20.0, 40.0, 640.0, 120.0)  # x2 800 clipped to the 640 px image
+    assert counters[P.C_CLIPPED] == 1 and counters[P.C_UNKNOWN_LABEL] == 1
+    assert answer_boxes(_Gen("no boxes here"))[1] == []
