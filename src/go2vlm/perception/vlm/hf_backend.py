@@ -97,7 +97,10 @@ CACHE_ROUND = 256  # cache lengths in steps of this: a setting change rarely cha
 def static_cache_len(max_pixels: int, patch: int, merge: int, max_new_tokens: int) -> int:
     """One KV-cache length for every frame: the most visual tokens `max_pixels` allows, the text
     budget and the generation budget, rounded up."""
-    visual = max_pixels // (patch * patch * merge * merge) + 2  # + vision start/end
+    unit = patch * merge  # the resize works in units of 28 px: a side is never under one
+    # A thin frame whose short side the resize would floor to 0 units keeps one unit, and its long
+    # side (at most 200x the short, Qwen's limit) may then take it past max_pixels: at most 200 tokens.
+    visual = max(max_pixels // (unit * unit), 200) + 2  # + vision start/end
     need = visual + TEXT_BUDGET_TOKENS + max_new_tokens
     return -(-need // CACHE_ROUND) * CACHE_ROUND
 
