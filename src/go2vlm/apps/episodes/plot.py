@@ -14,8 +14,9 @@ from go2vlm.geometry.footprint import Footprint
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
-__all__ = ["UNKNOWN_GREY", "OccupancyGridDict", "draw_occupancy", "write_plot"]
+__all__ = ["UNKNOWN_GREY", "OccupancyGridDict", "draw_occupancy", "draw_plot", "write_plot"]
 
 UNKNOWN_GREY = "#b8b8b8"  # the map's unknown cells
 
@@ -112,6 +113,15 @@ def _rot(yaw: float) -> np.ndarray:
 
 
 def write_plot(m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint], path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    fig = draw_plot(m, s, shapes)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def draw_plot(m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint]) -> Figure:
+    """The plot's figure (the caller closes it): the time series left, the top view right (its last axes)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -167,8 +177,7 @@ def write_plot(m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint
     ax2.set_xlabel("sim time (s)")
     _top_view(ax3, m, s, shapes)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
 
 
 class OccupancyGridDict(TypedDict):
