@@ -197,7 +197,8 @@ def test_a_bad_demo_spawn_is_refused_before_anything_starts(tmp_path: object) ->
 @pytest.mark.slow
 def test_the_demo_spawns_the_dog_in_the_kitchen(tmp_path: object) -> None:
     """`go2vlm demo --world household --spawn kitchen --goal "go to the duck"`, a few sim seconds: the
-    robot's first recorded pose is in the kitchen, the duck in the living room."""
+    robot's first recorded pose is in the kitchen, the duck in the living room; the map node's map is
+    kept and saved (map.npz, map.png)."""
     import json
     import subprocess
     from pathlib import Path
@@ -218,6 +219,9 @@ def test_the_demo_spawns_the_dog_in_the_kitchen(tmp_path: object) -> None:
     x, y = series["robot_xy"][0]
     assert info.room_of(x, y) == "kitchen"
     assert (out / "plot.png").is_file()
+    # The graph has a map node: its newest map is in the series (the plot's), the metrics and the run folder.
+    assert series["map"]["width"] * series["map"]["height"] == len(series["map"]["data"])
+    assert metrics["map"]["free_m2"] > 1.0 and (out / "map.npz").is_file() and (out / "map.png").is_file()
 
 
 def test_the_plot_draws_a_map_where_the_metrics_carry_one() -> None:

@@ -28,12 +28,12 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
     draw_occupancy(ax, grid)
     on_map = bool(grid)
     for name, sh in shapes.items():
-        target = name == m.get("target_body")
-        colour = "tab:orange" if target else ("tab:olive" if on_map else "0.6")
+        is_target = name == m.get("target_body")
+        colour = "tab:orange" if is_target else ("tab:olive" if on_map else "0.6")
         # Over a map the world's bodies are outlines, so the map's cells show through.
         style: dict[str, Any] = (
             {"color": colour, "alpha": 0.5}
-            if target or not on_map
+            if is_target or not on_map
             else {"fill": False, "edgecolor": colour, "lw": 0.8, "alpha": 0.8}
         )
         if sh.kind == "circle":
@@ -41,10 +41,10 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         else:
             corner = np.array([sh.x, sh.y]) + _rot(sh.yaw) @ np.array([-sh.hx, -sh.hy])
             ax.add_patch(mp.Rectangle(tuple(corner), 2 * sh.hx, 2 * sh.hy, angle=float(np.degrees(sh.yaw)), **style))
-        if not target and (m.get("goal") is None or name.startswith("wall")):
+        if not is_target and (m.get("goal") is None or name.startswith("wall")):
             continue
-        ax.annotate(name, (sh.x, sh.y), fontsize=7 if not target else 9, ha="center", va="center",
-                    weight="bold" if target else "normal", color="tab:brown" if target else "0.25")  # fmt: skip
+        ax.annotate(name, (sh.x, sh.y), fontsize=7 if not is_target else 9, ha="center", va="center",
+                    weight="bold" if is_target else "normal", color="tab:brown" if is_target else "0.25")  # fmt: skip
     _routes(ax, s)
     target, robot = np.array(s["target_xy"]).reshape(-1, 2), np.array(s["robot_xy"]).reshape(-1, 2)
     if len(target) and np.ptp(target, axis=0).max() > 0.05:  # a moving target: its path
