@@ -5,6 +5,7 @@ black) with the frontiers left, the frontiers the explorer walked to and the rou
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypedDict
 
@@ -54,8 +55,17 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         ax.plot(robot[:, 0], robot[:, 1], color="tab:blue", lw=1.5, label="Go2 (ground truth)" if on_map else "Go2")
         ax.plot(*robot[0], "s", color="tab:blue", ms=5)
         ax.plot(*robot[-1], ">", color="tab:blue", ms=6)
-    _remembered(ax, m)
-    ax.set_aspect("equal", adjustable="datalim")
+    _remembered(ax, m, quiet=on_map)
+    if on_map:  # the map's extent (and the path) fills the panel, 1:1
+        x0, y0 = (float(v) for v in grid["origin"][:2])
+        x1, y1 = x0 + grid["width"] * grid["resolution"], y0 + grid["height"] * grid["resolution"]
+        if len(robot):
+            (x0, y0), (x1, y1) = np.minimum((x0, y0), robot.min(axis=0)), np.maximum((x1, y1), robot.max(axis=0))
+        ax.set_xlim(x0 - 0.5, x1 + 0.5)
+        ax.set_ylim(y0 - 0.5, y1 + 0.5)
+        ax.set_aspect("equal", adjustable="box")
+    else:
+        ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(alpha=0.3)
@@ -65,7 +75,8 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         handles, _ = ax.get_legend_handles_labels()
         cells = [mp.Patch(facecolor=c, edgecolor="0.4", lw=0.5, label=lab)
                  for c, lab in ((UNKNOWN_GREY, "unknown"), ("white", "free"), ("black", "occupied"))]  # fmt: skip
-        ax.legend(handles=[*handles, *cells], loc="best", fontsize=7, framealpha=0.85)
+        ax.legend(handles=[*handles, *cells], loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=4, fontsize=7,
+                  frameon=False)  # fmt: skip  # below the map: nothing of it hidden
     else:
         ax.legend(loc="best", fontsize=8)
 
@@ -94,12 +105,18 @@ def _routes(ax: Any, s: dict[str, Any]) -> None:
             ax.annotate(str(k), (x, y), xytext=(5, 4), textcoords="offset points", fontsize=7, color="tab:purple")
 
 
-def _remembered(ax: Any, m: dict[str, Any]) -> None:
-    """The object memory's objects at the end (x), each with a line to where it really is."""
+def _remembered(ax: Any, m: dict[str, Any], quiet: bool = False) -> None:
+    """The object memory's objects at the end (x), each with a line to where it really is; `quiet`
+    (over a map): small marks, no names and no lines, so the map and the routes stay readable."""
     objs = (m.get("memory") or {}).get("objects") or []
+    phantoms = sum(1 for o in objs if o["phantom"])
     for k, o in enumerate(objs):
         colour = "tab:red" if o["phantom"] else "black"
-        ax.plot(o["x"], o["y"], "x", color=colour, ms=7, mew=1.8, label="remembered" if k == 0 else None)
+        label = (f"remembered ({len(objs)}, {phantoms} phantom)" if quiet else "remembered") if k == 0 else None
+        ax.plot(o["x"], o["y"], "x", color=colour, ms=4 if quiet else 7, mew=1.0 if quiet else 1.8, label=label,
+                alpha=0.6 if quiet else 1.0)  # fmt: skip
+        if quiet:
+            continue
         if o["true_x"] is not None:
             ax.plot([o["x"], o["true_x"]], [o["y"], o["true_y"]], color=colour, lw=0.8)
         err = "phantom" if o["phantom"] else f"{100 * o['error_m']:.0f} cm"
@@ -161,13 +178,16 @@ def draw_plot(m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint]
         ax1.set_title(f"{m['goal']!r}: {verdict} ({m['perception']}, final state {m.get('final_state')})", fontsize=9)
         ax2.plot(s["gt_sim_t"], s["distance"], color="tab:orange")
         ax2.set_ylabel("to the target's surface (m)")
-        prev = None
+        prev, named = None, -math.inf
+        span = (s["states"][-1][0] - s["states"][0][0]) if s["states"] else 0.0
         for t, state in s["states"]:
             if state != prev:
                 ax2.axvline(t, color="0.7", lw=0.6)
-                ax2.annotate(
-                    str(state), (t, 1.0), xycoords=("data", "axes fraction"), fontsize=6, rotation=90, va="top"
-                )
+                if t - named > span / 60:  # a burst of changes (exploring <-> detouring): its first is named
+                    ax2.annotate(
+                        str(state), (t, 1.0), xycoords=("data", "axes fraction"), fontsize=6, rotation=90, va="top"
+                    )
+                    named = t
                 prev = state
         ax3.set_title(
             f"top view ({m['world']}, {m['mode']}, {m['sim_s']:.0f} s, {m['path_length_m']:.1f} m walked, "
