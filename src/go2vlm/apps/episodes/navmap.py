@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from go2vlm.apps.episodes.outputs import atomic
+from go2vlm.apps.episodes.plot import OccupancyGridDict
 from go2vlm.world.frontiers import FrontierParams, find_frontiers
 from go2vlm.world.map_msg import Grid
 
@@ -30,7 +31,7 @@ MAX_PLOT_CELLS = 400  # cells a side of the map in series.json and the plot
 MARGIN_CELLS = 4  # kept round the known cells when the map is cropped
 
 
-def coarse_grid(g: Grid, max_cells: int = MAX_PLOT_CELLS) -> dict[str, Any] | None:
+def coarse_grid(g: Grid, max_cells: int = MAX_PLOT_CELLS) -> OccupancyGridDict | None:
     """`g` cropped to its known cells and coarsened to at most `max_cells` a side, in
     nav_msgs/OccupancyGrid's layout (plot.OccupancyGridDict); None when nothing is known."""
     cells = np.asarray(g.cells)
@@ -48,7 +49,7 @@ def coarse_grid(g: Grid, max_cells: int = MAX_PLOT_CELLS) -> dict[str, Any] | No
         crop = padded.reshape(rows // k, k, cols // k, k).max(axis=(1, 3))
     res = g.resolution * k
     return {
-        "origin": [round(g.origin[0] + c0 * g.resolution, 4), round(g.origin[1] + r0 * g.resolution, 4)],
+        "origin": [round(float(g.origin[0] + c0 * g.resolution), 4), round(float(g.origin[1] + r0 * g.resolution), 4)],
         "resolution": round(res, 6),
         "width": int(crop.shape[1]),
         "height": int(crop.shape[0]),
@@ -68,7 +69,7 @@ def _explored(rec: Recording) -> list[list[float]]:
     return out
 
 
-def nav_series(rec: Recording) -> dict[str, Any]:
+def nav_series(rec: Recording) -> dict[str, object]:
     """The plot's share of the map: map (coarse, see `coarse_grid`), frontiers (of the newest
     costmap, else map: [x, y, edge m] each), explored (the frontier goals walked to), plans ([sim t,
     [[x, y], ...]] each). {} when the episode heard neither a map nor a plan."""
@@ -90,13 +91,17 @@ def nav_series(rec: Recording) -> dict[str, Any]:
     }
 
 
-def map_summary(rec: Recording, nav: dict[str, Any]) -> dict[str, Any] | None:
+def map_summary(rec: Recording, nav: dict[str, object]) -> dict[str, float | int | str] | None:
     """metrics["map"]: the newest map's size and cells, the frontiers left, the routes heard."""
     g = rec.grid
     if g is None and not nav:
         return None
-    out: dict[str, Any] = {"plans": len(rec.plans), "frontiers_left": len(nav.get("frontiers") or [])}
-    out["explored_frontiers"] = len(nav.get("explored") or [])
+    frontiers, explored = nav.get("frontiers"), nav.get("explored")
+    out: dict[str, float | int | str] = {
+        "plans": len(rec.plans),
+        "frontiers_left": len(frontiers) if isinstance(frontiers, list) else 0,
+        "explored_frontiers": len(explored) if isinstance(explored, list) else 0,
+    }
     if g is not None:
         c = np.asarray(g.cells)
         area = g.resolution**2

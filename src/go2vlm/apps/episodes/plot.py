@@ -6,8 +6,9 @@ black) with the frontiers left, the frontiers the explorer walked to and the rou
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict, cast
 
 import numpy as np
 
@@ -32,16 +33,15 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         is_target = name == m.get("target_body")
         colour = "tab:orange" if is_target else ("tab:olive" if on_map else "0.6")
         # Over a map the world's bodies are outlines, so the map's cells show through.
-        style: dict[str, Any] = (
-            {"color": colour, "alpha": 0.5}
-            if is_target or not on_map
-            else {"fill": False, "edgecolor": colour, "lw": 0.8, "alpha": 0.8}
-        )
+        fill = is_target or not on_map
+        face, alpha, lw = (colour, 0.5, 0.0) if fill else ("none", 0.8, 0.8)
         if sh.kind == "circle":
-            ax.add_patch(mp.Circle((sh.x, sh.y), sh.r, **style))
+            ax.add_patch(mp.Circle((sh.x, sh.y), sh.r, facecolor=face, edgecolor=colour, alpha=alpha, lw=lw))
         else:
             corner = np.array([sh.x, sh.y]) + _rot(sh.yaw) @ np.array([-sh.hx, -sh.hy])
-            ax.add_patch(mp.Rectangle(tuple(corner), 2 * sh.hx, 2 * sh.hy, angle=float(np.degrees(sh.yaw)), **style))
+            ax.add_patch(mp.Rectangle((float(corner[0]), float(corner[1])), 2 * sh.hx, 2 * sh.hy,
+                                      angle=float(np.degrees(sh.yaw)), facecolor=face, edgecolor=colour, alpha=alpha,
+                                      lw=lw))  # fmt: skip
         if not is_target and (m.get("goal") is None or name.startswith("wall")):
             continue
         ax.annotate(name, (sh.x, sh.y), fontsize=7 if not is_target else 9, ha="center", va="center",
@@ -56,7 +56,7 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         ax.plot(*robot[0], "s", color="tab:blue", ms=5)
         ax.plot(*robot[-1], ">", color="tab:blue", ms=6)
     _remembered(ax, m, quiet=on_map)
-    if on_map:  # the map's extent (and the path) fills the panel, 1:1
+    if grid:  # the map's extent (and the path) fills the panel, 1:1
         x0, y0 = (float(v) for v in grid["origin"][:2])
         x1, y1 = x0 + grid["width"] * grid["resolution"], y0 + grid["height"] * grid["resolution"]
         if len(robot):
@@ -81,10 +81,10 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         ax.legend(loc="best", fontsize=8)
 
 
-def _routes(ax: Any, s: dict[str, Any]) -> None:
+def _routes(ax: Axes, s: Mapping[str, object]) -> None:
     """The routes on /plan (older ones faint, the last dashed), the frontiers left (the newest
     costmap's, a dot sized by its edge) and those the explorer walked to (numbered stars)."""
-    plans = s.get("plans") or []
+    plans = cast("list[tuple[float, list[list[float]]]]", s.get("plans") or [])
     for k, (_, pts) in enumerate(plans):
         xy = np.asarray(pts, dtype=float).reshape(-1, 2)
         last = k == len(plans) - 1
@@ -93,11 +93,11 @@ def _routes(ax: Any, s: dict[str, Any]) -> None:
                 zorder=3)  # fmt: skip
     if len(plans) > 1:
         ax.plot([], [], color="tab:green", lw=0.8, alpha=0.35, label=f"earlier routes ({len(plans) - 1})")
-    fr = np.asarray(s.get("frontiers") or [], dtype=float).reshape(-1, 3)
+    fr = np.asarray(cast("list[list[float]]", s.get("frontiers") or []), dtype=float).reshape(-1, 3)
     if len(fr):
         ax.scatter(fr[:, 0], fr[:, 1], s=12 + 12 * np.clip(fr[:, 2], 0, 6), marker="o", facecolor="none",
                    edgecolor="tab:purple", lw=1.2, zorder=4, label=f"frontiers left ({len(fr)})")  # fmt: skip
-    explored = np.asarray(s.get("explored") or [], dtype=float).reshape(-1, 2)
+    explored = np.asarray(cast("list[list[float]]", s.get("explored") or []), dtype=float).reshape(-1, 2)
     if len(explored):
         ax.scatter(explored[:, 0], explored[:, 1], s=90, marker="*", color="tab:purple", edgecolor="white",
                    lw=0.5, zorder=5, label="frontiers walked to")  # fmt: skip
