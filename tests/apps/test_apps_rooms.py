@@ -197,7 +197,8 @@ def test_a_bad_demo_spawn_is_refused_before_anything_starts(tmp_path: object) ->
 @pytest.mark.slow
 def test_the_demo_spawns_the_dog_in_the_kitchen(tmp_path: object) -> None:
     """`go2vlm demo --world household --spawn kitchen --goal "go to the duck"`, a few sim seconds: the
-    robot's first recorded pose is in the kitchen, the duck in the living room."""
+    robot's first recorded pose is in the kitchen, the duck in the living room; the map node's map is
+    kept and saved (map.npz, map.png)."""
     import json
     import subprocess
     from pathlib import Path
@@ -218,6 +219,9 @@ def test_the_demo_spawns_the_dog_in_the_kitchen(tmp_path: object) -> None:
     x, y = series["robot_xy"][0]
     assert info.room_of(x, y) == "kitchen"
     assert (out / "plot.png").is_file()
+    # The graph has a map node: its newest map is in the series (the plot's), the metrics and the run folder.
+    assert series["map"]["width"] * series["map"]["height"] == len(series["map"]["data"])
+    assert metrics["map"]["free_m2"] > 1.0 and (out / "map.npz").is_file() and (out / "map.png").is_file()
 
 
 def test_the_plot_draws_a_map_where_the_metrics_carry_one() -> None:
@@ -235,7 +239,101 @@ def test_the_plot_draws_a_map_where_the_metrics_carry_one() -> None:
     grid = {"origin": [-1.0, -2.0], "resolution": 0.5, "width": 4, "height": 2, "data": [-1, 0, 100, 0] * 2}
     draw_occupancy(ax, grid)
     assert len(ax.images) == 1 and tuple(ax.images[0].get_extent()) == (-1.0, 1.0, -2.0, -1.0)
-    assert bool(ax.images[0].get_array().mask[0, 0]), "unknown cells are not drawn"
+    rgb = ax.images[0].to_rgba(ax.images[0].get_array())[0, :3, :3]
+    assert 0.5 < rgb[0].mean() < 0.9 and rgb[1].min() == 1.0 and rgb[2].max() == 0.0, (
+        "unknown grey, free white, occupied black"
+    )
+    plt.close(fig)
+
+
+def _nav_recording() -> object:
+    """A Recording as the episode recorder keeps it in a graph with a map node: the newest /map and
+    /map/costmap (a room 4 x 3 m, its east side unknown, a doorway in its north wall), two routes on
+    /plan and the explorer's chosen frontier in /commander/status."""
+    import numpy as np
+
+    from go2vlm.apps.episodes.recorder import Recording
+    from go2vlm.world.map_msg import Grid
+
+    cells = np.full((80, 120), -1, dtype=np.int8)  # 0.05 m cells: 6 x 4 m
+    cells[10:70, 10:90] = 0  # the known free room
+    cells[10, 10:90] = cells[69, 10:90] = cells[10:70, 10] = 100
+    cells[69, 40:56] = 0  # a doorway north, to the unknown
+    grid = Grid(cells, (-1.0, -1.0), 0.05, "odom", 12.0)
+    rec = Recording()
+    rec.grid = rec.costmap = grid
+    rec.plans = [(3.0, [(0.0, 0.0), (1.0, 1.0)]), (6.0, [(0.5, 0.5), (1.4, 2.0), (1.4, 2.6)])]
+    explore = {"exploring": True, "frontier": {"id": 1, "centroid": [1.4, 2.5], "goal": [1.4, 2.4], "size_m": 0.8}}
+    rec.commander = [
+        (4.0, {"state": "exploring", "explore": explore}),
+        (5.0, {"state": "exploring", "explore": explore}),
+    ]
+    return rec
+
+
+def test_an_episode_with_a_map_keeps_it_coarse_with_frontiers_routes_and_files(tmp_path: object) -> None:
+    """apps/episodes/navmap.py: the plot's map (cropped to the known cells, coarsened past
+    MAX_PLOT_CELLS a side), the frontiers of the newest costmap, the frontiers walked to, the routes;
+    map.npz / map.png in the run folder; nothing without a map."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from go2vlm.apps.episodes.navmap import coarse_grid, map_summary, nav_series, write_map_files
+    from go2vlm.apps.episodes.recorder import Recording
+
+    assert nav_series(Recording()) == {} and map_summary(Recording(), {}) is None
+    rec = _nav_recording()
+    nav = nav_series(rec)  # type: ignore[arg-type]
+    g = nav["map"]
+    assert g["width"] * g["height"] == len(g["data"]) and g["width"] <= 90, "cropped to the known cells"
+    assert set(g["data"]) == {-1, 0, 100}
+    assert nav["explored"] == [[1.4, 2.4]] and [t for t, _ in nav["plans"]] == [3.0, 6.0]
+    north = [f for f in nav["frontiers"] if f[1] > 2.0]
+    assert north and abs(north[0][0] - 1.375) < 0.3, "the doorway's frontier"
+    summary = map_summary(rec, nav)  # type: ignore[arg-type]
+    assert summary is not None and summary["plans"] == 2 and summary["frontiers_left"] == len(nav["frontiers"])
+    big = coarse_grid(rec.grid.__class__(np.zeros((1000, 900), np.int8), (0.0, 0.0), 0.05, "odom", 0.0), 400)  # type: ignore[attr-defined]
+    assert big is not None and max(big["width"], big["height"]) <= 400 and big["resolution"] == 0.15
+    out = Path(str(tmp_path))
+    files = write_map_files(rec.grid, out)  # type: ignore[attr-defined]
+    assert sorted(files) == ["map_npz", "map_png"]
+    with np.load(out / "map.npz") as z:
+        assert np.array_equal(z["cells"], rec.grid.cells) and float(z["resolution"]) == 0.05  # type: ignore[attr-defined]
+    import matplotlib.image
+
+    assert matplotlib.image.imread(out / "map.png").shape[:2] == (80, 120)
+
+
+def test_the_plot_draws_the_map_its_frontiers_and_routes(tmp_path: object) -> None:
+    """write_plot with series from an episode whose graph had a map node: the top view draws the map
+    image, the routes, the frontiers and the path taken, with a legend; plot.png is written."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from go2vlm.apps.episodes import plot
+    from go2vlm.apps.episodes.navmap import nav_series
+
+    series = {"gt_sim_t": [0.0, 1.0], "robot_xy": [[0.0, 0.0], [1.0, 1.0]], "target_xy": [[2.0, 2.0]] * 2,
+              "distance": [2.0, 1.0], "states": [[0.0, "searching"]], "cmd": [[0.0, 0.3, 0.0]],
+              **nav_series(_nav_recording())}  # type: ignore[arg-type]  # fmt: skip
+    metrics = {"goal": "go to the duck", "success": True, "perception": "oracle", "final_state": "arrived",
+               "target_body": "duck", "world": "household", "mode": "kinematic", "sim_s": 9.0,
+               "path_length_m": 1.4, "collisions": 0}  # fmt: skip
+    path = Path(str(tmp_path)) / "plot.png"
+    plot.write_plot(metrics, series, {}, path)
+    assert path.stat().st_size > 10_000
+    fig = plot.draw_plot(metrics, series, {})
+    top = fig.axes[-1]
+    labels = top.get_legend_handles_labels()[1]
+    assert len(top.images) == 1, "the map under the top view"
+    for want in ("planned route (last)", "frontiers left", "frontiers walked to", "Go2 (ground truth)"):
+        assert any(lab.startswith(want) for lab in labels), (want, labels)
+    assert [t.get_text() for t in top.get_legend().get_texts()][-3:] == ["unknown", "free", "occupied"]
     plt.close(fig)
 
 

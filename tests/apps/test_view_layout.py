@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from go2vlm.apps.view.view_node import CLIENT_TOPICS, ROBOT_TOPIC
-from go2vlm.bus.topics import MAP, MAP_COSTMAP
+from go2vlm.bus.topics import MAP, MAP_COSTMAP, PLAN
 from go2vlm.msgs.msgdef import ros_type
 
 LAYOUT = Path(__file__).resolve().parents[2] / "docs" / "foxglove" / "go2vlm_layout.json"
@@ -21,6 +21,7 @@ def test_layout_panels() -> None:
     assert set(image["annotations"]) == {"/detected_target/annotations", "/vlm/detections/annotations"}
     assert ROBOT_TOPIC in panels["3D!robot"]["topics"]
     assert {MAP.name, MAP_COSTMAP.name} <= set(panels["3D!robot"]["topics"])  # the map node's, decoded natively
+    assert panels["3D!robot"]["topics"][PLAN.name]["visible"]  # the commander's global route, nav_msgs/Path
     plotted = {p["value"] for k, v in panels.items() if k.startswith("Plot!") for p in v["paths"]}
     assert {"/detected_target.point.x", "/cmd_vel.linear.x", "/cmd_vel.angular.z"} <= plotted
     assert {panels["RawMessages!safety"]["topicPath"], panels["RawMessages!vlm"]["topicPath"]} == {

@@ -171,3 +171,41 @@ def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
     assert s.explorer.status()["visited"] >= 1  # it arrived, looked all round, and walks on
     assert turned >= 2 * math.pi - math.radians(73) - 0.1
     assert ctx.route is s.explorer.route is not None
+
+
+def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
+    """The robot at a frontier beside a wall: the safety gate holds its turn (the pose never turns).
+    The look ends after LOOK_SLACK whole turns' time, the place counts as visited, and the search goes
+    on to the next frontier instead of waiting there until the goal times out."""
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.strategies.base import Context, Pose
+    from go2vlm.behavior.strategies.explore import LOOK_SLACK, Explore
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    s = Explore()
+    ctx = Context(MissionParams(), goal=parse_goal("look for the duck"), view=math.radians(73))
+    ctx.costmap = costmap(known, 1.0)
+    s.reset(0.0)
+    x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
+    look_began: float | None = None
+    reasons: list[str] = []
+    for _ in range(8000):
+        now += 0.05
+        ctx.pose = Pose(x, y, yaw, now)
+        cmd = s.step(ctx, now)
+        assert cmd is not None
+        reasons.append(cmd.reason)
+        if s.looking:
+            look_began = now if look_began is None else look_began
+            continue  # held: it does not turn
+        if look_began is not None:
+            break
+        yaw += cmd.wz * 0.05
+        x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
+    assert look_began is not None, "it never looked"
+    assert s.explorer.status()["visited"] == 1 and not s.looking
+    assert now - look_began >= LOOK_SLACK * 2 * math.pi / ctx.params.search_yaw_rate - 0.1
+    assert "could not turn all round" in reasons[-1]

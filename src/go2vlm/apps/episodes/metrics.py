@@ -57,6 +57,11 @@ Memory (/objects, episodes with an object_memory), at the end, against the groun
                    label nearest to it (apps/episodes/episode.py label_matches) with the error (m);
   phantoms         remembered objects with no body of their label within PHANTOM_M (1 m): not there;
   max_error_m      the largest error of the others; `accurate`: how many are within ACCURATE_M (0.3 m).
+Map (/map, /map/costmap, /plan; episodes with a map node; None without): `map` = the newest map's
+size (resolution_m, width, height cells), free_m2 and occupied_m2, the frontiers left in the newest
+costmap, explored_frontiers (those the explorer walked to) and plans (routes heard on /plan). The map
+itself goes to series.json (map, frontiers, explored, plans: apps/episodes/navmap.py) and the run
+folder (map.npz, map.png).
 """
 
 from __future__ import annotations
@@ -69,6 +74,7 @@ import numpy as np
 
 from go2vlm.apps.episodes.episode import Episode, goal_target, label_matches, target_body
 from go2vlm.apps.episodes.latch import estop_metrics
+from go2vlm.apps.episodes.navmap import map_summary, nav_series
 from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.behavior.goals import GoalParseError, parse_target
 from go2vlm.behavior.mission import MissionParams
@@ -515,4 +521,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     }
     if ep.goal is None:
         series["ball_xy"] = series["target_xy"]
+    nav = nav_series(rec)  # the map, its frontiers and the routes: the plot's top view
+    series.update(nav)
+    m["map"] = map_summary(rec, nav)
     return m, series

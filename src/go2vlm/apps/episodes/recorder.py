@@ -4,8 +4,9 @@ the sim time at which a message arrived).
 
 Subscribes: /clock, /sim/status, /sim/ground_truth, /joint_states, /cmd_vel, /behavior/cmd_vel,
 /detected_target, /commander/status, /safety/status (the e-stop), /camera/camera_info,
-/sim/detections, /vlm/detections, /vlm/status, /target/tracked, /objects (the object memory) and,
-for the video, /camera/image_raw (kept as small JPEGs).
+/sim/detections, /vlm/detections, /vlm/status, /target/tracked, /objects (the object memory), /map
+and /map/costmap (only the newest grid of each is kept: a map is large), /plan (the commander's
+routes, each new one, at most MAX_PLANS) and, for the video, /camera/image_raw (kept as small JPEGs).
 """
 
 from __future__ import annotations
@@ -27,7 +28,10 @@ from go2vlm.bus.topics import (
     COMMANDER_STATUS,
     DETECTED_TARGET,
     JOINT_STATES,
+    MAP,
+    MAP_COSTMAP,
     OBJECTS,
+    PLAN,
     SAFETY_STATUS,
     SIM_DETECTIONS,
     SIM_GROUND_TRUTH,
@@ -39,17 +43,20 @@ from go2vlm.bus.topics import (
 from go2vlm.msgs.geometry_msgs import PointStamped, Twist
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import image_to_numpy
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Path
 from go2vlm.msgs.rosgraph_msgs import Clock
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image, JointState
 from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray, PixelBox, detection_boxes
+from go2vlm.world.map_msg import Grid, grid_of
 from go2vlm.world.objects_msg import Remembered, remembered
 
-__all__ = ["THUMB_WIDTH", "EpisodeRecorder", "Recording"]
+__all__ = ["MAX_PLANS", "THUMB_WIDTH", "EpisodeRecorder", "Recording"]
 
 THUMB_WIDTH = 320  # head frames are kept at this width for the video's inset (JPEG, ~15 kB each)
 
+MAX_PLANS = 200  # /plan routes kept (the newest); a route is replanned about once a second at most
 Pose7 = tuple[float, float, float, float, float, float, float]  # x, y, z, qw, qx, qy, qz
 
 
@@ -75,6 +82,9 @@ class Recording:
     tracked: list[tuple[float, float, str, float]] = field(default_factory=list)
     memory: list[tuple[float, list[Remembered]]] = field(default_factory=list)  # sim t, /objects
     estop: list[tuple[float, bool, str]] = field(default_factory=list)  # sim t, the gate's e-stop and why, on change
+    grid: Grid | None = None  # the newest /map
+    costmap: Grid | None = None  # the newest /map/costmap
+    plans: list[tuple[float, list[tuple[float, float]]]] = field(default_factory=list)  # sim t, waypoints (x, y)
 
 
 class EpisodeRecorder(Node):
@@ -104,6 +114,9 @@ class EpisodeRecorder(Node):
         VLM_STATUS.subscription(self, self._on_vlm_status)
         TARGET_TRACKED.subscription(self, self._on_tracked)
         OBJECTS.subscription(self, self._on_objects)
+        MAP.subscription(self, self._on_map)
+        MAP_COSTMAP.subscription(self, self._on_costmap)
+        PLAN.subscription(self, self._on_plan)
         if video:
             JOINT_STATES.subscription(self, self._on_joints)
             CAMERA_IMAGE.subscription(self, self._on_image)
@@ -137,6 +150,9 @@ class EpisodeRecorder(Node):
                 list(r.tracked),
                 list(r.memory),
                 list(r.estop),
+                r.grid,
+                r.costmap,
+                list(r.plans),
             )
 
     def latest_state(self) -> str | None:
@@ -243,6 +259,33 @@ class EpisodeRecorder(Node):
         objs = [r for r in map(remembered, msg.detections) if r is not None]
         with self.lock:
             self.rec.memory.append((self.now(), objs))
+
+    def _grid(self, msg: OccupancyGrid) -> Grid | None:
+        try:
+            return grid_of(msg)
+        except ValueError as exc:
+            self.count("bad_maps")
+            self.log.throttled("warn", 5.0, f"map: {exc}")
+            return None
+
+    def _on_map(self, msg: OccupancyGrid) -> None:
+        g = self._grid(msg)
+        if g is not None:
+            with self.lock:
+                self.rec.grid = g  # only the newest: the older ones are dropped here
+
+    def _on_costmap(self, msg: OccupancyGrid) -> None:
+        g = self._grid(msg)
+        if g is not None:
+            with self.lock:
+                self.rec.costmap = g
+
+    def _on_plan(self, msg: Path) -> None:
+        pts = [(p.pose.position.x, p.pose.position.y) for p in msg.poses]
+        with self.lock:
+            if pts and (not self.rec.plans or self.rec.plans[-1][1] != pts):
+                self.rec.plans.append((self.now(), pts))
+                del self.rec.plans[:-MAX_PLANS]
 
     def _on_image(self, msg: Image) -> None:
         import cv2

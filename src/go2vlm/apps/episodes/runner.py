@@ -17,7 +17,8 @@ that loading weights costs no sim time (the VLM article's start order, its secti
 
 Run folder (`RunOptions.out`), every file written atomically (temporary name, then rename):
 objects.json (what the object memory remembers at the end, a memory file: `go2vlm objects --file`),
-metrics.json first, then series.json (the time series behind the plot), plot.png, video.mp4 (after
+metrics.json first, then series.json (the time series behind the plot), map.npz and map.png (the
+newest /map, when the graph has a map node: apps/episodes/navmap.py), plot.png, video.mp4 (after
 the run, from the recording; metrics.json is then rewritten with video_frames); with `bag`, bag/ (a
 rosbag2 MCAP bag of every topic, for `go2vlm play` and Foxglove). A first SIGINT or
 SIGTERM ends the episode early (`interrupted`); further signals wait until metrics.json is written,
@@ -316,6 +317,10 @@ def run_episode(
             write_json(out / "metrics.json", metrics)
             result.files["metrics"] = str(out / "metrics.json")
             write_json(out / "series.json", series)
+            if rec.grid is not None:
+                from go2vlm.apps.episodes.navmap import write_map_files
+
+                result.files.update(write_map_files(rec.grid, out))
     if out is None or stop.abort.is_set():
         return result
     if opts.plot:

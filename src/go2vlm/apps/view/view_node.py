@@ -8,8 +8,9 @@ WebSocket" and load docs/foxglove/go2vlm_layout.json.
 Topics (every one only while a client subscribes to its channel: no client, no cost)
   subscribes  every topic on the bus whose type go2vlm knows, forwarded as it came off the wire (raw
               CDR, schema ros2msg, so Foxglove decodes /tf, /odom, /cmd_vel, /safety/status ...
-              natively, /map and /map/costmap nav_msgs/OccupancyGrid drawn in the 3D panel, latched
-              ones too), QoS adapted to the publishers, keep-last 5; except:
+              natively, /map and /map/costmap nav_msgs/OccupancyGrid and the commander's /plan
+              nav_msgs/Path drawn in the 3D panel, latched ones too), QoS adapted to the publishers,
+              keep-last 5; except:
               sensor_msgs/Image topics: sent as `<topic>/compressed` sensor_msgs/CompressedImage
               (JPEG, jpeg_quality) at most max_image_hz, same header (stamp, frame_id)
               vlm_topic (/vlm/detections, vision_msgs/Detection2DArray) -> also

@@ -48,6 +48,9 @@ from go2vlm.world.poses import wrap_angle
 __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
 
 FRONTIER_CHOICES = ("nearest", "vlm")
+# A continuous look that has not turned all round in this many times a whole turn's time at
+# search_yaw_rate ends anyway (the safety gate holding a turn near a wall would keep it there).
+LOOK_SLACK = 3.0
 
 
 @dataclass(frozen=True)
@@ -270,7 +273,8 @@ class Explore:
     asked once turn-and-look is exhausted. Walks to the chosen frontier along the global route
     (route.follow_waypoint: the approach law and the local planner), looks around there (a whole
     turn: search.TurnAndLook's stop and look with slow answers, else a continuous turn at
-    `search_yaw_rate`), and repeats; ends the goal `not_found` with the explorer's reason when no
+    `search_yaw_rate`; one the safety gate holds, near a wall, ends after LOOK_SLACK times a whole
+    turn's time), and repeats; ends the goal `not_found` with the explorer's reason when no
     frontier is left or none is reachable. State `exploring` throughout (`detouring` while the local
     planner steers)."""
 
@@ -283,6 +287,7 @@ class Explore:
         self._yaw: float | None = None  # continuous look: the last yaw, and how far it has turned
         self._turned = 0.0
         self._t: float | None = None
+        self._look_t0 = 0.0  # when the look began
 
     @property
     def params(self) -> ExploreParams:
@@ -324,7 +329,7 @@ class Explore:
         if not self.looking:
             self.looking = True
             self.look.reset(now)
-            self._yaw, self._turned, self._t = None, 0.0, now
+            self._yaw, self._turned, self._t, self._look_t0 = None, 0.0, now, now
         if self.look.stop_and_look(ctx):
             cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
             if cmd is not None:
@@ -339,8 +344,15 @@ class Explore:
             elif self._t is not None:
                 self._turned += abs(wz) * max(0.0, now - self._t)
             self._t = now
-            if self._turned < 2 * math.pi - (ctx.view or 0.0):
+            whole = 2 * math.pi - (ctx.view or 0.0)
+            held = now - self._look_t0 > LOOK_SLACK * 2 * math.pi / max(p.search_yaw_rate, 1e-3)
+            if self._turned < whole and not held:
                 return Command(0.0, wz, "exploring", reason)
+            if self._turned < whole:
+                self.looking = False
+                self.explorer.looked(now)
+                return Command.still("exploring", f"{reason}: could not turn all round (turned "
+                                     f"{math.degrees(self._turned):.0f} deg), going on")  # fmt: skip
         self.looking = False
         self.explorer.looked(now)
         return Command.still("exploring", f"{reason}: looked all round")
