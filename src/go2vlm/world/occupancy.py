@@ -36,7 +36,9 @@ Rules
 - `values()`: log-odds >= occupied_logodds -> 100, <= free_logodds -> 0, between (and never seen) -> -1.
 - `inflate`: 100 on an occupied cell and wherever the robot's centre puts its footprint on it whatever
   its heading (within the inscribed radius), 99 where it may, by heading (within the circumscribed
-  radius), then a cost falling from 98 to 1 out to `inflation_m`; 0 free; -1 unknown (unless inflated).
+  radius), then a cost falling from 98 to 1 out to `inflation_m`; 0 free; -1 unknown, but within the
+  inscribed radius of an obstacle (lethal: nothing plans through it). The 99..1 bands are not
+  inflated into the unknown, whose edge is the frontier.
 """
 
 from __future__ import annotations
@@ -379,5 +381,9 @@ def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_r
         dn = d[near] * resolution
         falling = np.minimum(1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0)), 98)
         band = np.where(dn <= params.inscribed_m, LETHAL, np.where(dn <= params.circumscribed_m, INSCRIBED, falling))
-        cost[r0 + near[0], near[1]] = band.astype(np.int8)
+        # Unknown cells stay unknown but within the inscribed radius (Nav2's inflate_unknown: false):
+        # a band inflated into the unknown round every wall would read as known space, and its edge as a
+        # frontier all round the house.
+        keep = (values[r0 + near[0], near[1]] != UNKNOWN) | (band == LETHAL)
+        cost[r0 + near[0][keep], near[1][keep]] = band[keep].astype(np.int8)
     return cost
