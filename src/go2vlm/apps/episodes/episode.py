@@ -243,6 +243,8 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
             "target_body": (ep.target or "") if ep.perception == "oracle" else "",
             "target_label": target.label if target is not None and ep.perception == "oracle" else "",
         }
+        if ep.perception == "oracle":  # the commander's frontier_choice vlm asks it which way (perception/way.py)
+            out["way_oracle"] = {"target_body": ep.target or ""}
     for name, values in ep.params.items():
         out.setdefault(name, {}).update(values)
     return out
