@@ -50,7 +50,7 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
-                                  given_up, route_m), plan (length_m, waypoints, reason);
+                                  given_up, route_m, views_scored), plan (length_m, waypoints, reason);
                                   on every change and every status_period_s
 
 Goals and states
