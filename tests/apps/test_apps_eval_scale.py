@@ -108,7 +108,8 @@ def test_household_and_referring_suites() -> None:
     assert ep.target == "red_ball" and graph_name(ep) == "episode_oracle_delay"
     delay = node_overrides(ep, 1.0, True)["answer_delay"]
     assert delay == {"latency_s": 0.0, "target_body": "red_ball", "target_label": "ball under the table"}
-    assert node_overrides(ep, 1.0, True)["way_oracle"] == {"target_body": "red_ball"}  # frontier_choice vlm's answers
+    way = node_overrides(ep, 1.0, True)["way_oracle"]  # frontier_choice vlm's answers: the body, half the view
+    assert way["target_body"] == "red_ball" and 30.0 < way["half_view_deg"] < 40.0
     late = Episode.from_dict({**household.episode(0, "vlm").to_dict(), "answer_latency_s": 2.5})
     assert (
         graph_name(late) == "episode_vlm_delay" and node_overrides(late, 1.0, False)["answer_delay"]["latency_s"] == 2.5

@@ -9,8 +9,9 @@ Topics
 
 Parameters
   target_body    ''     the world body the goal refers to (the episode runner sets it); '' = no answers
-  half_view_deg  36.0   `likely` when the body's bearing is within this of the robot's heading (about half
-                        the head camera's view), else `unlikely`
+  half_view_deg  36.0   `likely` when the body's bearing is within this of the robot's heading, else
+                        `unlikely`; the episode runner sets half the head camera's view at the episode's
+                        image size (robot_profile: 36.5 at 640x480)
   period_s       0.5    at most one answer per this many seconds of frame stamps
 
 The answer is perfect and at once (perception/way.py `oracle_way`: walls notwithstanding), so an eval with
