@@ -108,6 +108,8 @@ def test_household_and_referring_suites() -> None:
     assert ep.target == "red_ball" and graph_name(ep) == "episode_oracle_delay"
     delay = node_overrides(ep, 1.0, True)["answer_delay"]
     assert delay == {"latency_s": 0.0, "target_body": "red_ball", "target_label": "ball under the table"}
+    way = node_overrides(ep, 1.0, True)["way_oracle"]  # frontier_choice vlm's answers: the body, half the view
+    assert way["target_body"] == "red_ball" and 30.0 < way["half_view_deg"] < 40.0
     late = Episode.from_dict({**household.episode(0, "vlm").to_dict(), "answer_latency_s": 2.5})
     assert (
         graph_name(late) == "episode_vlm_delay" and node_overrides(late, 1.0, False)["answer_delay"]["latency_s"] == 2.5
@@ -325,3 +327,13 @@ def test_household_oracle_and_color_on_a_local_ray(tmp_path: Path) -> None:
     assert "| household | oracle |" in report and "| household | color |" in report
     for line in read_jsonl(tmp_path / "results.jsonl"):
         assert line["ray"] == "local" and line["metrics"]["target_body"] == "teddy_bear"
+
+
+def test_eval_frontier_sets_the_commanders_frontier_choice() -> None:
+    from go2vlm.cli.eval import _with_frontier
+
+    assert _with_frontier({}, None) == {}
+    assert _with_frontier({"sim": {"seed": 1}}, "vlm") == {"sim": {"seed": 1}, "commander": {"frontier_choice": "vlm"}}
+    assert _with_frontier({"commander": {"frontier_choice": "nearest"}}, "vlm")["commander"]["frontier_choice"] == (
+        "nearest"
+    )  # an explicit --param wins

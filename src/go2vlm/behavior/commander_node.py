@@ -29,7 +29,13 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
               /map/costmap        nav_msgs/OccupancyGrid, latched (`costmap_topic`): the map node's
                                   inflated costmap (world/map_node.py), frame odom: the global planner
                                   and the frontiers (explore)
-  publishes   /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
+              /vlm/way            std_msgs/String       frontier_choice vlm: answers about camera frames
+                                  (perception/way.py); a whitelisted word's score is placed at the
+                                  heading the robot had at the frame's stamp (behavior/view_scores.py),
+                                  anything else counted (way_rejected_*) and ignored
+  publishes   /explore/way_query  std_msgs/String, latched: frontier_choice vlm: the goal's object while
+                                  it searches or explores, else '': which way is likeliest to lead to it
+              /target/query       std_msgs/String, latched (transient-local, keep-last 1): the goal's
                                   object while a motion goal runs ("blue cylinder"), else ''; the
                                   target_tracker tracks it and the vlm node (mode=detect) grounds it
               /behavior/cmd_vel   geometry_msgs/Twist   follow / go to / look for / search at
@@ -44,7 +50,7 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
-                                  given_up, route_m), plan (length_m, waypoints, reason);
+                                  given_up, route_m, views_scored), plan (length_m, waypoints, reason);
                                   on every change and every status_period_s
 
 Goals and states
@@ -74,7 +80,8 @@ command is still the commander's, within its limits, through the safety gate (be
 
 Exploring (explore, behavior/strategies/explore.py): once turn-and-look has found nothing, go to and
 look for walk to a frontier of /map/costmap (free space next to unknown; `frontier_choice` nearest
-by path cost) along the global planner's route, look all round there, and repeat, until the target
+by path cost, or vlm: the highest-scored way on /vlm/way first, nearest among equals) along the
+global planner's route, look all round there, and repeat, until the target
 is seen or remembered, no frontier is left (not_found, with that reason), explore_timeout_s after the
 goal began (not_found: an open world has frontiers without end), or the goal is stopped.
 A go to a remembered object the robot cannot see straight (a wall or unknown space on the straight
@@ -119,10 +126,12 @@ from go2vlm.behavior.sighting import sighting_of
 from go2vlm.behavior.strategies.base import SearchStrategy
 from go2vlm.behavior.strategies.explore import FRONTIER_CHOICES, Explore, ExploreParams
 from go2vlm.behavior.strategies.search import TurnAndLook
+from go2vlm.behavior.view_scores import ViewAnswerRejected, parse_view_answer
 from go2vlm.bus import Node, core_params, param
 from go2vlm.bus.topics import (
     BEHAVIOR_CMD_VEL,
     COMMANDER_STATUS,
+    EXPLORE_WAY_QUERY,
     GO2_COMMAND,
     GOAL,
     GOAL_LEASE,
@@ -134,6 +143,7 @@ from go2vlm.bus.topics import (
     TARGET_QUERY,
     TARGET_TRACKED,
     VLM_DECISION,
+    VLM_WAY,
 )
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
@@ -144,14 +154,17 @@ from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry, Path
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection3DArray
+from go2vlm.perception.way import WayMessageRejected, parse_way_message
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.map_msg import grid_of
 from go2vlm.world.objects_msg import remembered
+from go2vlm.world.poses import PoseHistory, PoseUnavailable
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
 _MP = MissionParams()
 _EP = ExploreParams()
+WAY_STATES = ("searching", "exploring")  # frontier_choice vlm asks which way while looking round or exploring
 
 
 @dataclass
@@ -241,8 +254,8 @@ class CommanderConfig:
     explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
                           "finds nothing", live=True)  # fmt: skip
     frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
-                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (view "
-                                 "scores; no answers on the bus yet: as nearest)")  # fmt: skip
+                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (the "
+                                 "best-scored way on /vlm/way first)")  # fmt: skip
     explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
                                         min=1.0, max=1000.0, live=True)  # fmt: skip
     explore_timeout_s: float = param(_EP.timeout_s, help="explore: give the goal up this long after it began (s)",
@@ -300,6 +313,10 @@ class CommanderNode(Node):
         OBJECTS.subscription(self, self.on_objects, name=cfg.objects_topic)
         MAP_COSTMAP.subscription(self, self.on_costmap, name=cfg.costmap_topic)
         self._odom_frame = ""
+        self._poses = PoseHistory()  # vlm: the heading at each answer's frame, on this node's clock
+        self._way_query = ""
+        self.pub_way = EXPLORE_WAY_QUERY.publisher(self)
+        VLM_WAY.subscription(self, self.on_way)
         self._query: str | None = None
         self._last_key: tuple[str, str] | None = None
         self.create_timer(1.0 / cfg.control_rate_hz, self.tick)
@@ -382,9 +399,26 @@ class CommanderNode(Node):
         self._odom_frame = msg.header.frame_id
         pose = msg.pose.pose
         q = pose.orientation
-        self.mission.observe_pose(
-            pose.position.x, pose.position.y, quat_yaw(q.w, q.x, q.y, q.z), self.clock.monotonic()
-        )
+        yaw, now = quat_yaw(q.w, q.x, q.y, q.z), self.clock.monotonic()
+        self.mission.observe_pose(pose.position.x, pose.position.y, yaw, now)
+        stamp = msg.header.stamp.to_sec()
+        self._poses.add(stamp + now - self.clock.now() if stamp > 0 else now, pose.position.x, pose.position.y, yaw)
+
+    def on_way(self, msg: String) -> None:
+        """An answer about one frame (perception/way.py): its whitelisted score at the frame's heading."""
+        try:
+            stamp, obj, answer = parse_way_message(msg.data)
+            if not self._way_query or obj != self._way_query:
+                raise WayMessageRejected("way_not_asked", f"no question about {obj!r} stands")
+            score = parse_view_answer(answer)
+            now = self.clock.monotonic()
+            yaw = self._poses.at(stamp + now - self.clock.now()).yaw
+        except (WayMessageRejected, ViewAnswerRejected, PoseUnavailable) as exc:
+            n = self.count(f"way_rejected_{getattr(exc, 'reason', 'bad')}")
+            self.log.throttled("warning", 5.0, f"ignoring a /vlm/way answer ({n} so far): {exc}", key="way")
+            return
+        self.explore.explorer.views.observe(yaw, score, now)
+        self.count("way_answers")
 
     def on_objects(self, msg: Detection3DArray) -> None:
         if self._odom_frame and msg.header.frame_id != self._odom_frame:
@@ -432,6 +466,10 @@ class CommanderNode(Node):
         if intent.query != self._query:
             self._query = intent.query
             self.pub_query.publish(String(data=intent.query))
+        ask = self.config.explore and self.config.frontier_choice == "vlm" and self.mission.state in WAY_STATES
+        if (way := intent.query if ask else "") != self._way_query:
+            self._way_query = way
+            self.pub_way.publish(String(data=way))
         for posture in intent.postures:
             self.pub_go2.publish(String(data=posture))
         if intent.publish_cmd:

@@ -114,6 +114,10 @@ TARGET_QUERY = Topic("/target/query", String, qos.QOS_LATCHED)
 VLM_DETECTIONS = Topic("/vlm/detections", Detection2DArray, qos.QOS_DEFAULT)
 VLM_TEXT = Topic("/vlm/detection", String, qos.QOS_DEFAULT)
 VLM_DECISION = Topic("/vlm/decision", String, qos.QOS_DEFAULT)
+# Which way is likeliest to lead to the object (perception/way.py): the commander's standing question
+# while it searches with frontier_choice vlm, and the answers about single camera frames.
+EXPLORE_WAY_QUERY = Topic("/explore/way_query", String, qos.QOS_LATCHED)
+VLM_WAY = Topic("/vlm/way", String, qos.QOS_DEFAULT)
 TRACKER_DETECTIONS = Topic("/target_tracker/detections", Detection2DArray, qos.QOS_DEFAULT)
 TARGET_TRACKED = Topic("/target/tracked", TrackedTarget, qos.QOS_DEFAULT)
 DETECTED_TARGET = Topic("/detected_target", PointStamped, qos.QOS_DEFAULT)

@@ -57,6 +57,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="the sim's leg odometry drifts (/odom, /tf) as a Go2's does (GAIN 1, the default; 2 twice as much): "
         "the drift variant, a row of its own in the report",
     )
+    p.add_argument(
+        "--frontier",
+        choices=("nearest", "vlm"),
+        default=None,
+        help="the commander's frontier_choice while exploring (default: its own, nearest); vlm asks which way "
+        "leads to the object (oracle: answered from the ground truth): a run of its own (its parameters differ)",
+    )
     p.add_argument("--out", type=Path, default=None, help="the eval folder (results.jsonl, summary.json, report.md)")
     p.add_argument("--resume", action="store_true", help="finish an interrupted run in --out, skipping done episodes")
     speed = p.add_mutually_exclusive_group()
@@ -153,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
         mode=args.mode,
         video=args.video,
         bag=args.bag,
-        params=node_params(args.param),
+        params=_with_frontier(node_params(args.param), args.frontier),
         interface=args.interface,
         domain_id=args.domain,
         progress=args.progress,
@@ -201,6 +208,7 @@ def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval
     how = f"{args.workers} worker(s)" if opts.ray is None else f"Ray ({opts.ray})"
     lat = "" if opts.latency is None else f", answers {opts.latency:g} s late"
     lat += "" if opts.odom_drift is None else f", odometry drift {opts.odom_drift:g}"
+    lat += "" if args.frontier is None else f", frontier {args.frontier}"
     print(
         f"go2vlm eval: run {outcome.run_id}: {outcome.done_before + outcome.done}/{outcome.total} episodes "
         f"({outcome.done} now, {rate:.0f} per hour with {how}{lat})"
@@ -220,3 +228,10 @@ def _run_one(args: argparse.Namespace, opts: Any, prep: Any, stop: Any, run_eval
         print("go2vlm eval: interrupted; `--resume` with the same options finishes the run", file=sys.stderr)
         return stop.exit_code or 130
     return 1 if outcome.errors else 0
+
+
+def _with_frontier(params: dict[str, dict[str, Any]], frontier: str | None) -> dict[str, dict[str, Any]]:
+    """`--frontier` as the commander's frontier_choice (an explicit --param commander.frontier_choice wins)."""
+    if frontier is not None:
+        params.setdefault("commander", {}).setdefault("frontier_choice", frontier)
+    return params

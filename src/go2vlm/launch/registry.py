@@ -14,6 +14,7 @@ NODES: dict[str, str] = {
     "vlm": "go2vlm.perception.vlm.vlm_node:VlmNode",
     "target_tracker": "go2vlm.perception.tracker_node:TargetTrackerNode",
     "answer_delay": "go2vlm.perception.answer_delay_node:AnswerDelayNode",
+    "way_oracle": "go2vlm.perception.way_oracle_node:WayOracleNode",
     "object_memory": "go2vlm.world.object_memory_node:ObjectMemoryNode",
     "map": "go2vlm.world.map_node:MapNode",
     "follower": "go2vlm.behavior.follower_node:FollowerNode",

@@ -19,8 +19,9 @@ from go2vlm.msgs.sensor_msgs import Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import Detection2DArray
 from go2vlm.perception.vlm.backend import BackendError, Generation, VlmOutOfMemory
-from go2vlm.perception.vlm.prompts import DECISION_PROMPT, DEFAULT_PROMPT, detect_prompt
+from go2vlm.perception.vlm.prompts import DECISION_PROMPT, DEFAULT_PROMPT, detect_prompt, way_prompt
 from go2vlm.perception.vlm.vlm_node import VlmConfig, VlmNode, image_to_rgb
+from go2vlm.perception.way import parse_way_message
 from testing_support.tiny_qwen import DEFAULT_ANSWER
 
 EXPECTED_480x640 = {"red ball": (80.0, 120.0, 280.0, 360.0), "green box": (360.0, 40.0, 600.0, 240.0)}
@@ -243,6 +244,39 @@ def test_detect_grounds_the_query_and_decide_publishes_raw_answers(harness: Harn
         assert fake.prompts == [DECISION_PROMPT]
         assert harness.decision.msgs()[0].data == 'RUN FORWARD {"action": "forward"}'  # raw: the commander judges
         assert len(harness.text) == n_text
+    finally:
+        for _ in range(5):
+            fake.gate.release()
+        node.shutdown()
+
+
+def test_way_mode_answers_the_commanders_question_about_each_frame(harness: Harness) -> None:
+    """mode=way: no question, no inference; with one on /explore/way_query, the raw answer about each
+    frame goes out on /vlm/way with that frame's stamp and the object asked about (perception/way.py)."""
+    ways = Recorder()
+    harness.node.create_subscription(String, "/vlm/way", ways, QOS_DEFAULT)
+    ask = harness.node.create_publisher(String, "/explore/way_query", QOS_LATCHED)
+    fake = GatedBackend()
+    fake.text = "Likely, through the door"
+    node = make_node(harness.topic, fake, mode="way")  # type: ignore[attr-defined]
+    try:
+        for k in range(5):  # frames without a question: skipped
+            harness.cam.publish(image(k))
+        assert wait_for(lambda: node.status()["frames_processed"] >= 1, 10), node.status()  # taken, not asked
+        assert fake.started == []
+        ask.publish(String(data="duck"))
+        assert wait_for(lambda: node.query == "duck", 10)
+
+        def answered() -> bool:
+            fake.gate.release()
+            harness.cam.publish(image(7, stamp=1234.5))
+            return len(ways) >= 1
+
+        assert wait_for(answered, 20, 0.2)
+        first = fake.started[0]  # the newest frame when the question came (one left in the slot), or frame 7
+        stamp = 1234.5 if first == 7 else 1000.0 + first
+        assert parse_way_message(ways.msgs()[0].data) == (stamp, "duck", "Likely, through the door")
+        assert fake.prompts[0] == way_prompt("duck") and len(harness.text) == 0
     finally:
         for _ in range(5):
             fake.gate.release()

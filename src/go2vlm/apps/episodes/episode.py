@@ -243,6 +243,11 @@ def node_overrides(ep: Episode, rtf: float, fast: bool) -> dict[str, dict[str, A
             "target_body": (ep.target or "") if ep.perception == "oracle" else "",
             "target_label": target.label if target is not None and ep.perception == "oracle" else "",
         }
+        if ep.perception == "oracle":  # the commander's frontier_choice vlm asks it which way (perception/way.py)
+            from go2vlm.robot_profile.go2 import GO2
+
+            half = GO2.head_camera.hfov_deg(ep.camera_width, ep.camera_height) / 2  # the episode camera's view
+            out["way_oracle"] = {"target_body": ep.target or "", "half_view_deg": round(half, 3)}
     for name, values in ep.params.items():
         out.setdefault(name, {}).update(values)
     return out

@@ -126,6 +126,7 @@ class Explorer:
             "visited": len(self.visited),
             "given_up": self.given_up,
             "route_m": None if self.route is None else round(self.route.plan.length, 2),
+            "views_scored": len(self.views.scores),  # vlm: the 30-degree ways a model's answer scored
         }
 
     # -- the search -----------------------------------------------------------------------------

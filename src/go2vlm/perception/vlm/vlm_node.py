@@ -6,6 +6,8 @@ Topics
                                to ground, e.g. "blue cylinder" (the commander publishes its goal's
                                object): while it is non-empty the model grounds exactly that label,
                                else the `labels` parameter
+              /explore/way_query  std_msgs/String, latched; mode=way: the object the commander searches
+                               for ('' = no question: frames are skipped)
   publishes   /vlm/detection   std_msgs/String            describe/detect: the model's answer text
                                (length-capped)
               /vlm/detections  vision_msgs/Detection2DArray  mode=detect: boxes in the ORIGINAL
@@ -16,13 +18,18 @@ Topics
                                scene question (perception/vlm/prompts.py DECISION_PROMPT: stop /
                                continue / turn <= 30 deg / sit as JSON); untrusted text, the commander
                                maps it onto the whitelist of behavior/decisions.py
+              /vlm/way         std_msgs/String            mode=way: JSON {"stamp", "object", "answer"}
+                               (perception/way.py): the raw answer to "is this way likely to lead to
+                               the object?" about one frame (its stamp); the commander keeps only a
+                               whitelisted word (behavior/view_scores.py)
               /vlm/status      std_msgs/String (latched JSON, every status_period_s): model, backend, mode,
                                state, latency_ms of the last inference, result_age_ms, frames
                                received/dropped/processed, error and parse counters
 
 Modes: describe (the `prompt`), detect (Qwen grounding JSON -> boxes), decide (the scene decision
-question). One model serves one mode per node; run a second vlm node (--name vlm_decide --param
-mode=decide) for decisions, sharing one server with backend=openai.
+question), way (which way to the commander's object, while it asks). One model serves one mode per
+node; run a second vlm node (--name vlm_decide --param mode=decide) for decisions, sharing one
+server with backend=openai.
 
 Freshness: the image callback only stores the newest frame; a worker thread runs inference on
 the newest frame at most every period_s. Frames replaced before the worker got to them are
@@ -52,7 +59,16 @@ from typing import Any
 import numpy as np
 
 from go2vlm.bus import Node, param
-from go2vlm.bus.topics import CAMERA_IMAGE, TARGET_QUERY, VLM_DECISION, VLM_DETECTIONS, VLM_STATUS, VLM_TEXT
+from go2vlm.bus.topics import (
+    CAMERA_IMAGE,
+    EXPLORE_WAY_QUERY,
+    TARGET_QUERY,
+    VLM_DECISION,
+    VLM_DETECTIONS,
+    VLM_STATUS,
+    VLM_TEXT,
+    VLM_WAY,
+)
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.qwen import DEFAULT_MAX_PIXELS, DEFAULT_MIN_PIXELS, QWEN_FACTOR
 from go2vlm.msgs.builtin_interfaces import Time
@@ -71,7 +87,8 @@ from go2vlm.perception.vlm.backend import (
 )
 from go2vlm.perception.vlm.factory import make_backend
 from go2vlm.perception.vlm.latest import LatestSlot, Stamped
-from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt
+from go2vlm.perception.vlm.prompts import DEFAULT_PROMPT, build_prompt, detect_prompt, way_prompt
+from go2vlm.perception.way import way_message
 from go2vlm.vocabulary.answers import Box, answer_boxes, sanitize_text
 
 __all__ = ["VlmConfig", "VlmNode", "detections_msg", "image_to_rgb"]
@@ -91,8 +108,9 @@ class VlmConfig:
     prompt: str = param(DEFAULT_PROMPT, help="describe-mode prompt (the VLM article's scene description)", live=True)
     mode: str = param(
         "describe",
-        choices=("describe", "detect", "decide"),
-        help="detect: Qwen grounding JSON -> boxes; decide: the scene decision question -> /vlm/decision",
+        choices=("describe", "detect", "decide", "way"),
+        help="detect: Qwen grounding JSON -> boxes; decide: the scene decision question -> /vlm/decision; "
+        "way: is this way likely to lead to /explore/way_query's object -> /vlm/way",
     )
     labels: list[str] = param(
         list, help="detect: object categories to ground while /target/query is empty (empty: all objects)", live=True
@@ -218,6 +236,9 @@ class VlmNode(Node):
         CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
         if cfg.mode == "detect":
             TARGET_QUERY.subscription(self, self.on_query)
+        if cfg.mode == "way":
+            self.pub_way = VLM_WAY.publisher(self)
+            EXPLORE_WAY_QUERY.subscription(self, self.on_query)
         self.create_timer(cfg.status_period_s, self.publish_status)
         self.log.info(
             f"{self.backend.name} backend, model {cfg.model}, mode {cfg.mode}, "
@@ -252,6 +273,8 @@ class VlmNode(Node):
             query = self.query
         if self.config.mode == "detect" and query:
             return detect_prompt([query]), [query]
+        if self.config.mode == "way":
+            return way_prompt(query), [query]
         return self.prompt, list(self.config.labels)
 
     # -- worker --------------------------------------------------------------------------------
@@ -291,6 +314,8 @@ class VlmNode(Node):
             if frame is None:
                 continue
             cfg = self.config
+            if cfg.mode == "way" and not self._task()[1][0]:
+                continue  # no question stands: no answer wanted
             if cfg.max_age_s > 0 and self.clock.monotonic() - frame.received_t > cfg.max_age_s:
                 self._bump("stale_frames")
                 continue
@@ -337,8 +362,11 @@ class VlmNode(Node):
         boxes: list[Box] = []
         if cfg.mode == "detect":
             _, boxes = answer_boxes(gen, labels, counters)
+        src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_stamp
         if cfg.mode == "decide":
             self.pub_decision.publish(String(data=text))
+        elif cfg.mode == "way":
+            self.pub_way.publish(String(data=way_message(src_t, labels[0], text)))
         else:
             self.pub_text.publish(String(data=text))
         if cfg.mode == "detect":
@@ -348,7 +376,6 @@ class VlmNode(Node):
             counters["visual_token_mismatch"] += 1
             self.log.throttled("warning", 10.0, mismatch, key="visual_tokens")
         post_ms = (time.perf_counter() - t0) * 1e3
-        src_t = src.stamp.to_sec() if (src.stamp.sec or src.stamp.nanosec) else frame.received_stamp
         age_ms = (self.now() - src_t) * 1e3
         with self._stats:
             self.inferences += 1
