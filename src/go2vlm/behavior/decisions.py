@@ -23,7 +23,7 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["ACTIONS", "MAX_TURN_DEG", "Decision", "DecisionRejected", "parse_decision"]
+__all__ = ["ACTIONS", "MAX_TURN_DEG", "Decision", "DecisionRejected", "parse_decision", "unwrap_answer"]
 
 ACTIONS = ("stop", "continue", "turn", "sit")
 MAX_TURN_DEG = 30.0
@@ -42,6 +42,20 @@ class DecisionRejected(ValueError):
         self.detail = detail
 
 
+def unwrap_answer(text: object, max_chars: int, rejected: type[DecisionRejected]) -> str:
+    """A model's answer as text to read: stripped and out of a Markdown fence; `rejected` (the
+    caller's refusal) when it is no text, empty or longer than `max_chars`."""
+    if not isinstance(text, str):
+        raise rejected("not_text", f"answer is {type(text).__name__}")
+    t = text.strip()
+    if not t:
+        raise rejected("empty", "empty answer")
+    if len(t) > max_chars:
+        raise rejected("too_long", f"answer is {len(t)} characters")
+    fenced = _FENCE.match(t)
+    return fenced.group(1).strip() if fenced else t
+
+
 @dataclass(frozen=True)
 class Decision:
     action: str  # one of ACTIONS
@@ -55,16 +69,7 @@ class Decision:
 
 def parse_decision(text: str, max_turn_deg: float = MAX_TURN_DEG) -> Decision:
     """The model's answer -> Decision, or DecisionRejected (never a partial or clamped action)."""
-    if not isinstance(text, str):
-        raise DecisionRejected("not_text", f"answer is {type(text).__name__}")
-    t = text.strip()
-    if not t:
-        raise DecisionRejected("empty", "empty answer")
-    if len(t) > MAX_ANSWER_CHARS:
-        raise DecisionRejected("too_long", f"answer is {len(t)} characters")
-    fenced = _FENCE.match(t)
-    if fenced:
-        t = fenced.group(1).strip()
+    t = unwrap_answer(text, MAX_ANSWER_CHARS, DecisionRejected)
     bare = t.lower().strip(" .!\"'")
     if bare in ("stop", "continue", "sit"):  # a lone whitelisted word is unambiguous
         return Decision(bare)

@@ -20,37 +20,23 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from dataclasses import dataclass, field
+
+from go2vlm.behavior.decisions import DecisionRejected, unwrap_answer
 
 __all__ = ["SCORES", "ViewAnswerRejected", "ViewScores", "parse_view_answer"]
 
 SCORES = {"likely": 1.0, "maybe": 0.5, "unlikely": 0.0}
 MAX_ANSWER_CHARS = 200
-_FENCE = re.compile(r"^```(?:json)?\s*(.*?)\s*```$", re.S)
 
 
-class ViewAnswerRejected(ValueError):
+class ViewAnswerRejected(DecisionRejected):
     """The answer is outside the whitelist; `reason` is a short counter name."""
-
-    def __init__(self, reason: str, detail: str) -> None:
-        super().__init__(f"{reason}: {detail}")
-        self.reason = reason
-        self.detail = detail
 
 
 def parse_view_answer(text: object) -> float:
     """The model's answer -> its score (1.0 likely, 0.5 maybe, 0.0 unlikely), or ViewAnswerRejected."""
-    if not isinstance(text, str):
-        raise ViewAnswerRejected("not_text", f"answer is {type(text).__name__}")
-    t = text.strip()
-    if not t:
-        raise ViewAnswerRejected("empty", "empty answer")
-    if len(t) > MAX_ANSWER_CHARS:
-        raise ViewAnswerRejected("too_long", f"answer is {len(t)} characters")
-    fenced = _FENCE.match(t)
-    if fenced:
-        t = fenced.group(1).strip()
+    t = unwrap_answer(text, MAX_ANSWER_CHARS, ViewAnswerRejected)
     bare = t.lower().strip(" .!\"'")
     if bare in SCORES:
         return SCORES[bare]
