@@ -55,7 +55,10 @@ def state_file(name_or_path: str, kind: str, suffix: str = ".json") -> Path:
     if _NAME.fullmatch(text) and ".." not in text:
         path = root / kind / (text if Path(text).suffix else text + suffix)
     else:
-        p = Path(text).expanduser()
+        try:
+            p = Path(text).expanduser()
+        except RuntimeError:  # "~user" for a user this machine does not have
+            raise StateFileError(f"{text[:200]!r}: no such home; give a name, or a path under {root}") from None
         if ".." in p.parts:
             raise StateFileError(f"{text[:200]!r}: '..' is not allowed; give a name, or a path under {root}")
         path = p if p.is_absolute() else root / kind / p

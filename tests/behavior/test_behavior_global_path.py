@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.planner.global_path import (
@@ -114,6 +114,7 @@ def test_nearest_of_several_goals() -> None:
 
 
 @settings(max_examples=40, deadline=None)
+@example([(6, 31, 1, 6)], (1, 1), (6, 37), 0)  # a diagonal step past an obstacle's corner
 @given(
     st.lists(st.tuples(st.integers(5, 54), st.integers(5, 54), st.integers(1, 6), st.integers(1, 6)), max_size=8),
     st.tuples(st.integers(1, 58), st.integers(1, 58)),

@@ -10,8 +10,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                      behavior/lease.py), and "stop"
               /goal/lease            std_msgs/String   JSON {"id", "s"}: renews the goal's lease every
                                      lease_s / 4 while this server lives, for min(lease_s, the deadman's
-                                     time left): a server that dies or an agent that goes silent leaves
-                                     a goal that the commander itself stops
+                                     time left + lease_s / 4): a server that dies leaves a goal that
+                                     the commander itself stops; an agent that goes silent, this
+                                     server's deadman stops first
               /emergency_stop        std_msgs/Bool, latched (transient-local, keep-last 1): true, held
                                      as `go2vlm estop` holds it, until the release arrives
               /mcp/pending           std_msgs/String, latched: JSON {id, goal, asked} of the goal waiting
@@ -228,11 +229,13 @@ class McpBridgeNode(Node):
 
     def _renewal(self, now: float) -> str | None:
         """The lease renewal to send now (under self._cv), or None: while our goal runs and the agent
-        polls, every lease_s / 4, for no longer than the deadman leaves."""
+        polls, every lease_s / 4, for no longer than the deadman leaves (and a quarter lease)."""
         c = self.config
         if self.rules.ours is None or not self._lease_id or now - self._renewed < c.lease_s / 4:
             return None
-        ttl = min(c.lease_s, c.deadman_s - (now - self.rules.last_poll))
+        # A quarter lease past the deadman: while this server lives, its own deadman stops the goal
+        # first (and says so); only a server that died leaves it to the lease.
+        ttl = min(c.lease_s, c.deadman_s - (now - self.rules.last_poll) + c.lease_s / 4)
         if ttl < 0.1:
             return None
         self._renewed = now

@@ -179,9 +179,12 @@ def line_cells(a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
     n = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
     if n == 0:
         return np.array([a], dtype=int)
-    t = np.linspace(0.0, 1.0, 2 * n + 1)
-    rows = np.rint(a[0] + t * (b[0] - a[0])).astype(int)
-    cols = np.rint(a[1] + t * (b[1] - a[1])).astype(int)
+    # One cell per step along the longer axis (Bresenham's 8-connected line, as the path itself moves):
+    # half steps would put a diagonal step's midpoint, a cell corner, into one of the two cells beside
+    # the step, and a diagonal step past an obstacle's corner would read as crossing it.
+    t = np.linspace(0.0, 1.0, n + 1)
+    rows = np.floor(a[0] + t * (b[0] - a[0]) + 0.5).astype(int)
+    cols = np.floor(a[1] + t * (b[1] - a[1]) + 0.5).astype(int)
     cells = np.column_stack((rows, cols))
     keep = np.ones(len(cells), bool)
     keep[1:] = np.any(np.diff(cells, axis=0) != 0, axis=1)
