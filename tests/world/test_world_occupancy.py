@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from maputil import BINS, INC, ROOM, room_scan, wall_distance
 
@@ -57,6 +57,7 @@ def test_a_scan_from_any_pose_puts_the_walls_where_they_are(pose: Pose2D) -> Non
 
 @settings(max_examples=40, deadline=None)
 @given(pose=poses, turn=st.floats(-math.pi, math.pi))
+@example(pose=Pose2D(0.0, 0.0, 0.0), turn=-1.049556665215586)  # three axis beams fell the other side
 def test_the_same_beams_turned_in_the_scan_and_back_in_the_pose_give_the_same_cells(pose: Pose2D, turn: float) -> None:
     """A scan whose angles start `turn` later, at a pose turned `turn` back, sees the same world:
     the occupied cells agree but for beams whose end lies on a cell's edge (float rounding)."""
@@ -67,7 +68,9 @@ def test_the_same_beams_turned_in_the_scan_and_back_in_the_pose_give_the_same_ce
     b.integrate(turned, Pose2D(pose.x, pose.y, pose.yaw - turn))
     pa = {tuple(p) for p in np.round(a.occupied_points(), 6)}
     pb = {tuple(p) for p in np.round(b.occupied_points(), 6)}
-    assert len(pa ^ pb) <= 4, (len(pa), len(pb), len(pa ^ pb))
+    # The 4 beams along the axes (0, +-90, 180 deg: 180 bins) end exactly on a cell edge (x or y = 0),
+    # so each may fall either side in one map and the other: at most 2 cells apart each.
+    assert len(pa ^ pb) <= 8, (len(pa), len(pb), len(pa ^ pb))
 
 
 @settings(max_examples=40, deadline=None)
