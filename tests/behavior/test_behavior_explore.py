@@ -6,6 +6,7 @@ known."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -138,9 +139,10 @@ def test_exploring_gives_up_after_its_timeout() -> None:
     assert done.action == "done" and "explored for 60 s" in done.reason
 
 
-def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
+def _explore_from_the_room() -> tuple[Any, Any]:
+    """The Explore strategy and its context, the robot at (3, -2) in the toy house, its room sensed."""
     from go2vlm.behavior.goals import parse_goal
-    from go2vlm.behavior.strategies.base import Context, Pose
+    from go2vlm.behavior.strategies.base import Context
     from go2vlm.behavior.strategies.explore import Explore
     from go2vlm.behavior.strategies.params import MissionParams
 
@@ -151,6 +153,13 @@ def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
     ctx = Context(MissionParams(), goal=parse_goal("look for the duck"), view=math.radians(73))
     ctx.costmap = costmap(known, 1.0)
     s.reset(0.0)
+    return s, ctx
+
+
+def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
+    from go2vlm.behavior.strategies.base import Pose
+
+    s, ctx = _explore_from_the_room()
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
     states: list[str] = []
     turned = 0.0
@@ -177,18 +186,10 @@ def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
     """The robot at a frontier beside a wall: the safety gate holds its turn (the pose never turns).
     The look ends after LOOK_SLACK whole turns' time, the place counts as visited, and the search goes
     on to the next frontier instead of waiting there until the goal times out."""
-    from go2vlm.behavior.goals import parse_goal
-    from go2vlm.behavior.strategies.base import Context, Pose
-    from go2vlm.behavior.strategies.explore import LOOK_SLACK, Explore
-    from go2vlm.behavior.strategies.params import MissionParams
+    from go2vlm.behavior.strategies.base import Pose
+    from go2vlm.behavior.strategies.explore import LOOK_SLACK
 
-    truth = house()
-    known = np.full(truth.shape, -1, np.int8)
-    sense(truth, known, 3.0, -2.0)
-    s = Explore()
-    ctx = Context(MissionParams(), goal=parse_goal("look for the duck"), view=math.radians(73))
-    ctx.costmap = costmap(known, 1.0)
-    s.reset(0.0)
+    s, ctx = _explore_from_the_room()
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
     look_began: float | None = None
     reasons: list[str] = []
