@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import TERMINAL, ZERO_BURST_S, Mission, MissionParams, Sighting
+from go2vlm.behavior.planner.local import BACK_SPEED
 
 GOALS = [
     "go to the blue cylinder",
@@ -120,7 +121,8 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
         out = m.step(now)
         state = out.state
         # Speeds within the limits, never backwards.
-        assert 0.0 <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
+        assert -BACK_SPEED <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
+        assert out.vx >= 0.0 or (out.wz == 0.0 and out.vx == -BACK_SPEED), out  # only a straight back-away
         # Terminal states, "stop" and goals it cannot parse: zero, no target for the follower, no query.
         if state in TERMINAL:
             if t_terminal is None:

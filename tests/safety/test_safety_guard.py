@@ -11,7 +11,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from go2vlm.safety.guard import CollisionGuard, GuardConfig, Scan, rect_distance
+from go2vlm.geometry.footprint import rect_distance
+from go2vlm.safety.guard import CollisionGuard, GuardConfig, Scan
 from go2vlm.safety.limits import Limits, Velocity
 
 LIMITS = Limits(1.0, 1.0, 1.0, 2.0, 1.0, 3.0)

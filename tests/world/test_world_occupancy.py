@@ -14,7 +14,7 @@ from maputil import BINS, INC, ROOM, room_scan, wall_distance
 
 from go2vlm.world.occupancy import (
     FREE,
-    GAP_BEAMS,
+    GAP_ANGLE,
     INSCRIBED,
     LETHAL,
     UNKNOWN,
@@ -27,6 +27,7 @@ from go2vlm.world.occupancy import (
 )
 from go2vlm.world.poses import Pose2D
 
+OPEN = int(GAP_ANGLE / INC) + 1  # beams in a run without a return that is an opening, not a gap
 poses = st.builds(
     Pose2D,
     st.floats(-ROOM[0] + 0.5, ROOM[0] - 0.5),
@@ -208,8 +209,8 @@ def test_the_costmap_bands_follow_the_footprint() -> None:
 @settings(max_examples=40, deadline=None)
 @given(pose=poses, holes=st.sets(st.integers(0, BINS - 1), max_size=40))
 def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, holes: set[int]) -> None:
-    """Bins a cloud left empty (+inf between two returns) clear only to their neighbours' walls; more
-    in a row than GAP_BEAMS (with far returns round them) are an opening and clear to range_max."""
+    """Bins a cloud left empty (+inf between two returns) clear only to their neighbours' walls; a run
+    wider than GAP_ANGLE (with far returns round them) is an opening and clears to range_max."""
     beams = room_scan(pose)
     ranges = beams.ranges.copy()
     lone = {i for i in holes if (i - 1) % BINS not in holes and (i + 1) % BINS not in holes}
@@ -223,7 +224,7 @@ def test_a_lone_beam_without_a_return_never_clears_through_a_wall(pose: Pose2D, 
     assert (np.abs(cx) < ROOM[0] + tol).all() and (np.abs(cy) < ROOM[1] + tol).all(), "free space past a wall"
     near = int(np.argmin(beams.ranges))  # an open door in the nearest wall (within no_return_m) ...
     opening = beams.ranges.copy()
-    opening[np.arange(near - 1, near + GAP_BEAMS) % BINS] = np.inf
+    opening[np.arange(near - 1, near + OPEN) % BINS] = np.inf
     fresh = OccupancyMap()
     fresh.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
     rows, cols = np.nonzero(fresh.values() == FREE)
@@ -239,3 +240,52 @@ def test_the_costmap_in_bands_is_the_costmap_whole(seed: int, band: int) -> None
     values = rng.choice(np.array([UNKNOWN, FREE, LETHAL], np.int8), size=(60, 45), p=[0.3, 0.68, 0.02])
     params = CostmapParams.for_footprint(0.70, 0.31)
     assert np.array_equal(inflate(values, 0.05, params, band_rows=band), inflate(values, 0.05, params, band_rows=10**6))
+
+
+
+def _free_past_walls(grid: OccupancyMap, room: tuple[float, float] = ROOM) -> int:
+    rows, cols = np.nonzero(grid.values() == FREE)
+    cx = (cols + grid.offset[0] + 0.5) * grid.resolution
+    cy = (rows + grid.offset[1] + 0.5) * grid.resolution
+    tol = grid.resolution * math.sqrt(2) / 2
+    return int(((np.abs(cx) > room[0] + tol) | (np.abs(cy) > room[1] + tol)).sum())
+
+
+@settings(max_examples=30, deadline=None)
+@given(start=st.integers(0, BINS - 1), width=st.integers(OPEN, 120))
+def test_a_ray_without_a_return_never_clears_a_wall_the_map_has_seen(start: int, width: int) -> None:
+    """Once a wall is on the map, no opening in the scan (beams without a return, however many)
+    clears it or anything past it: free space outside the house would be a frontier outside it."""
+    room = (1.02, 0.98)  # near walls: the returns 2 degrees apart fall in neighbouring cells
+    pose = Pose2D(0.0, 0.0, 0.0)
+    beams = room_scan(pose, room=room)
+    grid = OccupancyMap()
+    grid.integrate(beams, pose)
+    rows, cols = np.nonzero(grid.values() == LETHAL)
+    walls = [((c + grid.offset[0] + 0.5) * grid.resolution, (r + grid.offset[1] + 0.5) * grid.resolution)
+             for r, c in zip(rows, cols, strict=True)]  # fmt: skip
+    opening = beams.ranges.copy()
+    opening[np.arange(start, start + width) % BINS] = np.inf
+    for _ in range(5):
+        grid.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
+    assert _free_past_walls(grid, room) == 0
+    values = grid.values()
+    assert all(values[grid.cell_of(x, y)] == LETHAL for x, y in walls), "a wall cell cleared by rays that saw nothing"
+
+
+def test_a_run_beside_a_near_object_is_the_lidars_shadow_not_an_opening() -> None:
+    """The Go2's lidar sits 0.29 m ahead of the base: an object 0.2 m away hides a wide run of bins
+    from it, bounded by far returns; the object two beams aside makes the run a gap."""
+    pose = Pose2D(0.0, 0.0, 0.0)
+    beams = room_scan(pose)
+    ranges = beams.ranges.copy()
+    run = np.arange(60, 60 + OPEN + 2)  # wider than GAP_ANGLE and than the far returns' parallax
+    ranges[run] = np.inf
+    ranges[57:59] = 0.2  # the near object, a beam before the run's bounding return
+    grid = OccupancyMap()
+    grid.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, parallax_m=0.29), pose)
+    assert _free_past_walls(grid) == 0
+    without = OccupancyMap()  # the same run with no near object beside it is an opening
+    ranges[57:59] = beams.ranges[57:59]
+    without.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, parallax_m=0.29), pose)
+    assert _free_past_walls(without) > 0

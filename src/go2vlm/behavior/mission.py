@@ -71,7 +71,10 @@ Rules
   `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
   `search_yaw_rate`, as before. With stop and look, `not_found` also needs one whole turn looked at.
   Once turn-and-look is exhausted the next search strategy in the chain is asked; none left: `not_found`.
-- Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular (never backwards).
+- Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular, with one exception: a turn in
+  place that the footprint cannot sweep (beside a table, facing a wall: the gate's guard would hold
+  it at zero for ever) becomes a straight back-away at the local planner's BACK_SPEED while there is
+  room behind (planner/local.py `unstick`; with avoid_obstacles and a fresh scan).
 """
 
 from __future__ import annotations
@@ -85,6 +88,7 @@ import numpy as np
 
 from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.local import BACK_SPEED, unstick
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -303,6 +307,10 @@ class Mission:
         p = self.params
         vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
+        if goal is not None and self.active and p.avoid_obstacles:
+            back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner)
+            if back is not None:
+                vx, wz, self.planner_note = max(back.vx, -BACK_SPEED), back.wz, back.note
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)

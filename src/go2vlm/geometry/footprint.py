@@ -3,6 +3,8 @@
 Pure 2D geometry for judging episodes from ground truth (collisions, clearance, distance to a goal
 object) and for drawing spawn poses that do not start inside an object. A robot is an oriented
 rectangle (`Footprint.rect`); an object is a circle (sphere, cylinder) or a rectangle (box).
+`rect_distance` is the same distance for many points at once, in the robot's frame: the safety
+gate's guard and the behaviour's local planner judge the footprint's clearance with it.
 """
 
 from __future__ import annotations
@@ -10,7 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-__all__ = ["Footprint", "clearance", "surface_distance"]
+import numpy as np
+
+__all__ = ["Footprint", "clearance", "rect_distance", "surface_distance"]
 
 
 @dataclass(frozen=True)
@@ -36,6 +40,14 @@ def _to_local(px: float, py: float, x: float, y: float, yaw: float) -> tuple[flo
     dx, dy = px - x, py - y
     c, s = math.cos(yaw), math.sin(yaw)
     return c * dx + s * dy, -s * dx + c * dy
+
+
+def rect_distance(px: np.ndarray, py: np.ndarray, hx: float, hy: float) -> np.ndarray:
+    """Signed distance from points (the rectangle's frame) to the centred rectangle of half sizes
+    `hx`, `hy` (negative inside)."""
+    dx, dy = np.abs(px) - hx, np.abs(py) - hy
+    outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
+    return np.where(outside > 0, outside, np.maximum(dx, dy))
 
 
 def _rect_dist(px: float, py: float, rect: Footprint) -> float:

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from go2vlm.declare import param
+from go2vlm.geometry.footprint import rect_distance
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, RobotProfile
 from go2vlm.safety.limits import ZERO, Limits, Velocity
@@ -124,13 +125,6 @@ def twist_pose(v: Velocity, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
         return v.vx * p, v.vy * p, th
     s, c = np.sin(th), 1.0 - np.cos(th)
     return (v.vx * s - v.vy * c) / v.wz, (v.vx * c + v.vy * s) / v.wz, th
-
-
-def rect_distance(px: np.ndarray, py: np.ndarray, hx: float, hy: float) -> np.ndarray:
-    """Signed distance from points (robot frame) to the centred rectangle (negative inside)."""
-    dx, dy = np.abs(px) - hx, np.abs(py) - hy
-    outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
-    return np.where(outside > 0, outside, np.maximum(dx, dy))
 
 
 def stop_path(v: Velocity, reaction: float, limits: Limits) -> tuple[float, float]:

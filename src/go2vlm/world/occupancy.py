@@ -17,13 +17,15 @@ Rules
 - A scan is placed at a pose (x, y, yaw in odom) with its rays starting at the scan frame's origin
   (`Beams.origin`, in the base frame: /scan is in base_link and its ranges are from the base origin).
 - Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
-  the cells before it on the ray lose `miss` (a range under range_min is a hit with no free ray: too
-  close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
+  the cells before it on the ray, up to a cell short of the end, lose `miss` (a range under
+  range_min is a hit with no free ray: too close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
   space up to range_max, at most `no_return_m`, and marks nothing; but a run of them between two
-  beams with returns that is at most GAP_BEAMS long, or no wider than 1.2 x atan(parallax_m / the
-  nearer return), is a gap in the sampling, not an opening (a /scan binned from a cloud leaves such
-  holes: along walls, and wide ones beside a near object, as the Go2's lidar sits 0.29 m ahead of
-  the base): it clears only up to the nearer of the two returns, less a cell, never through a wall.
+  beams with returns that is no wider than GAP_ANGLE (60 degrees), or than 1.2 x atan(parallax_m /
+  the nearest return within NEAR_BEAMS of the run), is a gap in the sampling, not an opening (a /scan
+  binned from a cloud leaves such holes: along walls, and wide ones beside a near object, as the
+  Go2's lidar sits 0.29 m ahead of the base): it clears only up to the nearer of the two returns,
+  less a cell. A ray without a return never clears a cell the map holds occupied, nor any past it:
+  it cannot see through a wall seen before (a leak through it would read as a frontier outside).
   NaN ranges are dropped and counted (`nan`); -inf and negative ranges too (`invalid`). A cell gains or loses once
   per scan, and a cell hit by this scan is not cleared by another of its rays grazing it. Log-odds
   are clamped to [min_logodds, max_logodds], so a moved object is cleared after a few scans.
@@ -196,11 +198,15 @@ class OccupancyMap:
         # from a cloud leaves such holes in a wall), not a hole in the wall: it clears only as far as
         # the nearer of its neighbours' returns.
         clear = min(beams.range_max, p.no_return_m)
-        free_len = np.where(hit, np.where(r >= beams.range_min, r, 0.0), np.where(no_return, clear, 0.0))
+        # A return's own ray stops a cell short of it: the cell before the end may hold the same wall
+        # (a ray meets a wall inside the cell it ends in, or the one before), and clearing it would
+        # pit the wall with holes.
+        res = self.resolution
+        free_len = np.where(hit, np.where(r >= beams.range_min, np.maximum(r - res, 0.0), 0.0),
+                            np.where(no_return, clear, 0.0))  # fmt: skip
         wraps = len(r) * beams.angle_increment > 2 * math.pi - 1.5 * beams.angle_increment
         gap, bound = _gaps(np.where(hit, r, np.inf), no_return, wraps, beams.angle_increment, beams.parallax_m)
-        free_len[gap] = np.maximum(bound[gap] - self.resolution, 0.0)
-        res = self.resolution
+        free_len[gap] = np.maximum(bound[gap] - res, 0.0)
         hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
         step = res / 2.0
         n = np.ceil(free_len / step).astype(np.int64)
@@ -232,6 +238,29 @@ class OccupancyMap:
         h_flat = (h_iy[h_in] - iy0) * flat_w + (h_ix[h_in] - ix0)
         f_flat = (f_iy[f_in] - iy0) * flat_w + (f_ix[f_in] - ix0)
         before = lo[h_flat]
+        # A ray without a return (a gap, or nothing within range) stops at the first cell that is, or
+        # touches, one the map holds occupied: it may not clear what has been seen (a wall behind a
+        # shadow stays a wall), nor slip between two wall cells that meet at a corner.
+        weak = ~hit[ray[f_in]]
+        occ = np.zeros(len(f_flat), dtype=bool)
+        if weak.any():
+            grid2 = self.logodds
+            gy, gx = f_iy[f_in][weak] - iy0, f_ix[f_in][weak] - ix0
+            near = np.zeros(len(gy), dtype=bool)
+            for ddy in (-1, 0, 1):
+                for ddx in (-1, 0, 1):
+                    yy = np.clip(gy + ddy, 0, grid2.shape[0] - 1)
+                    xx = np.clip(gx + ddx, 0, grid2.shape[1] - 1)
+                    near |= grid2[yy, xx] >= p.occupied_logodds
+            occ[np.nonzero(weak)[0]] = near
+        if occ.any():
+            seg = np.repeat(np.cumsum(n) - n, n)[f_in]  # each sample's ray start, in samples
+            order = np.arange(total)[f_in]
+            past = np.zeros(total, dtype=np.int64)
+            past[order[occ]] = 1
+            csum = np.cumsum(past)
+            start = np.where(seg > 0, csum[np.maximum(seg - 1, 0)], 0)
+            f_flat = f_flat[~(weak & (csum[order] - start > 0))]
         lo[f_flat] = np.maximum(lo[f_flat] - p.miss, p.min_logodds)
         lo[h_flat] = np.minimum(before + p.hit, p.max_logodds)
         self.scans += 1
@@ -298,7 +327,13 @@ class OccupancyMap:
                 "unknown": int((v == UNKNOWN).sum())}  # fmt: skip
 
 
-GAP_BEAMS = 5  # a run of this many beams (10 degrees at 2) without a return between two with one is a gap ...
+# A run of beams without a return between two with one, no wider than this, is a gap in the binned
+# cloud (its shadows), not an opening: a house has walls within range_max all round, so a true
+# opening with nothing behind it is rare indoors, while shadows of near furniture are common.
+GAP_ANGLE = math.radians(60.0)
+
+
+NEAR_BEAMS = 5  # how far beside a run its shadow's caster is looked for
 
 
 def _gaps(
@@ -316,10 +351,14 @@ def _gaps(
     if wraps:
         a, b = np.append(a, hits[-1]), np.append(b, hits[0] + n)
     length = b - a - 1
-    near = np.minimum(r_hit[a % n], r_hit[b % n])
-    # ... so is one no wider than what a sensor parallax_m off the scan's origin leaves beside a return
-    # at that range (a lidar ahead of the base casts its rays round a near object's edge).
-    widest = np.maximum(GAP_BEAMS, 1.2 * np.arctan2(parallax_m, near) / increment + 1)
+    # ... and so is one no wider than what a sensor parallax_m off the scan's origin leaves beside a
+    # return at that range (a lidar ahead of the base casts its rays round a near object's edge): the
+    # nearest return within a few beams of either end, since the object that casts the shadow is
+    # often a beam or two beside the far returns that bound it.
+    near = np.full(len(a), np.inf)
+    for k in range(NEAR_BEAMS):
+        near = np.minimum(near, np.minimum(r_hit[(a - k) % n], r_hit[(b + k) % n]))
+    widest = np.maximum(GAP_ANGLE / increment, 1.2 * np.arctan2(parallax_m, near) / increment + 1)
     short = (length >= 1) & (length <= widest)
     for lo, hi in zip(a[short], b[short], strict=True):
         idx = np.arange(lo + 1, hi) % n

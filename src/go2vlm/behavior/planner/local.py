@@ -16,9 +16,15 @@ goal, not an obstacle.
 - No free heading at all: turn in place (towards the freest one, or the side it keeps to), forward
   speed zero.
 
-It never drives faster than the `speed` it is given and never backwards. The safety gate's collision
-guard still has the last word on every command; the planner keeps the approach out of the guard's
-way, it does not replace it.
+It never drives faster than the `speed` it is given, and `steer` never backwards. The safety gate's
+collision guard still has the last word on every command; the planner keeps the approach out of the
+guard's way, it does not replace it.
+
+- `unstick`: a turn in place whose sweep would bring the footprint's corners within `margin` of a
+  scan point (or closer than they are, if already inside it) is one the guard holds: the robot would
+  stand there turning at zero for ever (beside a table, facing a wall). Such a command becomes a slow
+  straight back-away (BACK_SPEED) while the way behind is clear for BACK_CHECK_M, until the turn is
+  clear; with no room behind it stays as it was (the guard holds it, and says so).
 """
 
 from __future__ import annotations
@@ -28,9 +34,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from go2vlm.geometry.footprint import rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
-__all__ = ["PlannerParams", "Steer", "corridor_free", "steer"]
+__all__ = ["BACK_SPEED", "PlannerParams", "Steer", "corridor_free", "steer", "unstick"]
+
+TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
+TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)
+BACK_SPEED = 0.15  # m/s: backing away from what a turn in place would sweep into
+BACK_CHECK_M = 0.3  # m of room behind it needs to back away
 
 
 @dataclass(frozen=True)
@@ -142,3 +154,36 @@ def steer(
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _clearances(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> np.ndarray:
+    """The footprint's clearance from the nearest point at each pose (x, y, yaw in the base frame now)."""
+    dx, dy = points[None, :, 0] - x[:, None], points[None, :, 1] - y[:, None]
+    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
+    d = rect_distance(c * dx + s * dy, -s * dx + c * dy, p.half_length, p.half_width)
+    return np.asarray(d.min(axis=1))
+
+
+def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> bool:
+    """Does the footprint keep `margin` (or what it has now, if less) along the poses (the first is now)?"""
+    d = _clearances(points, x, y, th, p)
+    return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-3).all())
+
+
+def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -> Steer | None:
+    """A back-away instead of a turn in place that the footprint cannot sweep (module docstring), or
+    None: the command is not a turn in place, its turn is clear, or there is no room behind."""
+    if points is None or abs(vx) > TURN_ONLY_VX or abs(wz) < 1e-3 or not math.isfinite(wz):
+        return None
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    reach = math.hypot(p.half_length, p.half_width) + p.margin + BACK_CHECK_M
+    pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
+    if len(pts) == 0:
+        return None
+    n = 7
+    zero, turn = np.zeros(n), np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
+    if _sweep_ok(pts, zero, zero, turn, p):
+        return None
+    if not _sweep_ok(pts, -np.linspace(0.0, BACK_CHECK_M, n), zero, zero, p):
+        return None
+    return Steer(-BACK_SPEED, 0.0, math.pi, True, "too near something to turn in place: backing away")
