@@ -242,7 +242,6 @@ def test_the_costmap_in_bands_is_the_costmap_whole(seed: int, band: int) -> None
     assert np.array_equal(inflate(values, 0.05, params, band_rows=band), inflate(values, 0.05, params, band_rows=10**6))
 
 
-
 def _free_past_walls(grid: OccupancyMap, room: tuple[float, float] = ROOM) -> int:
     rows, cols = np.nonzero(grid.values() == FREE)
     cx = (cols + grid.offset[0] + 0.5) * grid.resolution

@@ -18,8 +18,9 @@ Rules
   (`Beams.origin`, in the base frame: /scan is in base_link and its ranges are from the base origin).
 - Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
   the cells before it on the ray, up to a cell short of the end, lose `miss` (a range under
-  range_min is a hit with no free ray: too close is not free). +inf, or a range beyond range_max, is no return (REP 117): the ray clears free
-  space up to range_max, at most `no_return_m`, and marks nothing; but a run of them between two
+  range_min is a hit with no free ray: too close is not free). +inf, or a range beyond range_max,
+  is no return (REP 117): the ray clears free space up to range_max, at most `no_return_m`, and
+  marks nothing; but a run of them between two
   beams with returns that is no wider than GAP_ANGLE (60 degrees), or than 1.2 x atan(parallax_m /
   the nearest return within NEAR_BEAMS of the run), is a gap in the sampling, not an opening (a /scan
   binned from a cloud leaves such holes: along walls, and wide ones beside a near object, as the
