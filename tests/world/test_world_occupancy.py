@@ -23,6 +23,7 @@ from go2vlm.world.occupancy import (
     GridParams,
     OccupancyMap,
     ScanRefused,
+    bounded_distance,
     inflate,
 )
 from go2vlm.world.poses import Pose2D
@@ -288,3 +289,22 @@ def test_a_run_beside_a_near_object_is_the_lidars_shadow_not_an_opening() -> Non
     ranges[57:59] = beams.ranges[57:59]
     without.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, parallax_m=0.29), pose)
     assert _free_past_walls(without) > 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), h=st.integers(1, 40), w=st.integers(1, 40), frac=st.floats(0.0, 0.2),
+       max_cells=st.integers(0, 20))  # fmt: skip
+def test_the_bounded_distance_is_scipys_within_its_bound(
+    seed: int, h: int, w: int, frac: float, max_cells: int
+) -> None:
+    from scipy import ndimage
+
+    occ = np.random.default_rng(seed).random((h, w)) < frac
+    got = bounded_distance(occ, max_cells)
+    if not occ.any():
+        assert np.isinf(got).all()
+        return
+    want = ndimage.distance_transform_edt(~occ)
+    near = want <= max_cells
+    assert np.allclose(got[near], want[near])
+    assert np.isinf(got[~near]).all()

@@ -50,7 +50,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from go2vlm.world.poses import Pose2D
 
@@ -65,6 +64,7 @@ __all__ = [
     "Integrated",
     "OccupancyMap",
     "ScanRefused",
+    "bounded_distance",
     "inflate",
 ]
 
@@ -402,6 +402,30 @@ class CostmapParams:
         return CostmapParams(inscribed, circumscribed, max(inflation_m, circumscribed))
 
 
+def bounded_distance(occupied: np.ndarray, max_cells: int) -> np.ndarray:
+    """Euclidean distance (in cells) from each cell to the nearest True cell of `occupied`, exact up
+    to `max_cells` and +inf beyond. Separable, in numpy: the squared distance along each column
+    within `max_cells`, then the nearest of the columns within `max_cells` either side (about
+    scipy's time). Written here, not taken from scipy.ndimage, whose import (with scipy.special)
+    was 29 MB of the map node's memory."""
+    occ = np.asarray(occupied, dtype=bool)
+    h, w = occ.shape
+    cap = np.float32((max_cells + 1) ** 2)
+    g2 = np.where(occ, np.float32(0.0), cap).astype(np.float32)
+    for k in range(1, min(max_cells, h - 1) + 1):
+        kk = np.float32(k * k)
+        np.minimum(g2[k:], np.where(occ[:-k], kk, cap), out=g2[k:])
+        np.minimum(g2[:-k], np.where(occ[k:], kk, cap), out=g2[:-k])
+    best = g2.copy()
+    for k in range(1, min(max_cells, w - 1) + 1):
+        kk = np.float32(k * k)
+        np.minimum(best[:, k:], g2[:, :-k] + kk, out=best[:, k:])
+        np.minimum(best[:, :-k], g2[:, k:] + kk, out=best[:, :-k])
+    d = np.sqrt(best).astype(np.float64)
+    d[d > max_cells] = np.inf
+    return d
+
+
 def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_rows: int = 256) -> np.ndarray:
     """The costmap of an OccupancyGrid's cells (see the module docstring), int8, same shape. Computed
     in bands of rows (each with the inflation radius of rows round it), so that a map at the cap
@@ -416,7 +440,7 @@ def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_r
         occ = occupied[lo:hi]
         if not occ.any():
             continue
-        d = ndimage.distance_transform_edt(~occ)[r0 - lo : r0 - lo + band_rows]  # in cells
+        d = bounded_distance(occ, reach)[r0 - lo : r0 - lo + band_rows]  # in cells
         near = np.nonzero(d <= params.inflation_m / resolution)
         dn = d[near] * resolution
         falling = np.minimum(1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0)), 98)

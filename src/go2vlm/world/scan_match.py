@@ -1,5 +1,5 @@
 """Scan matching against the occupancy map: where the robot is, given where odometry says it is and
-what the lidar sees. Pure numpy and scipy, no I/O.
+what the lidar sees. Pure numpy, no I/O.
 
     field = LikelihoodField.around(grid, guess.x, guess.y, half_size_m=6.0, sigma_m=0.1)
     m = match(field, points, guess, MatchParams())     # points: the scan's returns in the base frame
@@ -33,12 +33,13 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import ndimage
 
-from go2vlm.world.occupancy import OccupancyMap
+from go2vlm.world.occupancy import OccupancyMap, bounded_distance
 from go2vlm.world.poses import IDENTITY, Pose2D, wrap_angle
 
 __all__ = ["Corrector", "LikelihoodField", "Match", "MatchParams", "fit", "match"]
+
+FIELD_SIGMAS = 5.0  # the likelihood field is exact this many sigmas out, 0 beyond (exp(-12.5) < 4e-6)
 
 
 @dataclass(frozen=True)
@@ -102,7 +103,7 @@ class LikelihoodField:
         lo = grid.logodds[r0:r1, c0:c1]
         occupied = lo >= grid.params.occupied_logodds
         if occupied.any():
-            d = ndimage.distance_transform_edt(~occupied) * res
+            d = bounded_distance(occupied, int(math.ceil(FIELD_SIGMAS * sigma_m / res))) * res  # beyond: 0
             field = np.exp(-0.5 * (d / sigma_m) ** 2).astype(np.float32)
         else:
             field = np.zeros(lo.shape, dtype=np.float32)
