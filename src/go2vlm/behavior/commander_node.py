@@ -106,9 +106,11 @@ max_go_to_m is refused (state rejected, with the reason). Leases are in wall tim
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
-Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
-search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
-settings; goal (use /goal), the topics, scan_timeout_s and the rates are read-only.
+Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
+At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
+decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory settings; goal
+(use /goal), robot (its head camera's mount, from the robot profile), frontier_choice, the topics,
+scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
@@ -116,18 +118,18 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
-from dataclasses import dataclass
 from typing import Any
 
+from go2vlm.behavior.commander_config import CommanderConfig
 from go2vlm.behavior.lease import Lease, LeaseError, overdue, parse_goal, parse_renewal, too_far
-from go2vlm.behavior.mission import Intent, Mission, MissionParams
+from go2vlm.behavior.mission import Intent, Mission
 from go2vlm.behavior.planner.global_path import Costmap, Route
 from go2vlm.behavior.sighting import sighting_of
 from go2vlm.behavior.strategies.base import SearchStrategy
-from go2vlm.behavior.strategies.explore import FRONTIER_CHOICES, Explore, ExploreParams
+from go2vlm.behavior.strategies.explore import Explore
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewAnswerRejected, parse_view_answer
-from go2vlm.bus import Node, core_params, param
+from go2vlm.bus import Node
 from go2vlm.bus.topics import (
     BEHAVIOR_CMD_VEL,
     COMMANDER_STATUS,
@@ -162,127 +164,7 @@ from go2vlm.world.poses import PoseHistory, PoseUnavailable
 
 __all__ = ["CommanderConfig", "CommanderNode"]
 
-_MP = MissionParams()
-_EP = ExploreParams()
 WAY_STATES = ("searching", "exploring")  # frontier_choice vlm asks which way while looking round or exploring
-
-
-@dataclass
-class CommanderConfig:
-    """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
-
-    goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
-    stop_distance_m: float = param(
-        _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
-    )
-    follow_distance_m: float = param(
-        _MP.follow_distance_m, help="follow: keep this far (base -> surface)", min=0.3, max=5.0, live=True
-    )
-    distance_tolerance_m: float = param(
-        _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
-    )
-    max_linear: float = param(
-        _MP.max_linear, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
-    )
-    max_angular: float = param(_MP.max_angular, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
-    kp_linear: float = param(
-        _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
-    )
-    kp_angular: float = param(
-        _MP.kp_angular, help="P gain from horizontal offset x to angular.z (every goal)", min=0.0, max=10.0, live=True
-    )
-    search_yaw_rate: float = param(
-        _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
-    )
-    search_timeout_s: float = param(
-        _MP.search_timeout_s, help="give up searching after this long", min=1.0, max=600.0, live=True
-    )
-    search_on_loss: bool = param(
-        _MP.search_on_loss, help="go to / look for: search again when the target is lost", live=True
-    )
-    lost_timeout_s: float = param(
-        _MP.lost_timeout_s, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
-    )
-    camera_forward_m: float = param(
-        _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
-    )
-    avoid_obstacles: bool = param(
-        _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
-    )
-    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the local planner")
-    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry: the target's place while a detour hides it")
-    scan_timeout_s: float = param(
-        _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
-    )
-    planner_margin_m: float = param(
-        _MP.planner.margin, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
-    )
-    detour_memory_s: float = param(
-        _MP.detour_memory_s, help="a detour out of view lasts this long after the last sighting (s)", min=0.0,
-        max=60.0, live=True,
-    )  # fmt: skip
-    use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
-    objects_topic: str = param(OBJECTS.name, help="vision_msgs/Detection3DArray: the object memory")
-    memory_min_confidence: float = param(
-        _MP.memory_min_confidence, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
-    )
-    memory_confirm_confidence: float = param(
-        _MP.memory_confirm_confidence, help="... and this sure walked to", min=0.01, max=1.0, live=True
-    )
-    reach_slack_m: float = param(
-        _MP.reach_slack_m, help="a remembered place within reach: stop + tolerance + this (m)", min=0.0, max=2.0,
-        live=True,
-    )  # fmt: skip
-    confirm_looks: int = param(_MP.confirm_looks, help="answered looks without it before giving up", min=1, max=20,
-                               live=True)  # fmt: skip
-    search_step_deg: float = param(_MP.search_step_deg, help="stop and look: the turn between looks", min=5.0,
-                                   max=90.0, live=True)  # fmt: skip
-    search_view_per_answer: float = param(
-        _MP.search_view_per_answer, help="turning on would turn more of the view than this per answer: stop and look",
-        min=0.05, max=2.0, live=True,
-    )  # fmt: skip
-    search_step_rate: float = param(_MP.search_step_rate, help="stop and look: the turn between looks (rad/s)",
-                                    min=0.05, max=1.5, live=True)  # fmt: skip
-    look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
-                                 min=0.0, max=5.0, live=True)  # fmt: skip
-    look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
-                                  min=0.5, max=120.0, live=True)  # fmt: skip
-    max_goal_s: float = param(900.0, help="any goal stops after this long (s)", min=1.0, max=86400.0, live=True)
-    max_go_to_m: float = param(
-        25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
-    )
-    explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
-                          "finds nothing", live=True)  # fmt: skip
-    frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
-                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (the "
-                                 "best-scored way on /vlm/way first)")  # fmt: skip
-    explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
-                                        min=1.0, max=1000.0, live=True)  # fmt: skip
-    explore_timeout_s: float = param(_EP.timeout_s, help="explore: give the goal up this long after it began (s)",
-                                     min=10.0, max=3600.0, live=True)  # fmt: skip
-    costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
-    control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
-    status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    decision_hold_s: float = param(
-        _MP.decision_hold_s, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True
-    )
-    decision_turn_rate: float = param(
-        _MP.decision_turn_rate, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True
-    )
-    max_turn_deg: float = param(
-        _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
-    )
-
-    def explore_params(self) -> ExploreParams:
-        return dataclasses.replace(_EP, frontier_choice=self.frontier_choice, unknown_cost=self.explore_unknown_cost,
-                                   timeout_s=self.explore_timeout_s)  # fmt: skip
-
-    def mission_params(self) -> MissionParams:
-        return core_params(
-            MissionParams,
-            self,
-            planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
-        )
 
 
 class CommanderNode(Node):
