@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.commander_msgs import WAY_STATES, commander_status, route_path, way_answer, way_query
 from go2vlm.behavior.mission import Mission
-from go2vlm.behavior.planner.global_path import Plan, Route
+from go2vlm.behavior.planner.global_path import Plan
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.view_scores import ViewAnswerRejected
 from go2vlm.perception.way import WayMessageRejected, way_message
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from go2vlm.behavior.mission import Mission
-from go2vlm.behavior.planner.global_path import Route
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.view_scores import parse_view_answer
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion

@@ -124,7 +124,8 @@ from go2vlm.behavior.commander_config import CommanderConfig
 from go2vlm.behavior.commander_msgs import commander_status, route_path, way_answer, way_query
 from go2vlm.behavior.lease import Lease, LeaseError, goal_end, parse_goal, parse_renewal
 from go2vlm.behavior.mission import Intent, Mission
-from go2vlm.behavior.planner.global_path import Costmap, Route
+from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import sighting_of
 from go2vlm.behavior.strategies.base import SearchStrategy
 from go2vlm.behavior.strategies.explore import Explore

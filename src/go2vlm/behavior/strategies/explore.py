@@ -16,7 +16,7 @@ Rules
   `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
   (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
   nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
-- Walk the route's waypoints (behavior/planner/global_path.Route): replan when the map makes the
+- Walk the route's waypoints (behavior/planner/route.Route): replan when the map makes the
   route blocked, when the robot strays from it, or as the map grows. A frontier the lidar has seen
   past on the way is still walked to and looked from (the lidar reaches 10 m, the camera's answers
   less: the look is what finds the object); one whose goal is no place to stand on the new map, a
@@ -37,7 +37,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from go2vlm.behavior.control import search_command
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, plan_path
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, plan_path
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.route import follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
