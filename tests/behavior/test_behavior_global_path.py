@@ -14,12 +14,12 @@ from hypothesis import strategies as st
 from go2vlm.behavior.planner.global_path import (
     Costmap,
     GlobalParams,
-    Route,
     cell_costs,
     chain_cost,
     line_cells,
     plan_path,
 )
+from go2vlm.behavior.planner.route import Route
 
 RES = 0.05
 P = GlobalParams()

@@ -16,6 +16,7 @@ from go2vlm.behavior.lease import (
     LeasedGoal,
     LeaseError,
     Renewal,
+    goal_end,
     overdue,
     parse_goal,
     parse_renewal,
@@ -112,3 +113,27 @@ def test_too_far_refuses_only_a_go_to_beyond_the_cap(kind: str | None, d: float 
     assert (why is not None) == (kind == "go_to" and d is not None and d > cap)
     if why:
         assert "max_go_to_m" in why
+
+
+@given(
+    st.none() | st.just("the goal's lease 'x' expired"), st.floats(0.0, 1e4), st.floats(1.0, 1e4),
+    st.sampled_from(["go_to", "follow", "look_for", None]), st.none() | st.floats(0.0, 1e3), st.floats(0.5, 500),
+)  # fmt: skip
+def test_a_goal_ends_stopped_before_it_is_refused(
+    lease_why: str | None, ran: float, max_s: float, kind: str | None, d: float | None, cap: float
+) -> None:
+    """An expired lease or an overdue goal stops it (and says why); only a goal that may go on is
+    refused for its distance; a goal within every bound goes on."""
+    end = goal_end(lease_why, 0.0, ran, max_s, kind, d, cap)
+    stop = lease_why or overdue(0.0, ran, max_s)
+    if stop:
+        assert end == ("stopped", f"stopped: {stop}")
+    elif too_far(kind, d, cap):
+        assert end is not None and end[0] == "rejected" and "max_go_to_m" in end[1]
+    else:
+        assert end is None
+
+
+def test_a_lease_reports_its_id_and_what_is_left() -> None:
+    assert Lease.grant("x", 2.0, 10.0).status(11.0) == {"id": "x", "left_s": 1.0}
+    assert Lease.grant("x", 2.0, 10.0).status(13.0) == {"id": "x", "left_s": 0.0}

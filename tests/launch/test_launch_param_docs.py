@@ -205,7 +205,7 @@ def test_bus_md_says_which_parameters_change_at_runtime() -> None:
 
 def test_node_defaults_are_their_cores() -> None:
     """A node parameter that its pure core also has defaults to the core's value (one source): the
-    commander's by the same names through bus.core_params."""
+    commander's, by the same names, are MissionParams' (bus.core_params builds it from the config)."""
     from go2vlm.behavior.mission import MissionParams
 
     core = MissionParams()
@@ -217,6 +217,11 @@ def test_node_defaults_are_their_cores() -> None:
 
 # node kind -> the pure cores whose declared fields (go2vlm/declare.py `param`) it takes over
 NODE_CORES = {
+    "commander": (
+        "go2vlm.behavior.mission:MissionParams",
+        "go2vlm.behavior.planner:PlannerParams",
+        "go2vlm.behavior.strategies.explore:ExploreParams",
+    ),
     "safety": ("go2vlm.safety.limits:Limits", "go2vlm.safety.guard:GuardConfig", "go2vlm.safety.health:HealthPolicy"),
     "target_tracker": ("go2vlm.perception.tracking:TrackingParams",),
     "object_memory": ("go2vlm.perception.tracking:TrackingParams", "go2vlm.world.memory:MemoryParams"),

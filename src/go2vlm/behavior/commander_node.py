@@ -106,9 +106,11 @@ max_go_to_m is refused (state rejected, with the reason). Leases are in wall tim
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
-Parameters at runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts,
-search settings, decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory
-settings; goal (use /goal), the topics, scan_timeout_s and the rates are read-only.
+Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
+At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
+decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory settings; goal
+(use /goal), robot (its head camera's mount, from the robot profile), frontier_choice, the topics,
+scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
@@ -116,18 +118,20 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
-from dataclasses import dataclass
 from typing import Any
 
-from go2vlm.behavior.lease import Lease, LeaseError, overdue, parse_goal, parse_renewal, too_far
-from go2vlm.behavior.mission import Intent, Mission, MissionParams
-from go2vlm.behavior.planner.global_path import Costmap, Route
+from go2vlm.behavior.commander_config import CommanderConfig
+from go2vlm.behavior.commander_msgs import commander_status, route_path, way_answer, way_query
+from go2vlm.behavior.lease import Lease, LeaseError, goal_end, parse_goal, parse_renewal
+from go2vlm.behavior.mission import Intent, Mission
+from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import sighting_of
 from go2vlm.behavior.strategies.base import SearchStrategy
-from go2vlm.behavior.strategies.explore import FRONTIER_CHOICES, Explore, ExploreParams
+from go2vlm.behavior.strategies.explore import Explore
 from go2vlm.behavior.strategies.search import TurnAndLook
-from go2vlm.behavior.view_scores import ViewAnswerRejected, parse_view_answer
-from go2vlm.bus import Node, core_params, param
+from go2vlm.behavior.view_scores import ViewAnswerRejected
+from go2vlm.bus import Node
 from go2vlm.bus.topics import (
     BEHAVIOR_CMD_VEL,
     COMMANDER_STATUS,
@@ -147,142 +151,19 @@ from go2vlm.bus.topics import (
 )
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
-from go2vlm.msgs.builtin_interfaces import Time
-from go2vlm.msgs.geometry_msgs import Point, Pose, PoseStamped, Quaternion, Twist, Vector3
+from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.go2vlm_msgs import TrackedTarget
-from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry, Path
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Odometry
 from go2vlm.msgs.sensor_msgs import LaserScan
-from go2vlm.msgs.std_msgs import Header, String
+from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.vision_msgs import Detection3DArray
-from go2vlm.perception.way import WayMessageRejected, parse_way_message
+from go2vlm.perception.way import WayMessageRejected
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.map_msg import grid_of
 from go2vlm.world.objects_msg import remembered
 from go2vlm.world.poses import PoseHistory, PoseUnavailable
 
 __all__ = ["CommanderConfig", "CommanderNode"]
-
-_MP = MissionParams()
-_EP = ExploreParams()
-WAY_STATES = ("searching", "exploring")  # frontier_choice vlm asks which way while looking round or exploring
-
-
-@dataclass
-class CommanderConfig:
-    """The commander's parameters; each default that the Mission core knows is its MissionParams'."""
-
-    goal: str = param("", help="goal to start with, e.g. 'follow the red ball' or 走到蓝色圆柱 ('' = wait for /goal)")
-    stop_distance_m: float = param(
-        _MP.stop_distance_m, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
-    )
-    follow_distance_m: float = param(
-        _MP.follow_distance_m, help="follow: keep this far (base -> surface)", min=0.3, max=5.0, live=True
-    )
-    distance_tolerance_m: float = param(
-        _MP.distance_tolerance_m, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
-    )
-    max_linear: float = param(
-        _MP.max_linear, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
-    )
-    max_angular: float = param(_MP.max_angular, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
-    kp_linear: float = param(
-        _MP.kp_linear, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True
-    )
-    kp_angular: float = param(
-        _MP.kp_angular, help="P gain from horizontal offset x to angular.z (every goal)", min=0.0, max=10.0, live=True
-    )
-    search_yaw_rate: float = param(
-        _MP.search_yaw_rate, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True
-    )
-    search_timeout_s: float = param(
-        _MP.search_timeout_s, help="give up searching after this long", min=1.0, max=600.0, live=True
-    )
-    search_on_loss: bool = param(
-        _MP.search_on_loss, help="go to / look for: search again when the target is lost", live=True
-    )
-    lost_timeout_s: float = param(
-        _MP.lost_timeout_s, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
-    )
-    camera_forward_m: float = param(
-        _MP.camera_forward_m, help="camera ahead of the base centre", min=-1.0, max=1.0, live=True
-    )
-    avoid_obstacles: bool = param(
-        _MP.avoid_obstacles, help="go to / follow (self): steer round obstacles on scan_topic", live=True
-    )
-    scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the local planner")
-    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry: the target's place while a detour hides it")
-    scan_timeout_s: float = param(
-        _MP.scan_timeout_s, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0
-    )
-    planner_margin_m: float = param(
-        _MP.planner.margin, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
-    )
-    detour_memory_s: float = param(
-        _MP.detour_memory_s, help="a detour out of view lasts this long after the last sighting (s)", min=0.0,
-        max=60.0, live=True,
-    )  # fmt: skip
-    use_memory: bool = param(_MP.use_memory, help="go to / look for remembered objects (objects_topic)", live=True)
-    objects_topic: str = param(OBJECTS.name, help="vision_msgs/Detection3DArray: the object memory")
-    memory_min_confidence: float = param(
-        _MP.memory_min_confidence, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
-    )
-    memory_confirm_confidence: float = param(
-        _MP.memory_confirm_confidence, help="... and this sure walked to", min=0.01, max=1.0, live=True
-    )
-    reach_slack_m: float = param(
-        _MP.reach_slack_m, help="a remembered place within reach: stop + tolerance + this (m)", min=0.0, max=2.0,
-        live=True,
-    )  # fmt: skip
-    confirm_looks: int = param(_MP.confirm_looks, help="answered looks without it before giving up", min=1, max=20,
-                               live=True)  # fmt: skip
-    search_step_deg: float = param(_MP.search_step_deg, help="stop and look: the turn between looks", min=5.0,
-                                   max=90.0, live=True)  # fmt: skip
-    search_view_per_answer: float = param(
-        _MP.search_view_per_answer, help="turning on would turn more of the view than this per answer: stop and look",
-        min=0.05, max=2.0, live=True,
-    )  # fmt: skip
-    search_step_rate: float = param(_MP.search_step_rate, help="stop and look: the turn between looks (rad/s)",
-                                    min=0.05, max=1.5, live=True)  # fmt: skip
-    look_settle_s: float = param(_MP.look_settle_s, help="frames this long after a stop are taken still (s)",
-                                 min=0.0, max=5.0, live=True)  # fmt: skip
-    look_timeout_s: float = param(_MP.look_timeout_s, help="before any answer, a look waits this long (s)",
-                                  min=0.5, max=120.0, live=True)  # fmt: skip
-    max_goal_s: float = param(900.0, help="any goal stops after this long (s)", min=1.0, max=86400.0, live=True)
-    max_go_to_m: float = param(
-        25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
-    )
-    explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
-                          "finds nothing", live=True)  # fmt: skip
-    frontier_choice: str = param(_EP.frontier_choice, choices=FRONTIER_CHOICES,
-                                 help="explore: the frontier to walk to: nearest by path cost, or vlm (the "
-                                 "best-scored way on /vlm/way first)")  # fmt: skip
-    explore_unknown_cost: float = param(_EP.unknown_cost, help="explore: cost per unknown cell crossed (free: 1)",
-                                        min=1.0, max=1000.0, live=True)  # fmt: skip
-    explore_timeout_s: float = param(_EP.timeout_s, help="explore: give the goal up this long after it began (s)",
-                                     min=10.0, max=3600.0, live=True)  # fmt: skip
-    costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
-    control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
-    status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
-    decision_hold_s: float = param(
-        _MP.decision_hold_s, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True
-    )
-    decision_turn_rate: float = param(
-        _MP.decision_turn_rate, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True
-    )
-    max_turn_deg: float = param(
-        _MP.max_turn_deg, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
-    )
-
-    def explore_params(self) -> ExploreParams:
-        return dataclasses.replace(_EP, frontier_choice=self.frontier_choice, unknown_cost=self.explore_unknown_cost,
-                                   timeout_s=self.explore_timeout_s)  # fmt: skip
-
-    def mission_params(self) -> MissionParams:
-        return core_params(
-            MissionParams,
-            self,
-            planner=dataclasses.replace(_MP.planner, margin=self.planner_margin_m),
-        )
 
 
 class CommanderNode(Node):
@@ -327,7 +208,6 @@ class CommanderNode(Node):
             self.tick()
 
     # -- inputs ------------------------------------------------------------------------------
-
     def on_params_changed(self, old: CommanderConfig, changed: frozenset[str]) -> None:
         # The mission reads its gains, speeds and timeouts from params on every step.
         self.mission.params = self.config.mission_params()
@@ -384,10 +264,8 @@ class CommanderNode(Node):
     def on_scan(self, msg: LaserScan) -> None:
         now = self.clock.monotonic()
         try:
-            pts = frame_scan_points(
-                spec.BASE_FRAME, msg.header.frame_id, msg.ranges, msg.angle_min, msg.angle_increment,
-                msg.range_min, msg.range_max,
-            )  # fmt: skip
+            pts = frame_scan_points(spec.BASE_FRAME, msg.header.frame_id, msg.ranges, msg.angle_min,
+                                    msg.angle_increment, msg.range_min, msg.range_max)  # fmt: skip
         except (ValueError, TypeError, OverflowError) as exc:
             n = self.count("bad_scan")
             self.log.throttled("error", 5.0, f"ignoring a bad {self.config.scan_topic} ({n} so far): {exc}", key="scan")
@@ -407,10 +285,7 @@ class CommanderNode(Node):
     def on_way(self, msg: String) -> None:
         """An answer about one frame (perception/way.py): its whitelisted score at the frame's heading."""
         try:
-            stamp, obj, answer = parse_way_message(msg.data)
-            if not self._way_query or obj != self._way_query:
-                raise WayMessageRejected("way_not_asked", f"no question about {obj!r} stands")
-            score = parse_view_answer(answer)
+            stamp, score = way_answer(msg.data, self._way_query)
             now = self.clock.monotonic()
             yaw = self._poses.at(stamp + now - self.clock.now()).yaw
         except (WayMessageRejected, ViewAnswerRejected, PoseUnavailable) as exc:
@@ -420,11 +295,17 @@ class CommanderNode(Node):
         self.explore.explorer.views.observe(yaw, score, now)
         self.count("way_answers")
 
+    def _in_odom_frame(self, frame: str, topic: str, key: str) -> bool:
+        """A memory or map message in /odom's frame (or before any /odom); one in another is counted and ignored."""
+        if not self._odom_frame or frame == self._odom_frame:
+            return True
+        n = self.count(f"{key}_wrong_frame")
+        self.log.throttled("error", 5.0, f"ignoring {topic} in frame {frame!r} ({n} so far): /odom is in "
+                           f"{self._odom_frame!r}", key=key)  # fmt: skip
+        return False
+
     def on_objects(self, msg: Detection3DArray) -> None:
-        if self._odom_frame and msg.header.frame_id != self._odom_frame:
-            n = self.count("objects_wrong_frame")
-            self.log.throttled("error", 5.0, f"ignoring {self.config.objects_topic} in frame {msg.header.frame_id!r} "
-                               f"({n} so far): /odom is in {self._odom_frame!r}", key="objects")  # fmt: skip
+        if not self._in_odom_frame(msg.header.frame_id, self.config.objects_topic, "objects"):
             return
         shift = self.clock.monotonic() - self.clock.now()  # stamps -> this node's clock (0 on sim time)
         objs = [dataclasses.replace(r, last_seen=r.last_seen + shift)
@@ -442,21 +323,17 @@ class CommanderNode(Node):
             self.log.throttled("error", 5.0, f"ignoring a bad {self.config.costmap_topic} ({n} so far): {exc}",
                                key="costmap")  # fmt: skip
             return
-        if self._odom_frame and g.frame_id != self._odom_frame:
-            n = self.count("costmap_wrong_frame")
-            self.log.throttled("error", 5.0, f"ignoring {self.config.costmap_topic} in frame {g.frame_id!r} "
-                               f"({n} so far): /odom is in {self._odom_frame!r}", key="costmap")  # fmt: skip
+        if not self._in_odom_frame(g.frame_id, self.config.costmap_topic, "costmap"):
             return
         self.mission.observe_map(Costmap(g.cells, g.resolution, g.origin, stamp=self.clock.monotonic()))
 
     def on_decision(self, msg: String) -> None:
-        before = self.mission.counters["decisions_rejected"]
-        self.mission.decide(msg.data, self.clock.monotonic())
-        n = self.mission.counters["decisions_rejected"]
-        if n > before:
-            self.log.throttled(
-                "warning", 5.0, f"ignored a VLM decision outside the schema ({n} so far): {self.mission.last_decision}"
-            )
+        m = self.mission
+        before = m.counters["decisions_rejected"]
+        m.decide(msg.data, self.clock.monotonic())
+        if (n := m.counters["decisions_rejected"]) > before:
+            self.log.throttled("warning", 5.0, f"ignored a VLM decision outside the schema ({n} so far): "
+                               f"{m.last_decision}")  # fmt: skip
         self.tick()
 
     # -- control -------------------------------------------------------------------------------
@@ -466,8 +343,8 @@ class CommanderNode(Node):
         if intent.query != self._query:
             self._query = intent.query
             self.pub_query.publish(String(data=intent.query))
-        ask = self.config.explore and self.config.frontier_choice == "vlm" and self.mission.state in WAY_STATES
-        if (way := intent.query if ask else "") != self._way_query:
+        cfg = self.config
+        if (way := way_query(intent.query, self.mission.state, cfg.explore, cfg.frontier_choice)) != self._way_query:
             self._way_query = way
             self.pub_way.publish(String(data=way))
         for posture in intent.postures:
@@ -484,18 +361,16 @@ class CommanderNode(Node):
 
     def _bound(self) -> None:
         """Stop the goal when its lease ran out or it ran too long; refuse a go to beyond its cap."""
-        m, now = self.mission, self.clock.monotonic()
-        if not m.active:
+        m, now, cfg = self.mission, self.clock.monotonic(), self.config
+        if not m.active or m.goal is None:
             return
         o = m.target_obj
         far = m.base_distance(now) or (None if o is None else (m.relative(o, now) or (0.0, None))[1])
-        cfg = self.config
-        why = self._lease.expired(time.monotonic()) if self._lease is not None else None
-        why = why or overdue(self._goal_t0, now, cfg.max_goal_s)
-        refused = why is None and too_far(m.goal.kind if m.goal else None, far, cfg.max_go_to_m)
-        if why or refused:
+        lease_why = self._lease.expired(time.monotonic()) if self._lease is not None else None
+        end = goal_end(lease_why, self._goal_t0, now, cfg.max_goal_s, m.goal.kind, far, cfg.max_go_to_m)
+        if end is not None:
             self.set_goal("stop")
-            m.state, m.reason = ("rejected", refused) if refused else ("stopped", f"stopped: {why}")
+            m.state, m.reason = end
             self.log.warning(f"goal ended: {m.reason}")
 
     def _last_state_log(self, intent: Intent) -> None:
@@ -504,59 +379,13 @@ class CommanderNode(Node):
 
     # -- status --------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
-        m = self.mission
-        goal = m.goal
-        now = self.clock.monotonic()
-        seen = m.confirmed(now)
-        s = m.sighting
-        dist = m.base_distance(now)
-        return {
-            "goal": goal.text if goal else "",
-            "kind": goal.kind if goal else None,
-            "target": m.label or None,
-            "state": m.state,
-            "reason": m.reason,
-            "seen": seen,
-            "x": round(s.x, 4) if seen and s is not None else None,
-            "distance_m": None if dist is None else round(dist, 3),
-            "range_method": s.range_method if seen and s is not None else None,
-            "tracker": s.state if s is not None else None,
-            "cmd": [round(m.cmd[0], 4), round(m.cmd[1], 4)],
-            "planner": m.planner_note,
-            "decision": m.last_decision,
-            "counters": {**m.counters, **self.counters},
-            "basis": m.basis,
-            "lease": None if self._lease is None else {"id": self._lease.lease_id,
-                                                       "left_s": round(self._lease.left(time.monotonic()), 2)},
-            "remembered": self._remembered_status(now),
-            "explore": self.explore.status() if self.config.explore else None,
-            "plan": None if self._route is None else {
-                "length_m": round(self._route.plan.length, 2), "waypoints": len(self._route.plan.waypoints),
-                "reason": self._route.plan.reason,
-            },
-            "memory": None if m.memory is None else {
-                "objects": len(m.memory),
-                "answer_latency_s": None if m.answer_latency is None else round(m.answer_latency, 3),
-            },
-        }  # fmt: skip
-
-    def _remembered_status(self, now: float) -> dict[str, Any] | None:
-        o = self.mission.target_obj
-        if o is None:
-            return None
-        rel = self.mission.relative(o, now)
-        return {
-            "id": o.id, "label": o.label, "x": round(o.x, 3), "y": round(o.y, 3),
-            "confidence": round(o.confidence, 3), "distance_m": None if rel is None else round(rel[1], 3),
-        }  # fmt: skip
+        lease = None if self._lease is None else self._lease.status(time.monotonic())
+        explore = self.explore.status() if self.config.explore else None
+        return commander_status(self.mission, self.clock.monotonic(), counters=self.counters, lease=lease,
+                                explore=explore, route=self._route)  # fmt: skip
 
     def publish_plan(self, route: Route | None) -> None:
-        header = Header(stamp=Time.from_sec(self.clock.now()), frame_id=self._odom_frame or "odom")
-        poses = [] if route is None else [
-            PoseStamped(header=header, pose=Pose(position=Point(x=float(x), y=float(y)), orientation=Quaternion(w=1.0)))
-            for x, y in route.plan.waypoints
-        ]  # fmt: skip
-        self.pub_plan.publish(Path(header=header, poses=poses))
+        self.pub_plan.publish(route_path(route, self.clock.now(), self._odom_frame or "odom"))
 
     def publish_status(self) -> None:
         self._last_key = (self.mission.state, self.mission.reason)

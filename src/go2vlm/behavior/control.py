@@ -11,7 +11,7 @@ controller apart. Each behaviour has one law and one set of gains:
   walk, and stop `stop_distance` from the object's surface (follow: `follow_distance_m`). Its gains
   are the commander's (MissionParams: kp_angular 1.5). The distance comes from the target_tracker's monocular
   ranging (perception/ranging.py: camera -> the object's near surface) plus the camera's forward
-  offset from the base (the commander's `camera_forward_m`).
+  offset from the base (MissionParams.camera_forward_m: the commander's robot profile's head camera).
 - `align_command`: look for: turn in place until the target is centred.
 - `face_command`: turn in place towards a bearing (a remembered object).
 - `search_command`: turn in place towards where the target was last seen.

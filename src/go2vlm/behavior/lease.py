@@ -15,10 +15,10 @@ leaves a still robot within one lease.
 
 A lease is at most MAX_LEASE_S: an owner cannot ask for a goal that outlives it by more. Plain text
 goals carry none (a person at a terminal, a launch file's goal); they keep the goal timeout and the
-go-to distance cap (`overdue`, `too_far`), which bound every goal. Teleop and the e-stop have their
-own watchdogs (safety/). Timestamps are the caller's: the commander feeds wall time to leases (an
-owner's silence is wall time) and its own clock to the goal timeout. Property tests:
-tests/behavior/test_behavior_lease.py.
+go-to distance cap (`overdue`, `too_far`; `goal_end` puts them together), which bound every goal.
+Teleop and the e-stop have their own watchdogs (safety/). Timestamps are the caller's: the commander
+feeds wall time to leases (an owner's silence is wall time) and its own clock to the goal timeout.
+Property tests: tests/behavior/test_behavior_lease.py.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "overdue", "parse_goal", "parse_renewal",
-           "too_far"]  # fmt: skip
+__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "goal_end", "overdue", "parse_goal",
+           "parse_renewal", "too_far"]  # fmt: skip
 
 MAX_LEASE_S = 60.0
 MIN_LEASE_S = 0.1
@@ -131,6 +131,10 @@ class Lease:
             return None
         return f"the goal's lease {self.lease_id!r} expired: its owner stopped renewing it"
 
+    def status(self, now: float) -> dict[str, object]:
+        """What /commander/status says of it."""
+        return {"id": self.lease_id, "left_s": round(self.left(now), 2)}
+
 
 def overdue(started: float, now: float, max_goal_s: float) -> str | None:
     """A reason to end a goal that has run longer than max_goal_s (0 = no limit), or None."""
@@ -146,3 +150,22 @@ def too_far(kind: str | None, distance_m: float | None, max_go_to_m: float) -> s
     if distance_m <= max_go_to_m:
         return None
     return f"refused: the object is {distance_m:.1f} m away, beyond max_go_to_m = {max_go_to_m:g} m"
+
+
+def goal_end(
+    lease_why: str | None,
+    started: float,
+    now: float,
+    max_goal_s: float,
+    kind: str | None,
+    distance_m: float | None,
+    max_go_to_m: float,
+) -> tuple[str, str] | None:
+    """How a running goal ends now, as (state, reason): `stopped` when its lease ran out (`lease_why`,
+    from Lease.expired) or it ran past max_goal_s; else `rejected` when it is a go to whose object is
+    beyond max_go_to_m; None: it goes on."""
+    why = lease_why or overdue(started, now, max_goal_s)
+    if why:
+        return "stopped", f"stopped: {why}"
+    refused = too_far(kind, distance_m, max_go_to_m)
+    return None if refused is None else ("rejected", refused)

@@ -215,7 +215,7 @@ def run_episode(
     `stop`; measure it; write the run folder. `on_tick(elapsed sim s, recorder, sim node)` is called
     every POLL_S (progress). RuntimeError when the loop cannot run (no /clock, no camera frame);
     with `opts.refuse_latched`, RobotLatched before anything starts when the robot is latched."""
-    from go2vlm.behavior.commander_node import CommanderConfig
+    from go2vlm.behavior.commander_config import CommanderConfig
     from go2vlm.sim.worlds import world_footprints
 
     if opts.refuse_latched:

@@ -1,6 +1,7 @@
 """The commander's planners: the local one (local.py: steer round what /scan shows on the way to a
 goal) and the global one (global_path.py: the shortest safe path on the map's inflated costmap, in
-waypoints). `from go2vlm.behavior.planner import steer` keeps naming the local planner."""
+waypoints; route.py: a plan being followed, and when to replan).
+`from go2vlm.behavior.planner import steer` keeps naming the local planner."""
 
 from go2vlm.behavior.planner.local import PlannerParams, Steer, corridor_free, steer
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from go2vlm.declare import param
 from go2vlm.geometry.footprint import rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
@@ -47,7 +48,10 @@ BACK_CHECK_M = 0.3  # m of room behind it needs to back away
 
 @dataclass(frozen=True)
 class PlannerParams:
-    margin: float = 0.35  # m each side of the footprint (a little more than the guard's 0.3)
+    # a little more than the guard's 0.3; the commander's planner_margin_m (behavior/commander_config.py)
+    margin: float = param(
+        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
+    )
     lookahead: float = 1.2  # m of free corridor that counts as a free way
     max_offset: float = math.radians(100.0)  # how far from the goal's bearing it may head
     step: float = math.radians(5.0)

@@ -15,7 +15,8 @@ import numpy as np
 from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.goals import Goal
 from go2vlm.behavior.planner import Steer
-from go2vlm.behavior.planner.global_path import Costmap, Route
+from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import Sighting
 from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers

@@ -16,7 +16,7 @@ Rules
   `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
   (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
   nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
-- Walk the route's waypoints (behavior/planner/global_path.Route): replan when the map makes the
+- Walk the route's waypoints (behavior/planner/route.Route): replan when the map makes the
   route blocked, when the robot strays from it, or as the map grows. A frontier the lidar has seen
   past on the way is still walked to and looked from (the lidar reaches 10 m, the camera's answers
   less: the look is what finds the object); one whose goal is no place to stand on the new map, a
@@ -37,11 +37,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from go2vlm.behavior.control import search_command
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, plan_path
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, plan_path
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.route import follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
+from go2vlm.declare import param
 from go2vlm.world.frontiers import Frontier, FrontierParams, find_frontiers
 from go2vlm.world.poses import wrap_angle
 
@@ -55,8 +57,14 @@ LOOK_SLACK = 3.0
 
 @dataclass(frozen=True)
 class ExploreParams:
-    frontier_choice: str = "nearest"  # nearest (by path cost) | vlm (a whitelisted model answer)
-    unknown_cost: float = 3.0  # exploring, a path may cross unknown space at this cost per cell
+    # nearest (by path cost) | vlm (a whitelisted model answer); declared with `param`, the commander's
+    # (behavior/commander_config.py: frontier_choice, explore_unknown_cost, explore_timeout_s)
+    frontier_choice: str = param(
+        "nearest", choices=FRONTIER_CHOICES,
+        help="explore: the frontier to walk to: nearest by path cost, or vlm (the best-scored way on /vlm/way first)",
+    )  # fmt: skip
+    unknown_cost: float = param(3.0, help="explore: cost per unknown cell crossed (free: 1)", min=1.0, max=1000.0,
+                                live=True)  # fmt: skip
     min_frontier_m: float = 0.5  # a shorter frontier is dropped
     arrive_m: float = 0.5  # this near the frontier's goal: look around
     waypoint_reach_m: float = 0.4  # a waypoint this near is passed
@@ -64,7 +72,8 @@ class ExploreParams:
     stuck_m: float = 0.3  # at least this much progress along the route ...
     stuck_s: float = 20.0  # ... within this long, else the frontier is given up
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
-    timeout_s: float = 300.0  # the goal has explored this long since it began: done (not_found)
+    timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
+                             max=3600.0, live=True)  # fmt: skip
     planner: GlobalParams = field(default_factory=GlobalParams)
 
     def __post_init__(self) -> None:

@@ -1,5 +1,6 @@
 """The mission's parameters: one flat, frozen set that the goal state machine (behavior/mission.py)
-and every strategy read (the commander's node config mirrors it, behavior/commander_node.py)."""
+and every strategy read. Those declared with `param` are the commander's parameters too
+(go2vlm/declare.py: behavior/commander_config.py takes them over with `from_core`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from dataclasses import dataclass, field
 
 from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.planner import PlannerParams
+from go2vlm.declare import param
 from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["MissionParams"]
@@ -14,36 +16,68 @@ __all__ = ["MissionParams"]
 
 @dataclass(frozen=True)
 class MissionParams:
-    stop_distance_m: float = 0.8  # go to: base -> surface
-    follow_distance_m: float = 1.2  # follow: keep this far (base -> surface)
-    distance_tolerance_m: float = 0.05
-    max_linear: float = 0.4
-    max_angular: float = 0.8
-    kp_linear: float = 0.8
-    kp_angular: float = 1.5  # follow, go to, look for: one gain (the follower node's own is the article's demo's)
-    search_yaw_rate: float = 0.5
-    search_timeout_s: float = 30.0
-    search_on_loss: bool = True
-    lost_timeout_s: float = 1.0
-    camera_forward_m: float = spec.HEAD_CAMERA_POS[0]  # camera ahead of the base centre
-    decision_hold_s: float = 3.0
-    decision_turn_rate: float = 0.5
-    max_turn_deg: float = 30.0
-    avoid_obstacles: bool = True
-    scan_timeout_s: float = 0.5  # a scan older than this is no scan: no planning
+    stop_distance_m: float = param(
+        0.8, help="go to: stop this far from the object's surface (base)", min=0.2, max=5.0, live=True
+    )
+    follow_distance_m: float = param(1.2, help="follow: keep this far (base -> surface)", min=0.3, max=5.0, live=True)
+    distance_tolerance_m: float = param(
+        0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
+    )
+    max_linear: float = param(
+        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+    )
+    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
+    # follow, go to, look for: one gain (the follower node's own is the article's demo's)
+    kp_angular: float = param(
+        1.5, help="P gain from horizontal offset x to angular.z (every goal)", min=0.0, max=10.0, live=True
+    )
+    search_yaw_rate: float = param(0.5, help="turn rate while searching (rad/s)", min=0.05, max=1.5, live=True)
+    search_timeout_s: float = param(30.0, help="give up searching after this long", min=1.0, max=600.0, live=True)
+    search_on_loss: bool = param(True, help="go to / look for: search again when the target is lost", live=True)
+    lost_timeout_s: float = param(
+        1.0, help="a tracker report older than this confirms nothing", min=0.1, max=10.0, live=True
+    )
+    camera_forward_m: float = spec.HEAD_CAMERA_POS[0]  # the node's: its robot profile's head camera
+    decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
+    decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
+    max_turn_deg: float = param(
+        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
+    )
+    avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
+    scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
     pose_timeout_s: float = 0.5  # an odometry pose older than this places nothing
-    detour_memory_s: float = 8.0  # a detour out of the target's view lasts this long after the last sighting
+    detour_memory_s: float = param(
+        8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
+    )
     planner: PlannerParams = field(default_factory=PlannerParams)
-    use_memory: bool = True  # go to / look for the object memory's remembered objects
-    memory_min_confidence: float = 0.3  # worth turning to (one sighting: 0.5; then three empty looks: 0.32)
-    memory_confirm_confidence: float = 0.7  # ... and this sure worth walking to (two that agree: 0.73)
-    reach_slack_m: float = 0.25  # a remembered place within reach: stop distance + tolerance + this
-    confirm_looks: int = 3  # answered looks without the object before it is given up
-    search_step_deg: float = 50.0  # stop and look: the turn between two looks (the view is 73 deg wide)
-    search_view_per_answer: float = 0.5  # turning on would turn more of the view than this per answer: stop and look
-    search_step_rate: float = 0.5  # stop and look: rad/s of the turn between two looks
-    look_settle_s: float = 0.3  # after a stop, frames this much later are taken at the new heading
-    look_timeout_s: float = 8.0  # before the first answer, a look waits this long (then 2.5 x the latency + 1 s)
+    use_memory: bool = param(True, help="go to / look for remembered objects (objects_topic)", live=True)
+    # one sighting: 0.5; then three empty looks: 0.32
+    memory_min_confidence: float = param(
+        0.3, help="a remembered object this sure is turned to", min=0.01, max=1.0, live=True
+    )
+    # two sightings that agree: 0.73
+    memory_confirm_confidence: float = param(0.7, help="... and this sure walked to", min=0.01, max=1.0, live=True)
+    reach_slack_m: float = param(
+        0.25, help="a remembered place within reach: stop + tolerance + this (m)", min=0.0, max=2.0, live=True
+    )
+    confirm_looks: int = param(3, help="answered looks without it before giving up", min=1, max=20, live=True)
+    # the view is 73 deg wide
+    search_step_deg: float = param(50.0, help="stop and look: the turn between looks", min=5.0, max=90.0, live=True)
+    search_view_per_answer: float = param(
+        0.5, help="turning on would turn more of the view than this per answer: stop and look", min=0.05, max=2.0,
+        live=True,
+    )  # fmt: skip
+    search_step_rate: float = param(
+        0.5, help="stop and look: the turn between looks (rad/s)", min=0.05, max=1.5, live=True
+    )
+    look_settle_s: float = param(
+        0.3, help="frames this long after a stop are taken still (s)", min=0.0, max=5.0, live=True
+    )
+    # then 2.5 x the answer latency + 1 s
+    look_timeout_s: float = param(
+        8.0, help="before any answer, a look waits this long (s)", min=0.5, max=120.0, live=True
+    )
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.max_turn_deg <= 30.0:

@@ -19,7 +19,8 @@ from dataclasses import replace
 import numpy as np
 
 from go2vlm.behavior.control import approach_command
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Route, line_cells, passable, plan_path
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, line_cells, passable, plan_path
+from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
 
 __all__ = ["DEFAULT_VIEW", "RouteTo", "follow_waypoint", "line_of_sight"]

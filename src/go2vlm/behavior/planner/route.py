@@ -1,0 +1,91 @@
+"""A global plan being followed (the global planner: planner/global_path.py). Pure, timestamp-driven.
+
+Replanning (`Route`): the commander replans when a new costmap makes the rest of the route cross a
+cell that is now lethal (or unknown, where unknown is not to be crossed), when the robot strays
+more than `off_path_m` from it, and at most every `replan_period_s` as the map grows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable
+
+__all__ = ["Route"]
+
+
+@dataclass
+class Route:
+    """A plan being followed: the next waypoint, and when to replan (timestamp-driven).
+
+    `reach_m`: a waypoint this near counts as passed. `target()` gives the next waypoint as
+    (bearing from the robot's heading, distance), and the distance left along the route."""
+
+    plan: Plan
+    goal: tuple[float, float]
+    t: float  # when it was planned
+    map_stamp: float
+    reach_m: float = 0.4
+    index: int = 1  # the waypoint being walked to
+
+    def advance(self, x: float, y: float) -> None:
+        w = self.plan.waypoints
+        while self.index < len(w) - 1 and math.hypot(w[self.index][0] - x, w[self.index][1] - y) < self.reach_m:
+            self.index += 1
+
+    @property
+    def done(self) -> bool:
+        return self.index >= len(self.plan.waypoints) - 1
+
+    def target(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
+        """(bearing rad + left, distance m) to the next waypoint, and the metres left to the route's end."""
+        self.advance(x, y)
+        w = self.plan.waypoints
+        i = min(self.index, len(w) - 1)
+        dx, dy = w[i][0] - x, w[i][1] - y
+        bearing = math.atan2(dy, dx) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        dist = math.hypot(dx, dy)
+        rest = float(np.sum(np.hypot(*np.diff(w[i:], axis=0).T))) if i < len(w) - 1 else 0.0
+        return bearing, dist, dist + rest
+
+    def off_path(self, x: float, y: float) -> float:
+        """Distance (m) from (x, y) to the route's remaining legs (from the one being walked)."""
+        w = self.plan.waypoints
+        i = max(1, min(self.index, len(w) - 1))
+        best = math.inf
+        for a, b in zip(w[i - 1 : -1], w[i:], strict=False):
+            ab = b - a
+            t = 0.0 if not ab.any() else max(0.0, min(1.0, float(np.dot((x, y) - a, ab) / np.dot(ab, ab))))
+            best = min(best, math.hypot(*(a + t * ab - (x, y))))
+        return best
+
+    def blocked(self, cm: Costmap, p: GlobalParams, x: float, y: float) -> bool:
+        """Does the rest of the route, from the robot at (x, y) on, cross a cell that `cm` says may
+        not be entered? (Cells within `escape_m` of the robot do not count: it may stand in the
+        inflation, by a wall, and the local planner and the guard see to that.)"""
+        w = self.plan.waypoints
+        i = max(1, min(self.index, len(w) - 1))
+        legs = [(np.array((x, y)), w[i])] + list(zip(w[i:-1], w[i + 1 :], strict=False))
+        for n, (a, b) in enumerate(legs):
+            line = line_cells(cm.cell(*a), cm.cell(*b))
+            if n == 0:
+                xy = cm.world(line[:, 0], line[:, 1])
+                line = line[np.hypot(xy[:, 0] - x, xy[:, 1] - y) > p.escape_m]
+            if not passable(cm, line, p).all():
+                return True
+        return False
+
+    def needs_replan(self, cm: Costmap, x: float, y: float, now: float, p: GlobalParams) -> str:
+        """Why to replan now ('' = keep the route)."""
+        if self.off_path(x, y) > p.off_path_m:
+            return "off the route"
+        if cm.stamp != self.map_stamp:
+            if self.blocked(cm, p, x, y):
+                return "the route is blocked on the new map"
+            if now - self.t >= p.replan_period_s:
+                return "the map has grown"
+        return ""
