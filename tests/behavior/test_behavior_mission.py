@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
@@ -265,3 +266,20 @@ def test_sit_and_stand_are_posture_commands() -> None:
     assert out.postures == ("sit",) and out.state == "sat" and out.vx == out.wz == 0.0
     m.set_goal("站起来", 0.2)
     assert m.step(0.2).postures == ("stand",) and m.step(0.2).postures == ()
+
+
+def test_a_search_turn_beside_a_table_backs_away_first() -> None:
+    """The gate's guard would hold a turn in place that sweeps the footprint into a table edge: the
+    mission backs away straight, then turns (planner/local.py unstick)."""
+    m = Mission(MissionParams())
+    m.set_goal("look for the blue cylinder", 0.0)
+    ys = np.arange(-0.6, 0.6, 0.02)
+    table = np.column_stack([np.full_like(ys, 0.35 + 0.25), ys])
+    m.observe_pose(0.0, 0.0, 0.0, 0.1)
+    m.observe_scan(table, 0.1)
+    out = m.step(0.1)
+    assert (out.vx, out.wz) == (-BACK_SPEED, 0.0) and out.state == "searching", out
+    assert "backing away" in m.planner_note
+    m.observe_scan(table + [1.0, 0.0], 0.2)  # backed off: room to turn
+    out = m.step(0.2)
+    assert out.vx == 0.0 and out.wz != 0.0

@@ -11,6 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.planner import PlannerParams, corridor_free, steer
+from go2vlm.behavior.planner.local import BACK_SPEED, unstick
+from go2vlm.geometry.footprint import rect_distance
 
 P = PlannerParams()
 W = 0.8  # the approach's turn rate ceiling
@@ -91,3 +93,53 @@ def test_never_faster_never_backwards(
             free = corridor_free(np.array(pts).reshape(-1, 2), s.heading, P)
             assert free > 0.0
     assert math.isfinite(s.vx) and math.isfinite(s.wz)
+
+
+# -- unstick: a turn in place the footprint cannot sweep --------------------------------------------
+P = PlannerParams()
+
+
+def _edge(x: float, y0: float = -0.6, y1: float = 0.6) -> np.ndarray:
+    """A straight edge across the robot's way at `x` (base frame), points every 2 cm."""
+    ys = np.arange(y0, y1, 0.02)
+    return np.column_stack([np.full_like(ys, x), ys])
+
+
+def _clearance(points: np.ndarray, x: float, y: float, th: float) -> float:
+    dx, dy = points[:, 0] - x, points[:, 1] - y
+    c, s = math.cos(th), math.sin(th)
+    return float(rect_distance(c * dx + s * dy, -s * dx + c * dy, P.half_length, P.half_width).min())
+
+
+def test_a_turn_in_place_facing_a_table_edge_backs_away_and_a_clear_turn_is_left_alone() -> None:
+    table = _edge(P.half_length + 0.25)  # 0.25 m ahead of the footprint: the corners would sweep closer
+    back = unstick(0.0, 0.5, table, P)
+    assert back is not None and back.vx == -BACK_SPEED and back.wz == 0.0 and back.blocked
+    assert "backing away" in back.note
+    assert unstick(0.0, 0.5, _edge(P.half_length + 1.0), P) is None  # room to turn
+    assert unstick(0.3, 0.5, table, P) is None  # not a turn in place: the approach's and the guard's
+    assert unstick(0.0, 0.5, np.zeros((0, 2)), P) is None
+    assert unstick(0.0, 0.5, None, P) is None
+    boxed = np.vstack([table, _edge(-P.half_length - 0.1)])  # a wall just behind too: nothing to do
+    assert unstick(0.0, 0.5, boxed, P) is None
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    pts=st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)), min_size=1, max_size=30),
+    wz=st.floats(-1.0, 1.0).filter(lambda w: abs(w) > 0.01),
+)
+def test_unstick_backs_away_only_from_a_turn_it_cannot_sweep_and_only_where_there_is_room(
+    pts: list[tuple[float, float]], wz: float
+) -> None:
+    points = np.array(pts, dtype=float)
+    out = unstick(0.0, wz, points, P)
+    if out is None:
+        return
+    assert (out.vx, out.wz) == (-BACK_SPEED, 0.0)
+    now = _clearance(points, 0.0, 0.0, 0.0)
+    keep = min(P.margin, now) - 1e-3
+    turns = [_clearance(points, 0.0, 0.0, math.copysign(a, wz)) for a in np.linspace(0.0, math.radians(30), 7)]
+    assert min(turns) < keep, "it backed away from a turn it could sweep"
+    backs = [_clearance(points, -d, 0.0, 0.0) for d in np.linspace(0.0, 0.3, 7)]
+    assert min(backs) >= keep, "it backed into something"
