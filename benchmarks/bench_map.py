@@ -47,7 +47,6 @@ os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(110, 200)))
 os.environ.setdefault("GO2VLM_IFACE", "lo")
 
 import numpy as np  # noqa: E402
-from scipy import ndimage  # noqa: E402
 
 from go2vlm.geometry.rotations import yaw_quat  # noqa: E402
 from go2vlm.geometry.scan import cloud_to_ranges, to_base  # noqa: E402
@@ -133,6 +132,8 @@ def map_error(grid: OccupancyMap, reference: OccupancyMap) -> dict[str, float]:
     """Each occupied cell's distance to the reference's nearest occupied cell (m)."""
     pts = grid.occupied_points()
     ref = reference.values() == 100
+    from scipy import ndimage  # here: the node's own process (section node) must not hold SciPy
+
     d = ndimage.distance_transform_edt(~ref) * reference.resolution
     rows, cols = (np.floor((pts[:, 1] - reference.origin[1]) / reference.resolution).astype(int),
                   np.floor((pts[:, 0] - reference.origin[0]) / reference.resolution).astype(int))  # fmt: skip
