@@ -217,8 +217,9 @@ class CommanderNode(Node):
     def _searches(self) -> tuple[SearchStrategy, ...]:
         """The search chain: turn and look where it stands, then (explore) walk to frontiers."""
         old = getattr(self, "mission", None)
-        look = next((s for s in old.searches if isinstance(s, TurnAndLook)), None) if old else None
-        return (look or TurnAndLook(), self.explore) if self.config.explore else (look or TurnAndLook(),)
+        look = (next((s for s in old.searches if isinstance(s, TurnAndLook)), None) if old else None) or TurnAndLook()
+        look.more_after = self.config.explore  # one whole turn, then the frontier search
+        return (look, self.explore) if self.config.explore else (look,)
 
     def on_goal(self, msg: String) -> None:
         try:

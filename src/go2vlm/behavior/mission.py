@@ -299,6 +299,7 @@ class Mission:
         if goal is None or not self.active:
             vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
+            self.ctx.observe_view(now)
             cmd = self._control(now)
             if cmd.state in TERMINAL or (cmd.state, cmd.reason) != (self.state, self.reason):
                 self._enter(cmd.state, cmd.reason, now)

@@ -17,11 +17,11 @@ without one is dropped), among
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Frontier", "FrontierParams", "find_frontiers", "frontier_cells"]
+__all__ = ["Frontier", "FrontierParams", "clusters", "find_frontiers", "frontier_cells"]
 
 _EIGHT = np.ones((3, 3), bool)
 
@@ -46,10 +46,12 @@ class Frontier:
     goal_cell: tuple[int, int]  # its (row, col)
     size: int  # cells
     size_m: float  # the edge's length (cells x resolution)
+    kind: str = "map"  # map: the map's edge with the unknown; view: free space the camera has not looked at
 
     def to_dict(self) -> dict[str, object]:
         return {
             "id": self.id,
+            "kind": self.kind,
             "centroid": [round(self.centroid[0], 2), round(self.centroid[1], 2)],
             "goal": [round(self.goal[0], 2), round(self.goal[1], 2)],
             "size_m": round(self.size_m, 2),
@@ -86,16 +88,30 @@ def find_frontiers(
         raise ValueError(f"resolution must be a positive number, got {resolution}")
     if reachable is not None and reachable.shape != g.shape:
         raise ValueError(f"reachable mask {reachable.shape} is not the grid's shape {g.shape}")
-    from scipy import ndimage
+    return clusters(frontier_cells(g), g, resolution, origin, p.lethal, p.min_size_m / resolution, reachable)
 
-    mask = frontier_cells(g)
+
+def clusters(
+    mask: np.ndarray,
+    grid: np.ndarray,
+    resolution: float,
+    origin: tuple[float, float],
+    lethal: int,
+    min_cells: float,
+    reachable: np.ndarray | None = None,
+    kind: str = "map",
+) -> list[Frontier]:
+    """The 8-connected clusters of `mask` with at least `min_cells` cells, each with its centroid and
+    a goal to stand on (the cluster's cell nearest its centroid whose cost on `grid` is below
+    `lethal`, among `reachable`), largest first; a cluster with no such cell is dropped."""
+    from scipy import ndimage  # the nav extra; here, so the commander starts as fast without a map
+
     labels, n = ndimage.label(mask, structure=_EIGHT)
     if n == 0:
         return []
     out: list[Frontier] = []
-    min_cells = p.min_size_m / resolution
     counts = np.bincount(labels.ravel(), minlength=n + 1)
-    standable = (g >= 0) & (g < p.lethal)
+    standable = (grid >= 0) & (grid < lethal)
     if reachable is not None:
         standable &= reachable
     for lab, box in enumerate(ndimage.find_objects(labels), start=1):
@@ -120,7 +136,8 @@ def find_frontiers(
                 goal_cell=(gr, gc),
                 size=int(counts[lab]),
                 size_m=float(counts[lab] * resolution),
+                kind=kind,
             )
         )
     out.sort(key=lambda f: -f.size)
-    return [Frontier(i + 1, f.centroid, f.goal, f.goal_cell, f.size, f.size_m) for i, f in enumerate(out)]
+    return [replace(f, id=i + 1) for i, f in enumerate(out)]

@@ -6,7 +6,7 @@ method takes the time it is about."""
 from __future__ import annotations
 
 import math
-from collections import Counter
+from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -22,9 +22,13 @@ from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
 from go2vlm.behavior.strategies.params import MissionParams
+from go2vlm.world.coverage import Coverage
 from go2vlm.world.objects_msg import Remembered
 
 __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
+
+POSES_KEPT = 600  # the mission's recent poses (a minute at its 10 Hz), to find where an answered frame was taken
+VIEW_POSE_S = 0.5  # an answered frame without a pose this near its stamp looks at nothing
 
 
 @dataclass(frozen=True)
@@ -84,6 +88,9 @@ class Context:
     avoider: Avoider = field(default_factory=Avoider)
     costmap: Costmap | None = None  # the map's newest inflated costmap (/map/costmap), for the global planner
     route: Route | None = None  # the global route being walked (explore, or a remembered place out of sight): /plan
+    coverage: Coverage = field(default_factory=Coverage)  # where the camera has looked during this goal
+    poses: deque[Pose] = field(default_factory=lambda: deque(maxlen=POSES_KEPT))  # for the answered frames' poses
+    viewed_through: float = -math.inf  # the newest answered frame already in `coverage`
 
     # -- the goal ------------------------------------------------------------------------------
     @property
@@ -100,6 +107,23 @@ class Context:
         self.route = None
         self.avoider.reset()
         self.look.forget()
+        self.coverage.reset()
+        self.viewed_through = self.answers.through if self.answers.through is not None else -math.inf
+
+    def observe_view(self, now: float) -> None:
+        """The newest answered frame has looked at the world (world/coverage.py), from the pose the
+        robot had at its stamp: a frame counts once an answer about it came back, so a slow model's
+        unanswered frames look at nothing. Needs the camera's view and a costmap (walls stop it)."""
+        pose = self.fresh_pose(now)
+        if pose is not None and (not self.poses or self.poses[-1] is not pose):
+            self.poses.append(pose)
+        through, cm = self.answers.through, self.costmap
+        if through is None or through <= self.viewed_through or cm is None or self.view is None or not self.poses:
+            return
+        self.viewed_through = through
+        at = min(self.poses, key=lambda q: abs(q.t - through))
+        if abs(at.t - through) <= VIEW_POSE_S:
+            self.coverage.observe(cm.data, cm.resolution, cm.origin, at.x, at.y, at.yaw, self.view)
 
     def approach_params(self) -> ApproachParams:
         p = self.params

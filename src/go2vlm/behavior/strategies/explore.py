@@ -44,7 +44,8 @@ from go2vlm.behavior.strategies.route import follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.declare import param
-from go2vlm.world.frontiers import Frontier, FrontierParams, find_frontiers
+from go2vlm.world.coverage import Coverage
+from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_frontiers
 from go2vlm.world.poses import wrap_angle
 
 __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
@@ -72,6 +73,8 @@ class ExploreParams:
     stuck_m: float = 0.3  # at least this much progress along the route ...
     stuck_s: float = 20.0  # ... within this long, else the frontier is given up
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
+    min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
+    look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left within the camera's range
     timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
                              max=3600.0, live=True)  # fmt: skip
     planner: GlobalParams = field(default_factory=GlobalParams)
@@ -80,7 +83,7 @@ class ExploreParams:
         if self.frontier_choice not in FRONTIER_CHOICES:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
         for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
-                     "stuck_s", "map_timeout_s", "timeout_s"):  # fmt: skip
+                     "stuck_s", "map_timeout_s", "timeout_s", "min_view_m2", "look_done_m2"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
@@ -106,6 +109,7 @@ class Explorer:
     def __init__(self, params: ExploreParams | None = None) -> None:
         self.params = params or ExploreParams()
         self.costmap: Costmap | None = None
+        self.coverage: Coverage | None = None  # where the camera has looked (the host's; None: the map only)
         self.reset(0.0)
 
     def reset(self, now: float) -> None:
@@ -132,6 +136,7 @@ class Explorer:
             "phase": self.phase,
             "frontier": None if self.frontier is None else self.frontier.to_dict(),
             "frontiers_left": len(self.frontiers),
+            "unseen_left": sum(f.kind == "view" for f in self.frontiers),
             "visited": len(self.visited),
             "given_up": self.given_up,
             "route_m": None if self.route is None else round(self.route.plan.length, 2),
@@ -144,6 +149,7 @@ class Explorer:
         if self.phase == "look" and self.frontier is not None:
             self.visited.append(self.frontier.goal)
         self.frontier, self.route, self.phase = None, None, "choose"
+        self._frontier_stamp = None  # what the look saw changes the unseen regions
 
     def _skip(self, f: Frontier) -> bool:
         r = self.params.visited_radius_m
@@ -158,7 +164,36 @@ class Explorer:
         fp = FrontierParams(lethal=p.planner.lethal, min_size_m=p.min_frontier_m)
         standable = (cm.data >= 0) & (cm.data < p.planner.lethal)
         found = find_frontiers(cm.data, cm.resolution, cm.origin, fp, reachable=standable)
+        if self.coverage is not None and self.coverage.frames:  # and the free space the camera has not looked at
+            unseen = self.coverage.unlooked(cm.data, cm.resolution, cm.origin, p.planner.lethal)
+            found += clusters(unseen, cm.data, cm.resolution, cm.origin, p.planner.lethal,
+                              p.min_view_m2 / cm.resolution**2, kind="view")  # fmt: skip
         self.frontiers = [f for f in found if not self._skip(f)]
+
+    def seen(self, f: Frontier) -> bool:
+        """A region of unseen free space the camera has looked at since (on the way there): done."""
+        if f.kind != "view" or self.coverage is None or self.costmap is None:
+            return False
+        res = self.costmap.resolution
+        corner = (f.goal[0] - res / 2, f.goal[1] - res / 2)
+        return bool(self.coverage.looked_on((1, 1), res, corner)[0, 0])
+
+    def unseen_near(self, x: float, y: float) -> float:
+        """m^2 of free space within the camera's range of (x, y) that it has not looked at (inf: unknown)."""
+        cm, cov = self.costmap, self.coverage
+        if cm is None or cov is None or not cov.frames:  # no answered frame yet: nothing known
+            return math.inf
+        r = int(math.ceil(cov.params.range_m / cm.resolution))
+        row, col = cm.cell(x, y)
+        r0, c0 = max(0, row - r), max(0, col - r)
+        win = cm.data[r0 : row + r + 1, c0 : col + r + 1]
+        if win.size == 0:
+            return 0.0
+        origin = (cm.origin[0] + c0 * cm.resolution, cm.origin[1] + r0 * cm.resolution)
+        rows, cols = np.indices(win.shape)
+        near = np.hypot(origin[0] + (cols + 0.5) * cm.resolution - x, origin[1] + (rows + 0.5) * cm.resolution - y)
+        unseen = cov.unlooked(win, cm.resolution, origin, self.params.planner.lethal) & (near <= cov.params.range_m)
+        return float(unseen.sum()) * cm.resolution**2
 
     def _give_up(self, why: str) -> None:
         if self.frontier is not None:
@@ -240,6 +275,11 @@ class Explorer:
                     return done
             assert self.route is not None and self.frontier is not None
             f, route = self.frontier, self.route
+            if self.seen(f):  # the camera saw that region on the way: nothing to walk there for
+                self.visited.append(f.goal)
+                self.frontiers = [g for g in self.frontiers if not self._skip(g)]
+                self.frontier, self.route, self.phase = None, None, "choose"
+                continue
             if cm.stamp != route.map_stamp and not self._standable(cm, f.goal):
                 self._give_up(f"the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) is no place to stand on the new map")
                 continue
@@ -320,6 +360,7 @@ class Explore:
             return None
         if ctx.costmap is not None and ctx.costmap is not self.explorer.costmap:
             self.explorer.set_map(ctx.costmap)
+        self.explorer.coverage = ctx.coverage
         pose = ctx.fresh_pose(now)
         x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
         st = self.explorer.step(x, y, yaw, now)
@@ -340,6 +381,11 @@ class Explore:
             self.looking = True
             self.look.reset(now)
             self._yaw, self._turned, self._t, self._look_t0 = None, 0.0, now, now
+        pose = ctx.fresh_pose(now)
+        if pose is not None and self.explorer.unseen_near(pose.x, pose.y) < self.params.look_done_m2:
+            self.looking = False  # the camera has looked at all it can see from here (on the way, or now)
+            self.explorer.looked(now)
+            return Command.still("exploring", f"{reason}: nothing near left unseen")
         if self.look.stop_and_look(ctx):
             cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
             if cmd is not None:

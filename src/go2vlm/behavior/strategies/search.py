@@ -7,7 +7,9 @@
   frame taken at this heading has come back (look.py), then turn `search_step_deg` at
   `search_step_rate` (measured by odometry, else by time) and look again.
 - Exhausted (`step` returns None) after `search_timeout_s` without the target, and with stop and look
-  only once one whole turn has been looked at.
+  only once one whole turn has been looked at. With a search after it in the chain (`more_after`:
+  the frontier search), already once one whole turn has been looked at: turning on where it stands
+  finds nothing the first turn did not.
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ __all__ = ["TurnAndLook"]
 class TurnAndLook:
     name = "turn_and_look"
 
-    def __init__(self) -> None:
+    def __init__(self, more_after: bool = False) -> None:
+        self.more_after = more_after  # another search follows in the chain: one whole turn is enough
+        self._yaw: float | None = None  # a continuous turn: the last yaw it saw
         self.since = 0.0  # when this search (re)started: the target was last confirmed or remembered
         self.phase = "look"  # stop and look: look | turn
         self.turn_t0 = 0.0  # when this step's turn began
@@ -31,10 +35,10 @@ class TurnAndLook:
         self.turned = 0.0  # rad turned (in steps) since the search began
 
     def reset(self, now: float) -> None:
-        self.since, self.phase, self.turned, self.turn_yaw = now, "look", 0.0, None
+        self.since, self.phase, self.turned, self.turn_yaw, self._yaw = now, "look", 0.0, None, None
 
     def pause(self, now: float, cause: str) -> None:
-        self.since = now
+        self.since, self._yaw = now, None
         if cause == "memory":
             self.phase = "look"  # a search after this starts with a look where it then faces
 
@@ -50,6 +54,13 @@ class TurnAndLook:
         if now - self.since > p.search_timeout_s and (not stop_and_look or full_turn):
             return None
         if not stop_and_look:
+            pose = ctx.fresh_pose(now)
+            if pose is not None:  # how far the continuous turn has turned, by odometry
+                if self._yaw is not None:
+                    self.turned += abs(math.atan2(math.sin(pose.yaw - self._yaw), math.cos(pose.yaw - self._yaw)))
+                self._yaw = pose.yaw
+            if self.more_after and self.turned >= 2 * math.pi - (ctx.view or 0.0):
+                return None
             wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
             return Command(0.0, wz, "searching", f"turning in place to find the {label}")
         if self.phase == "look":

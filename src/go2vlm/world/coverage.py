@@ -1,0 +1,116 @@
+"""Where the camera has looked during a goal: the part of the house the search has seen, as against
+the part the lidar has mapped. Pure (numpy), timestamp-free: the caller says when a frame counts.
+
+    cov = Coverage(CoverageParams())
+    cov.observe(costmap, resolution, origin, x, y, yaw, view)   # a frame at this pose
+    looked = cov.looked_on(costmap.shape, resolution, origin)    # bool, the costmap's cells
+    unlooked = cov.unlooked(costmap, resolution, origin, lethal) # standable cells the camera has not seen
+
+Why: the lidar reaches 10 m and through every doorway, the camera's answers find an object a few
+metres away. A search that walks only to where the *map* ends leaves rooms the lidar mapped through a
+doorway unseen by the camera; one that turns all round at every place looks again at what it has
+seen. VLFM explores on the camera's own map for that reason.
+
+Rules
+- A fixed world lattice of `cell_m` cells, `size_m` a side round the odom origin (the map's cap);
+  cells outside are never looked at.
+- A frame looks along `rays` rays spread over the camera's horizontal view (`view`, rad, centred on
+  the heading `yaw`), out to `range_m`, each stopping at the first costmap cell of `blocked` or more
+  (an obstacle, within the footprint's inscribed radius of one): the camera does not see through
+  walls. Unknown cells do not stop it (the camera sees what the lidar did not map); cells off the map
+  neither.
+- `unlooked`: costmap cells a robot may stand on (0 <= cost < lethal) that no frame has looked at.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Coverage", "CoverageParams"]
+
+
+@dataclass(frozen=True)
+class CoverageParams:
+    range_m: float = 4.0  # how far a frame's answers find an object (the oracle's boxes, a VLM's)
+    cell_m: float = 0.1  # the lattice
+    size_m: float = 60.0  # the lattice's side, round the odom origin (the map's cap)
+    rays: int = 33  # rays across the view
+    blocked: int = 100  # a costmap value the view stops at (an obstacle and its inscribed band)
+
+    def __post_init__(self) -> None:
+        for name in ("range_m", "cell_m", "size_m"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"coverage {name} must be a positive number, got {v}")
+        if self.rays < 2 or self.size_m / self.cell_m > 4000:
+            raise ValueError("coverage needs at least 2 rays and at most 4000 cells a side")
+
+
+class Coverage:
+    def __init__(self, params: CoverageParams | None = None) -> None:
+        self.params = p = params or CoverageParams()
+        self.half = int(round(p.size_m / p.cell_m / 2))
+        self.looked = np.zeros((2 * self.half, 2 * self.half), dtype=bool)  # [row = y, col = x]
+        self.frames = 0
+
+    def reset(self) -> None:
+        self.looked[:] = False
+        self.frames = 0
+
+    def _lattice(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Lattice (row, col) of world points, and which are on the lattice."""
+        c = np.floor(x / self.params.cell_m).astype(np.int64) + self.half
+        r = np.floor(y / self.params.cell_m).astype(np.int64) + self.half
+        n = 2 * self.half
+        return r, c, (r >= 0) & (r < n) & (c >= 0) & (c < n)
+
+    def observe(
+        self,
+        costmap: np.ndarray,
+        resolution: float,
+        origin: tuple[float, float],
+        x: float,
+        y: float,
+        yaw: float,
+        view: float,
+    ) -> int:
+        """A frame taken at (x, y, yaw) with a horizontal view of `view` rad; the cells it newly looked at."""
+        p = self.params
+        if not all(math.isfinite(v) for v in (x, y, yaw, view)) or view <= 0 or resolution <= 0:
+            return 0
+        step = min(resolution, p.cell_m) / 2.0
+        t = np.arange(1, int(p.range_m / step) + 1) * step
+        a = yaw + np.linspace(-view / 2.0, view / 2.0, p.rays)
+        px = x + np.cos(a)[:, None] * t[None, :]
+        py = y + np.sin(a)[:, None] * t[None, :]
+        g = np.asarray(costmap)
+        col = np.floor((px - origin[0]) / resolution).astype(np.int64)
+        row = np.floor((py - origin[1]) / resolution).astype(np.int64)
+        on = (row >= 0) & (row < g.shape[0]) & (col >= 0) & (col < g.shape[1])
+        value = np.full(px.shape, -1, dtype=np.int16)
+        value[on] = g[row[on], col[on]]
+        stop = value >= p.blocked
+        first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
+        seen = np.arange(len(t))[None, :] < first[:, None]
+        r, c, ok = self._lattice(px[seen], py[seen])
+        r, c = r[ok], c[ok]
+        new = int((~self.looked[r, c]).sum())
+        self.looked[r, c] = True
+        self.frames += 1
+        return new
+
+    def looked_on(self, shape: tuple[int, int], resolution: float, origin: tuple[float, float]) -> np.ndarray:
+        """bool, `shape`: the cells of a grid (resolution, origin as a costmap's) whose centre was looked at."""
+        rows, cols = np.indices(shape)
+        r, c, ok = self._lattice(origin[0] + (cols + 0.5) * resolution, origin[1] + (rows + 0.5) * resolution)
+        out = np.zeros(shape, dtype=bool)
+        out[ok] = self.looked[r[ok], c[ok]]
+        return out
+
+    def unlooked(self, costmap: np.ndarray, resolution: float, origin: tuple[float, float], lethal: int) -> np.ndarray:
+        """bool: the costmap's cells a robot may stand on that no frame has looked at."""
+        g = np.asarray(costmap)
+        return (g >= 0) & (g < lethal) & ~self.looked_on(g.shape, resolution, origin)
