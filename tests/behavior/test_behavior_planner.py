@@ -117,7 +117,12 @@ def test_a_turn_in_place_facing_a_table_edge_backs_away_and_a_clear_turn_is_left
     assert back is not None and back.vx == -BACK_SPEED and back.wz == 0.0 and back.blocked
     assert "backing away" in back.note
     assert unstick(0.0, 0.5, _edge(P.half_length + 1.0), P) is None  # room to turn
-    assert unstick(0.3, 0.5, table, P) is None  # not a turn in place: the approach's and the guard's
+    walking = unstick(0.3, 0.5, table, P)  # walking on turning into it: the guard would hold it too
+    assert walking is not None and (walking.vx, walking.wz) == (-BACK_SPEED, 0.0)
+    assert unstick(0.3, 0.5, _edge(P.half_length + 1.5), P) is None  # its arc is clear
+    post = np.array([[0.15, 0.5], [0.3, 0.5]])  # beside it, on the left: a walking left turn sweeps into it
+    turn_first = unstick(0.3, 0.8, post, P)
+    assert turn_first is None or (turn_first.vx, turn_first.wz) in ((0.0, 0.8), (-BACK_SPEED, 0.0))
     assert unstick(0.0, 0.5, np.zeros((0, 2)), P) is None
     assert unstick(0.0, 0.5, None, P) is None
     boxed = np.vstack([table, _edge(-P.half_length - 0.1)])  # a wall just behind too: nothing to do

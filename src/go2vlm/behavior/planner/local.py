@@ -20,11 +20,12 @@ It never drives faster than the `speed` it is given, and `steer` never backwards
 collision guard still has the last word on every command; the planner keeps the approach out of the
 guard's way, it does not replace it.
 
-- `unstick`: a turn in place whose sweep would bring the footprint's corners within `margin` of a
-  scan point (or closer than they are, if already inside it) is one the guard holds: the robot would
-  stand there turning at zero for ever (beside a table, facing a wall). Such a command becomes a slow
-  straight back-away (BACK_SPEED) while the way behind is clear for BACK_CHECK_M, until the turn is
-  clear; with no room behind it stays as it was (the guard holds it, and says so).
+- `unstick`: a turn whose sweep would bring the footprint within `margin` of a scan point (or closer
+  than it is, if already inside it) is one the guard holds: the robot would stand there at zero for
+  ever (beside a table, facing a wall). A walking turn whose next ARC_CHECK_S does so turns in place
+  instead, if that is clear; a turn in place that is not becomes a slow straight back-away
+  (BACK_SPEED) while the way behind is clear for BACK_CHECK_M; with no room behind the command stays
+  as it was (the guard holds it, and says so).
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
 TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)
 BACK_SPEED = 0.15  # m/s: backing away from what a turn in place would sweep into
 BACK_CHECK_M = 0.3  # m of room behind it needs to back away
+ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
 
 
 @dataclass(frozen=True)
@@ -175,19 +177,27 @@ def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, 
 
 
 def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -> Steer | None:
-    """A back-away instead of a turn in place that the footprint cannot sweep (module docstring), or
-    None: the command is not a turn in place, its turn is clear, or there is no room behind."""
-    if points is None or abs(vx) > TURN_ONLY_VX or abs(wz) < 1e-3 or not math.isfinite(wz):
+    """What to do instead of a command the footprint cannot sweep (module docstring), or None: its
+    way is clear, or nothing better is (no room behind)."""
+    if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or abs(wz) < 1e-3 or vx < 0.0:
         return None
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    reach = math.hypot(p.half_length, p.half_width) + p.margin + BACK_CHECK_M
+    reach = math.hypot(p.half_length, p.half_width) + p.margin + BACK_CHECK_M + vx * ARC_CHECK_S
     pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
     if len(pts) == 0:
         return None
     n = 7
     zero, turn = np.zeros(n), np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
-    if _sweep_ok(pts, zero, zero, turn, p):
+    if vx > TURN_ONLY_VX:  # an arc: its next ARC_CHECK_S, as the guard would stop it
+        t = np.linspace(0.0, ARC_CHECK_S, n)
+        th = wz * t
+        ax, ay = vx * np.sin(th) / wz, vx * (1.0 - np.cos(th)) / wz
+        if _sweep_ok(pts, ax, ay, th, p):
+            return None
+        if _sweep_ok(pts, zero, zero, turn, p):
+            return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
+    elif _sweep_ok(pts, zero, zero, turn, p):
         return None
     if not _sweep_ok(pts, -np.linspace(0.0, BACK_CHECK_M, n), zero, zero, p):
         return None
-    return Steer(-BACK_SPEED, 0.0, math.pi, True, "too near something to turn in place: backing away")
+    return Steer(-BACK_SPEED, 0.0, math.pi, True, "too near something to turn: backing away")
