@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.control import (
     CENTRED_X,
+    MAX_ALIGN_WZ,
     MIN_ALIGN_WZ,
     align_command,
     approach_command,
@@ -37,7 +38,7 @@ def test_align_face_and_search_turn_towards_the_target() -> None:
     assert align_command(0.05, P) == (0.0, True)  # centred
     wz, centred = align_command(0.12, P)
     assert not centred and -0.8 <= wz <= -MIN_ALIGN_WZ  # on the right: turn right, not too gently
-    assert align_command(-1.0, P) == (0.8, False)  # far left: the ceiling
+    assert align_command(-1.0, P) == (MAX_ALIGN_WZ, False)  # far left: the ceiling (a small far object stays tracked)
     assert face_command(0.3, P) == pytest.approx(0.45) and face_command(-0.01, P) == -MIN_ALIGN_WZ
     assert search_command(0.5, 0.5, 0.8) == -0.5 and search_command(-0.5, 0.5, 0.3) == 0.3
     assert search_command(0.0, 0.5, 0.8) == 0.5  # never seen: left

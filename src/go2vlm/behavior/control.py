@@ -41,6 +41,9 @@ __all__ = [
 
 CENTRED_X = 0.1  # look for: |x| below this counts as centred
 MIN_ALIGN_WZ = 0.15  # look for: at least this gentle a turn, so a slow search does not stall near the centre
+# look for: at most this fast a turn to centre it: faster, a small far object (a duck at 6 m, 15 px)
+# jumps further between two frames than the tracker's window follows, and is lost before it is centred
+MAX_ALIGN_WZ = 0.3
 
 
 def _clamp(v: float, lo: float, hi: float) -> float:
@@ -100,8 +103,9 @@ def align_command(x: float, p: ApproachParams) -> tuple[float, bool]:
     approach's turn, at least MIN_ALIGN_WZ; zero once |x| < CENTRED_X."""
     if abs(x) < CENTRED_X:
         return 0.0, True
-    wz = _clamp(-p.kp_angular * x, -p.max_angular, p.max_angular)
-    return math.copysign(min(p.max_angular, max(abs(wz), MIN_ALIGN_WZ)), wz), False
+    top = min(p.max_angular, MAX_ALIGN_WZ)
+    wz = _clamp(-p.kp_angular * x, -top, top)
+    return math.copysign(min(top, max(abs(wz), MIN_ALIGN_WZ)), wz), False
 
 
 def face_command(bearing: float, p: ApproachParams) -> float:
