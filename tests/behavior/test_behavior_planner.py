@@ -143,7 +143,7 @@ def test_unstick_backs_away_only_from_a_turn_it_cannot_sweep_and_only_where_ther
         return
     assert (out.vx, out.wz) == (-BACK_SPEED, 0.0)
     now = _clearance(points, 0.0, 0.0, 0.0)
-    keep = min(P.margin, now) - 1e-3
+    keep = min(P.margin, now) - 1e-9
     turns = [_clearance(points, 0.0, 0.0, math.copysign(a, wz)) for a in np.linspace(0.0, math.radians(30), 7)]
     assert min(turns) < keep, "it backed away from a turn it could sweep"
     backs = [_clearance(points, -d, 0.0, 0.0) for d in np.linspace(0.0, 0.3, 7)]

@@ -173,7 +173,7 @@ def _clearances(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray
 def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> bool:
     """Does the footprint keep `margin` (or what it has now, if less) along the poses (the first is now)?"""
     d = _clearances(points, x, y, th, p)
-    return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-3).all())
+    return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
 
 
 def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -> Steer | None:
