@@ -14,7 +14,8 @@ Rules
 - Range, camera -> the object's near surface, horizontally: the ranging reading (a depth for the
   bottom edge of boxes and cylinders and for a box's width, a distance along the ray otherwise), or
   the nearest scan return within the box's bearings (the middle half of them) when it agrees with the
-  monocular range (within `lidar_agree_m` or `lidar_agree_frac` of it) or when there is no monocular
+  monocular range (nearer by at most `lidar_agree_m` or `lidar_agree_frac` of it, farther by at most
+  `lidar_agree_m`: a return much farther is the lidar seeing past the object) or when there is no monocular
   range and the return is within `lidar_only_max_m`. Neither: a bearing-only sighting (`range_m` None),
   which can confirm an object already remembered along that bearing but places nothing new. So is a
   box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
@@ -191,7 +192,10 @@ def place(
     if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
     elif lidar is not None:
-        agree = mono is not None and abs(lidar - mono) <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
+        # Nearer than the monocular range by up to the tolerance, or farther by at most lidar_agree_m: a
+        # return much farther is what the lidar sees past the object (a duck below its plane at 6 m:
+        # the wall behind it), not the object.
+        agree = mono is not None and -p.lidar_agree_m <= mono - lidar <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
         if agree or (mono is None and lidar <= p.lidar_only_max_m):
             rng, method = lidar, "lidar"
     if (x1 <= p.border_px) != (x2 >= cam.width - p.border_px):  # cut by one side of the image
