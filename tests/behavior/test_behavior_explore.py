@@ -210,3 +210,74 @@ def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
     assert s.explorer.status()["visited"] == 1 and not s.looking
     assert now - look_began >= LOOK_SLACK * 2 * math.pi / ctx.params.search_yaw_rate - 0.1
     assert "could not turn all round" in reasons[-1]
+
+
+def test_a_look_where_the_camera_has_seen_everything_near_ends_at_once() -> None:
+    """Coverage (world/coverage.py): arrived where the camera has already looked all round, the look
+    ends without a turn; where it has not, the look turns."""
+    from go2vlm.behavior.strategies.base import Pose
+    from go2vlm.world.frontiers import Frontier
+
+    s, ctx = _explore_from_the_room()
+    cm = ctx.costmap
+    assert cm is not None
+    for k in range(12):  # answered frames all round from here
+        ctx.coverage.observe(cm.data, cm.resolution, cm.origin, 3.0, -2.0, k * math.pi / 6, math.radians(73))
+    s.explorer.set_map(cm)
+    s.explorer.phase = "look"
+    s.explorer.frontier = Frontier(1, (3.0, -2.0), (3.0, -2.0), cell(3.0, -2.0), 10, 0.5)
+    ctx.pose = Pose(3.0, -2.0, 0.0, 1.0)
+    cmd = s.step(ctx, 1.0)
+    assert cmd is not None and (cmd.vx, cmd.wz) == (0.0, 0.0) and "nothing near left unseen" in cmd.reason
+    assert s.explorer.phase == "choose" and s.explorer.status()["visited"] == 1
+    s2, ctx2 = _explore_from_the_room()  # nothing looked at yet: the look turns
+    s2.explorer.set_map(ctx2.costmap)
+    s2.explorer.phase = "look"
+    s2.explorer.frontier = Frontier(1, (3.0, -2.0), (3.0, -2.0), cell(3.0, -2.0), 10, 0.5)
+    ctx2.pose = Pose(3.0, -2.0, 0.0, 1.0)
+    cmd2 = s2.step(ctx2, 1.0)
+    assert cmd2 is not None and cmd2.wz != 0.0
+
+
+def test_with_coverage_it_walks_to_what_the_camera_has_not_seen_and_ends_with_the_house_seen() -> None:
+    """The toy robot's lidar sees 8 m round it, its camera (73 degrees, 4 m) where it faces; the
+    explorer walks to the map's frontiers and to free space the camera has not seen, and ends with
+    little of the house unseen."""
+    from go2vlm.world.coverage import Coverage
+
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    ex = Explorer(ExploreParams(timeout_s=1e4))
+    ex.coverage = cov = Coverage()
+    ex.reset(0.0)
+    x, y, yaw = 3.0, -2.0, 0.0
+    kinds: set[str] = set()
+    for k in range(6000):
+        now = k * 0.1
+        if k % 10 == 0:
+            sense(truth, known, x, y, reach=8.0)  # the lidar reaches twice as far as the camera's answers
+            ex.set_map(costmap(known, now))
+        cm = ex.costmap
+        assert cm is not None
+        cov.observe(cm.data, RES, ORIGIN, x, y, yaw, math.radians(73))
+        step = ex.step(x, y, yaw, now)
+        if ex.frontier is not None:
+            kinds.add(ex.frontier.kind)
+        if step.action == "done":
+            break
+        if step.action == "look":
+            for a in range(12):
+                cov.observe(cm.data, RES, ORIGIN, x, y, yaw + a * math.pi / 6, math.radians(73))
+            ex.looked(now)
+        elif step.action == "walk":
+            yaw += step.bearing
+            d = min(0.2, step.distance)
+            x, y = x + d * math.cos(yaw), y + d * math.sin(yaw)
+            assert truth[cell(x, y)] == 0, f"walked into a wall at ({x:.2f}, {y:.2f})"
+    assert step.action == "done" and "no frontier left" in ex.reason, (step, k)
+    assert "view" in kinds  # it walked to free space the camera had not seen
+    cm = ex.costmap
+    assert cm is not None
+    free = (cm.data >= 0) & (cm.data < 99)
+    unseen = cov.unlooked(cm.data, RES, ORIGIN, 99)
+    assert unseen.sum() < 0.1 * free.sum()
