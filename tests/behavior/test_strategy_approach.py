@@ -75,3 +75,30 @@ def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
             assert cmd.state == "detouring" and ctx.last_seen is not None
             assert now - ctx.last_seen <= p.detour_memory_s and scan
             assert cmd.vx == 0.0 or ctx.avoider.detour_t == now  # walks only round a blocked way
+
+
+def test_go_to_a_target_the_tracker_cannot_range_is_ranged_by_the_scan_on_its_bearing() -> None:
+    """Near a box, its bottom edge leaves the image and the tracker gives no range: the scan's return
+    on the target's bearing ranges it, so the approach stops and ends `reached` (the robot stood 0.70 m
+    from the green box, 'target at unknown', until the goal timed out)."""
+    import pytest
+
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.sighting import Sighting
+    from go2vlm.behavior.strategies.approach import Approach
+    from go2vlm.behavior.strategies.base import Context
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    p = MissionParams()
+    ctx = Context(p, goal=parse_goal("go to the green box"), view=math.radians(73))
+    ys = np.linspace(-0.25, 0.25, 11)
+    for surface, want in ((0.75, "reached"), (1.6, "approaching")):
+        box = np.column_stack([np.full_like(ys, surface), ys])  # its face, `surface` m ahead of the base
+        ctx.scan = (box, 1.0)
+        ctx.sighting = Sighting(1.0, "green box", "tracking", 0.0, None, "none", 0.0, math.radians(73))
+        ctx.last_seen = 1.0
+        cmd = Approach().step(ctx, 1.0)
+        assert cmd is not None and cmd.state == want, (surface, cmd)
+        assert ctx.base_distance(1.0) == pytest.approx(surface, abs=0.01)
+    ctx.scan = (np.column_stack([np.full_like(ys, 3.0), ys]), 1.0)  # only far returns: not its face
+    assert ctx.base_distance(1.0) is None

@@ -41,9 +41,10 @@ class Approach:
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)
         vx, wz, reached = approach_command(s.x, dist, ap)
-        how = "unknown" if dist is None else f"{dist:.2f} m ({s.range_method})"
+        method = s.range_method if s.distance is not None else "lidar"  # ctx.base_distance's fallback
+        how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
-            return Command.still("reached", f"{dist:.2f} m from the {label} ({s.range_method})")
+            return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
         rel = ctx.seen_in_base(s)
         if rel is not None and not reached:
             st = ctx.avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)

@@ -29,6 +29,8 @@ __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy
 
 POSES_KEPT = 600  # the mission's recent poses (a minute at its 10 Hz), to find where an answered frame was taken
 VIEW_POSE_S = 0.5  # an answered frame without a pose this near its stamp looks at nothing
+SCAN_CONE = math.radians(3.0)  # an unranged target's scan return lies this near its bearing ...
+SCAN_RANGE_M = 2.0  # ... and this near the camera (farther, it may be what is behind a small object)
 
 
 @dataclass(frozen=True)
@@ -145,11 +147,24 @@ class Context:
         return s is not None and s.tracked and 0.0 <= now - s.t < self.params.lost_timeout_s
 
     def base_distance(self, now: float) -> float | None:
-        """Base centre -> the object's surface, while confirmed and ranged."""
+        """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
+        without one (the box's bottom edge cut by the image when it is near) the nearest fresh scan
+        return on its bearing within SCAN_RANGE_M."""
         s = self.sighting
-        if not self.confirmed(now) or s is None or s.distance is None or not math.isfinite(s.distance):
+        if not self.confirmed(now) or s is None:
             return None
-        return s.distance + self.params.camera_forward_m
+        cf = self.params.camera_forward_m
+        if s.distance is not None and math.isfinite(s.distance):
+            return s.distance + cf
+        pts = self.fresh_scan(now)
+        if pts is None or not len(pts) or not math.isfinite(s.bearing):
+            return None
+        dx, dy = pts[:, 0] - cf, pts[:, 1]
+        off = np.abs(np.angle(np.exp(1j * (np.arctan2(dy, dx) - s.bearing))))
+        d = np.hypot(dx, dy)[(off <= SCAN_CONE) & (dx > 0)]
+        if not len(d) or float(d.min()) > SCAN_RANGE_M:
+            return None
+        return float(d.min()) + cf
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
