@@ -25,7 +25,7 @@ Rules
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -51,14 +51,22 @@ class CoverageParams:
 
 class Coverage:
     def __init__(self, params: CoverageParams | None = None) -> None:
-        self.params = p = params or CoverageParams()
+        self.base = self.params = p = params or CoverageParams()
         self.half = int(round(p.size_m / p.cell_m / 2))
         self.looked = np.zeros((2 * self.half, 2 * self.half), dtype=bool)  # [row = y, col = x]
         self.frames = 0
 
     def reset(self) -> None:
+        """A new goal: nothing looked at, at the range it began with."""
         self.looked[:] = False
         self.frames = 0
+        self.params = self.base
+
+    def closer(self, range_m: float) -> None:
+        """Look again at everything, counting a frame only out to `range_m` (a second pass)."""
+        self.looked[:] = False
+        self.frames = 0
+        self.params = replace(self.params, range_m=range_m)
 
     def _lattice(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Lattice (row, col) of world points, and which are on the lattice."""
@@ -114,3 +122,24 @@ class Coverage:
         """bool: the costmap's cells a robot may stand on that no frame has looked at."""
         g = np.asarray(costmap)
         return (g >= 0) & (g < lethal) & ~self.looked_on(g.shape, resolution, origin)
+
+    def looked_at(self, x: float, y: float) -> bool:
+        """Has a frame looked at the world point (x, y)?"""
+        r, c, ok = self._lattice(np.array([x]), np.array([y]))
+        return bool(ok[0] and self.looked[r[0], c[0]])
+
+    def unseen_near(
+        self, costmap: np.ndarray, resolution: float, origin: tuple[float, float], lethal: int, x: float, y: float
+    ) -> float:
+        """m^2 of standable costmap cells within range of (x, y) that no frame has looked at."""
+        g = np.asarray(costmap)
+        r = int(math.ceil(self.params.range_m / resolution))
+        row, col = math.floor((y - origin[1]) / resolution), math.floor((x - origin[0]) / resolution)
+        r0, c0 = max(0, row - r), max(0, col - r)
+        win = g[r0 : row + r + 1, c0 : col + r + 1]
+        if win.size == 0:
+            return 0.0
+        o = (origin[0] + c0 * resolution, origin[1] + r0 * resolution)
+        rows, cols = np.indices(win.shape)
+        near = np.hypot(o[0] + (cols + 0.5) * resolution - x, o[1] + (rows + 0.5) * resolution - y)
+        return float((self.unlooked(win, resolution, o, lethal) & (near <= self.params.range_m)).sum()) * resolution**2

@@ -32,67 +32,27 @@ Rules
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from go2vlm.behavior.control import search_command
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, plan_path
+from go2vlm.behavior.planner.global_path import Costmap, plan_path
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
 from go2vlm.behavior.strategies.route import follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
-from go2vlm.declare import param
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_frontiers
 from go2vlm.world.poses import wrap_angle
 
 __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
 
-FRONTIER_CHOICES = ("nearest", "vlm")
 # A continuous look that has not turned all round in this many times a whole turn's time at
 # search_yaw_rate ends anyway (the safety gate holding a turn near a wall would keep it there).
 LOOK_SLACK = 3.0
-
-
-@dataclass(frozen=True)
-class ExploreParams:
-    # nearest (by path cost) | vlm (a whitelisted model answer); declared with `param`, the commander's
-    # (behavior/commander_config.py: frontier_choice, explore_unknown_cost, explore_timeout_s)
-    frontier_choice: str = param(
-        "nearest", choices=FRONTIER_CHOICES,
-        help="explore: the frontier to walk to: nearest by path cost, or vlm (the best-scored way on /vlm/way first)",
-    )  # fmt: skip
-    unknown_cost: float = param(3.0, help="explore: cost per unknown cell crossed (free: 1)", min=1.0, max=1000.0,
-                                live=True)  # fmt: skip
-    min_frontier_m: float = 0.5  # a shorter frontier is dropped
-    arrive_m: float = 0.5  # this near the frontier's goal: look around
-    waypoint_reach_m: float = 0.4  # a waypoint this near is passed
-    visited_radius_m: float = 1.0  # frontiers this near a visited or given-up place are skipped
-    stuck_m: float = 0.3  # at least this much progress along the route ...
-    stuck_s: float = 20.0  # ... within this long, else the frontier is given up
-    map_timeout_s: float = 10.0  # no map at all this long after the search began: done
-    min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
-    look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left within the camera's range
-    timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
-                             max=3600.0, live=True)  # fmt: skip
-    planner: GlobalParams = field(default_factory=GlobalParams)
-
-    def __post_init__(self) -> None:
-        if self.frontier_choice not in FRONTIER_CHOICES:
-            raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
-        for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
-                     "stuck_s", "map_timeout_s", "timeout_s", "min_view_m2", "look_done_m2"):  # fmt: skip
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
-        if not self.unknown_cost >= 1.0:
-            raise ValueError(f"unknown_cost must be >= 1 (or inf), got {self.unknown_cost}")
-
-    @property
-    def global_params(self) -> GlobalParams:
-        return replace(self.planner, unknown_cost=self.unknown_cost)
 
 
 @dataclass(frozen=True)
@@ -159,41 +119,29 @@ class Explorer:
         cm = self.costmap
         if cm is None or self._frontier_stamp == cm.stamp:
             return
-        self._frontier_stamp = cm.stamp
+        self._frontier_stamp = cm.stamp if self.coverage is None or self.coverage.frames else None
         p = self.params
         fp = FrontierParams(lethal=p.planner.lethal, min_size_m=p.min_frontier_m)
         standable = (cm.data >= 0) & (cm.data < p.planner.lethal)
         found = find_frontiers(cm.data, cm.resolution, cm.origin, fp, reachable=standable)
         if self.coverage is not None and self.coverage.frames:  # and the free space the camera has not looked at
             unseen = self.coverage.unlooked(cm.data, cm.resolution, cm.origin, p.planner.lethal)
+            block = max(2, int(self.coverage.params.range_m / cm.resolution))  # one region per camera range
+            unseen[::block, :] = unseen[:, ::block] = False
             found += clusters(unseen, cm.data, cm.resolution, cm.origin, p.planner.lethal,
                               p.min_view_m2 / cm.resolution**2, kind="view")  # fmt: skip
         self.frontiers = [f for f in found if not self._skip(f)]
 
     def seen(self, f: Frontier) -> bool:
         """A region of unseen free space the camera has looked at since (on the way there): done."""
-        if f.kind != "view" or self.coverage is None or self.costmap is None:
-            return False
-        res = self.costmap.resolution
-        corner = (f.goal[0] - res / 2, f.goal[1] - res / 2)
-        return bool(self.coverage.looked_on((1, 1), res, corner)[0, 0])
+        return f.kind == "view" and self.coverage is not None and self.coverage.looked_at(*f.goal)
 
     def unseen_near(self, x: float, y: float) -> float:
         """m^2 of free space within the camera's range of (x, y) that it has not looked at (inf: unknown)."""
         cm, cov = self.costmap, self.coverage
         if cm is None or cov is None or not cov.frames:  # no answered frame yet: nothing known
             return math.inf
-        r = int(math.ceil(cov.params.range_m / cm.resolution))
-        row, col = cm.cell(x, y)
-        r0, c0 = max(0, row - r), max(0, col - r)
-        win = cm.data[r0 : row + r + 1, c0 : col + r + 1]
-        if win.size == 0:
-            return 0.0
-        origin = (cm.origin[0] + c0 * cm.resolution, cm.origin[1] + r0 * cm.resolution)
-        rows, cols = np.indices(win.shape)
-        near = np.hypot(origin[0] + (cols + 0.5) * cm.resolution - x, origin[1] + (rows + 0.5) * cm.resolution - y)
-        unseen = cov.unlooked(win, cm.resolution, origin, self.params.planner.lethal) & (near <= cov.params.range_m)
-        return float(unseen.sum()) * cm.resolution**2
+        return cov.unseen_near(cm.data, cm.resolution, cm.origin, self.params.planner.lethal, x, y)
 
     def _give_up(self, why: str) -> None:
         if self.frontier is not None:
@@ -214,7 +162,18 @@ class Explorer:
         cm = self.costmap
         assert cm is not None
         p = self.params
+        cov = self.coverage
+        if cov is not None and not cov.frames and cov.params != cov.base:
+            return ExploreStep("wait", self.reason)  # the second pass begins with its first answered frame
         if not self.frontiers:
+            if cov is not None and cov.frames and cov.params.range_m > p.second_pass_m:
+                # Everything seen from up to range_m, and time left: a small object is missed at
+                # that range (a duck at 4 m is 15 pixels), so look at it all again from closer.
+                cov.closer(p.second_pass_m)
+                self.visited.clear()
+                self._frontier_stamp = None
+                self.reason = f"a second pass: looking at it all again from within {p.second_pass_m:g} m"
+                return ExploreStep("wait", self.reason)
             self.phase = "done"
             self.reason = "no frontier left: every reachable part of the map has been looked at"
             return ExploreStep("done", self.reason)

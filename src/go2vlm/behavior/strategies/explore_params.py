@@ -1,0 +1,56 @@
+"""The frontier search's settings (strategies/explore.py): what it walks to, when it gives up, how
+it looks. The three the commander exposes are declared with `param` (behavior/commander_config.py:
+frontier_choice, explore_unknown_cost, explore_timeout_s)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+from go2vlm.behavior.planner.global_path import GlobalParams
+from go2vlm.declare import param
+
+__all__ = ["FRONTIER_CHOICES", "ExploreParams"]
+
+FRONTIER_CHOICES = ("nearest", "vlm")
+
+
+@dataclass(frozen=True)
+class ExploreParams:
+    # nearest (by path cost) | vlm (a whitelisted model answer); declared with `param`, the commander's
+    # (behavior/commander_config.py: frontier_choice, explore_unknown_cost, explore_timeout_s)
+    frontier_choice: str = param(
+        "nearest", choices=FRONTIER_CHOICES,
+        help="explore: the frontier to walk to: nearest by path cost, or vlm (the best-scored way on /vlm/way first)",
+    )  # fmt: skip
+    unknown_cost: float = param(3.0, help="explore: cost per unknown cell crossed (free: 1)", min=1.0, max=1000.0,
+                                live=True)  # fmt: skip
+    min_frontier_m: float = 0.5  # a shorter frontier is dropped
+    arrive_m: float = 0.5  # this near the frontier's goal: look around
+    waypoint_reach_m: float = 0.4  # a waypoint this near is passed
+    visited_radius_m: float = 1.0  # frontiers this near a visited or given-up place are skipped
+    stuck_m: float = 0.3  # at least this much progress along the route ...
+    stuck_s: float = 20.0  # ... within this long, else the frontier is given up
+    map_timeout_s: float = 10.0  # no map at all this long after the search began: done
+    min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
+    look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left within the camera's range
+    second_pass_m: float = 2.0  # all seen and time left: look at it all again, a frame counting out to this
+    timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
+                             max=3600.0, live=True)  # fmt: skip
+    planner: GlobalParams = field(default_factory=GlobalParams)
+
+    def __post_init__(self) -> None:
+        if self.frontier_choice not in FRONTIER_CHOICES:
+            raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
+        for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
+                     "stuck_s", "map_timeout_s", "timeout_s", "min_view_m2", "look_done_m2",
+                     "second_pass_m"):  # fmt: skip
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
+        if not self.unknown_cost >= 1.0:
+            raise ValueError(f"unknown_cost must be >= 1 (or inf), got {self.unknown_cost}")
+
+    @property
+    def global_params(self) -> GlobalParams:
+        return replace(self.planner, unknown_cost=self.unknown_cost)
