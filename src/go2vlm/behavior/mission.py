@@ -263,6 +263,7 @@ class Mission:
     def observe_pose(self, x: float, y: float, yaw: float, now: float) -> None:
         """The robot's odometry pose (a NaN one is dropped)."""
         self.ctx.pose = Pose(x, y, yaw, now) if all(math.isfinite(v) for v in (x, y, yaw)) else None
+        self.ctx.poses.add(now, x, y, yaw)  # not finite: dropped and counted there
 
     def observe_map(self, costmap: Costmap | None) -> None:
         """The map's newest inflated costmap (None: none, or a bad one), for the global planner."""
@@ -299,7 +300,7 @@ class Mission:
         if goal is None or not self.active:
             vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
-            self.ctx.observe_view(now)
+            self.ctx.observe_view()
             cmd = self._control(now)
             if cmd.state in TERMINAL or (cmd.state, cmd.reason) != (self.state, self.reason):
                 self._enter(cmd.state, cmd.reason, now)

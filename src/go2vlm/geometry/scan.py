@@ -18,7 +18,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ScanSpec", "cloud_to_ranges", "frame_scan_points", "mount_transform", "scan_points", "to_base"]
+__all__ = [
+    "ScanSpec",
+    "cloud_to_ranges",
+    "frame_scan_points",
+    "mount_transform",
+    "nearest_return",
+    "scan_points",
+    "to_base",
+]
 
 
 @dataclass(frozen=True)
@@ -108,3 +116,16 @@ def frame_scan_points(
     if frame_id != frame:
         raise ValueError(f"scan in frame {frame_id!r}, not {frame!r}")
     return scan_points(ranges, angle_min, angle_increment, range_min, range_max)
+
+
+def nearest_return(points: np.ndarray | None, origin: tuple[float, float], lo: float, hi: float) -> float | None:
+    """The nearest scan point (base frame, (N, 2)) seen from `origin` (a sensor's x, y in the base
+    frame, facing +x) between the bearings lo..hi (rad, + left), as a horizontal distance from
+    `origin`; None when there is none. The object memory places a box with it, the commander ranges
+    a near target with it."""
+    if points is None or len(points) == 0:
+        return None
+    rel = np.asarray(points, dtype=float).reshape(-1, 2) - origin
+    ang = np.arctan2(rel[:, 1], rel[:, 0])
+    hit = (ang >= lo) & (ang <= hi) & (rel[:, 0] > 0.0)
+    return float(np.hypot(rel[hit, 0], rel[hit, 1]).min()) if hit.any() else None

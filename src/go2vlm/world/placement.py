@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.scan import nearest_return
 from go2vlm.perception.ranging import RangeEstimator
 from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
@@ -134,18 +135,6 @@ def rebase(points: np.ndarray, from_pose: Pose2D, to_pose: Pose2D) -> np.ndarray
     return np.column_stack([c2 * wx + s2 * wy, -s2 * wx + c2 * wy])
 
 
-def _lidar_range(points: np.ndarray | None, mount: CameraMount, lo: float, hi: float) -> float | None:
-    """The nearest scan return (base frame at the frame's stamp) seen from the camera between the
-    camera-frame bearings lo..hi, as a horizontal distance; None when there is none."""
-    if points is None or len(points) == 0:
-        return None
-    rel = np.asarray(points, dtype=float).reshape(-1, 2) - (mount.forward_m, mount.left_m)
-    ang = np.arctan2(rel[:, 1], rel[:, 0])
-    d = np.hypot(rel[:, 0], rel[:, 1])
-    hit = (ang >= lo) & (ang <= hi) & (rel[:, 0] > 0.0)
-    return float(d[hit].min()) if hit.any() else None
-
-
 def _sigma(method: str, d: float) -> float:
     a, b, n = RANGE_SIGMA.get(method, RANGE_SIGMA["default_size"])
     return a + b * d**n
@@ -187,7 +176,7 @@ def place(
         d = max(0.0, float(reading.distance))
         mono = d * stretch if depth_reading else d
     quarter = (b_l - b_r) / 4.0
-    lidar = _lidar_range(scan_points, mount, b_r + quarter, b_l - quarter)
+    lidar = nearest_return(scan_points, (mount.forward_m, mount.left_m), b_r + quarter, b_l - quarter)
     rng, method = mono, reading.method
     if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's

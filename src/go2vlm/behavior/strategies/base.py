@@ -6,7 +6,7 @@ method takes the time it is about."""
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -22,13 +22,15 @@ from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
 from go2vlm.behavior.strategies.params import MissionParams
+from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.objects_msg import Remembered
+from go2vlm.world.poses import PoseHistory, PoseUnavailable
 
 __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
 
-POSES_KEPT = 600  # the mission's recent poses (a minute at its 10 Hz), to find where an answered frame was taken
-VIEW_POSE_S = 0.5  # an answered frame without a pose this near its stamp looks at nothing
+POSES_KEPT_S = 60.0  # the mission's recent poses, to find where an answered frame was taken
+VIEW_POSE_S = 0.5  # an answered frame newer than the newest pose by more than this looks at nothing
 SCAN_CONE = math.radians(3.0)  # an unranged target's scan return lies this near its bearing ...
 SCAN_RANGE_M = 2.0  # ... and this near the camera (farther, it may be what is behind a small object)
 
@@ -91,7 +93,9 @@ class Context:
     costmap: Costmap | None = None  # the map's newest inflated costmap (/map/costmap), for the global planner
     route: Route | None = None  # the global route being walked (explore, or a remembered place out of sight): /plan
     coverage: Coverage = field(default_factory=Coverage)  # where the camera has looked during this goal
-    poses: deque[Pose] = field(default_factory=lambda: deque(maxlen=POSES_KEPT))  # for the answered frames' poses
+    poses: PoseHistory = field(  # the odometry poses, on the mission's clock: where an answered frame was taken
+        default_factory=lambda: PoseHistory(horizon_s=POSES_KEPT_S, max_extrapolation_s=VIEW_POSE_S)
+    )
     viewed_through: float = -math.inf  # the newest answered frame already in `coverage`
 
     # -- the goal ------------------------------------------------------------------------------
@@ -112,20 +116,19 @@ class Context:
         self.coverage.reset()
         self.viewed_through = self.answers.through if self.answers.through is not None else -math.inf
 
-    def observe_view(self, now: float) -> None:
+    def observe_view(self) -> None:
         """The newest answered frame has looked at the world (world/coverage.py), from the pose the
         robot had at its stamp: a frame counts once an answer about it came back, so a slow model's
         unanswered frames look at nothing. Needs the camera's view and a costmap (walls stop it)."""
-        pose = self.fresh_pose(now)
-        if pose is not None and (not self.poses or self.poses[-1] is not pose):
-            self.poses.append(pose)
         through, cm = self.answers.through, self.costmap
-        if through is None or through <= self.viewed_through or cm is None or self.view is None or not self.poses:
+        if through is None or through <= self.viewed_through or cm is None or self.view is None:
             return
         self.viewed_through = through
-        at = min(self.poses, key=lambda q: abs(q.t - through))
-        if abs(at.t - through) <= VIEW_POSE_S:
-            self.coverage.observe(cm.data, cm.resolution, cm.origin, at.x, at.y, at.yaw, self.view)
+        try:
+            at = self.poses.at(through)
+        except PoseUnavailable:
+            return
+        self.coverage.observe(cm.data, cm.resolution, cm.origin, at.x, at.y, at.yaw, self.view)
 
     def approach_params(self) -> ApproachParams:
         p = self.params
@@ -156,15 +159,10 @@ class Context:
         cf = self.params.camera_forward_m
         if s.distance is not None and math.isfinite(s.distance):
             return s.distance + cf
-        pts = self.fresh_scan(now)
-        if pts is None or not len(pts) or not math.isfinite(s.bearing):
+        if not math.isfinite(s.bearing):
             return None
-        dx, dy = pts[:, 0] - cf, pts[:, 1]
-        off = np.abs(np.angle(np.exp(1j * (np.arctan2(dy, dx) - s.bearing))))
-        d = np.hypot(dx, dy)[(off <= SCAN_CONE) & (dx > 0)]
-        if not len(d) or float(d.min()) > SCAN_RANGE_M:
-            return None
-        return float(d.min()) + cf
+        d = nearest_return(self.fresh_scan(now), (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
+        return None if d is None or d > SCAN_RANGE_M else d + cf
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
