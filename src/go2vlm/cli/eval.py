@@ -29,6 +29,13 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--model", default=None, help="vlm: checkpoint dir, hub id, or the served model's name")
     p.add_argument("--base-url", default=None, help="vlm: an OpenAI-compatible server, e.g. http://gpu-box:8000/v1")
     p.add_argument("--episodes", type=int, default=None, help="how many episodes (default: the suite's)")
+    p.add_argument(
+        "--only",
+        default=None,
+        metavar="K,K,...",
+        help="run only these episodes (indices from 0, as in results.jsonl), e.g. 28,32; the run id stays the "
+        "suite's, so --resume later finishes the rest",
+    )
     p.add_argument("--seed", type=int, default=None, help="seed of the spawns and draws (default: the suite's)")
     p.add_argument("--workers", type=int, default=1, help="episodes in parallel, one process and DDS domain each")
     p.add_argument(
@@ -141,6 +148,11 @@ def run(args: argparse.Namespace) -> int:
         print("go2vlm eval: --rtf must be positive", file=sys.stderr)
         return 2
     try:
+        only = None if args.only is None else tuple(sorted({int(k) for k in args.only.split(",") if k.strip()}))
+    except ValueError:
+        print(f"go2vlm eval: --only takes episode indices such as 28,32, not {args.only!r}", file=sys.stderr)
+        return 2
+    try:
         latencies: list[float | None] = [None] if args.latency is None else list(parse_latencies(args.latency))
     except ValueError as exc:
         print(f"go2vlm eval: {exc}", file=sys.stderr)
@@ -152,6 +164,7 @@ def run(args: argparse.Namespace) -> int:
         model=args.model,
         base_url=args.base_url,
         episodes=args.episodes,
+        only=only,
         seed=args.seed,
         workers=args.workers,
         resume=args.resume,

@@ -75,6 +75,7 @@ class EvalOptions:
     model: str | None = None
     base_url: str | None = None
     episodes: int | None = None  # None: the suite's
+    only: tuple[int, ...] | None = None  # run only these episode indices (a miss again, a slice): same run id
     seed: int | None = None  # None: the suite's
     workers: int = 1
     resume: bool = False
@@ -202,6 +203,9 @@ def run_config(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dic
 
 def _episodes(suite: Suite, opts: EvalOptions, seed: int, params: dict[str, dict[str, Any]]) -> list[Episode]:
     n = suite.episodes if opts.episodes is None else opts.episodes
+    beyond = sorted(k for k in opts.only or () if not 0 <= k < n)
+    if beyond:
+        raise EvalError(f"--only: no episode {', '.join(map(str, beyond))} in {suite.name} (episodes 0-{n - 1})")
     out = []
     for k in range(n):
         ep = suite.episode(k, opts.perception, seed)
@@ -341,7 +345,7 @@ def run_eval(
         )
     if mine and not opts.resume:
         raise EvalError(f"{out} already holds {len(mine)} episode(s) of run {run_id}; --resume finishes it")
-    todo = [(k, ep) for k, ep in enumerate(episodes) if k not in mine]
+    todo = [(k, ep) for k, ep in enumerate(episodes) if k not in mine and (opts.only is None or k in opts.only)]
     session = time.strftime("%Y%m%dT%H%M%S")
     session_t0 = time.time()  # wall time: the session's throughput
     run = {
