@@ -78,6 +78,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     speed.add_argument("--fast", action="store_true", help="as fast as the host allows (fine for oracle/color)")
     p.add_argument("--mode", choices=("kinematic", "dynamic"), default=None, help="sim physics (default: the suite's)")
     p.add_argument("--video", action="store_true", help="also write each episode's run folder with video.mp4")
+    p.add_argument(
+        "--plots",
+        action="store_true",
+        help="also write each episode's run folder with plot.png and series.json (the commander's reasons), no video",
+    )
     p.add_argument("--bag", action="store_true", help="also record each episode's topics into its run folder's bag/")
     add_node_params(p, "a node parameter for every episode")
     add_dds_args(
@@ -172,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
         rtf=args.rtf,
         mode=args.mode,
         video=args.video,
+        plots=args.plots,
         bag=args.bag,
         params=_with_frontier(node_params(args.param), args.frontier),
         interface=args.interface,

@@ -6,8 +6,9 @@ eval folder that grows by whole results and can be resumed.
                          versions, machine); appended and synced line by line
     DIR/runs/RUN.json    that configuration, once per run
     DIR/summary.json, DIR/report.md, DIR/*.png   rewritten from results.jsonl at the end (report.py)
-    DIR/episodes/ID/     with --video or --bag: each episode's run folder (metrics.json; plot.png and
-                         video.mp4 with --video; bag/ with --bag)
+    DIR/episodes/ID/     with --video, --plots or --bag: each episode's run folder (metrics.json,
+                         series.json: the commander's reasons on each change; plot.png with --video
+                         or --plots; video.mp4 with --video; bag/ with --bag)
 
 A run is (suite file, variant, model, server, seed, speed, node parameters): its id is a hash of them.
 Several runs share a folder (oracle, color and vlm side by side); the report compares them. An
@@ -83,6 +84,7 @@ class EvalOptions:
     rtf: float = 1.0
     mode: str | None = None  # None: the suite's
     video: bool = False
+    plots: bool = False  # each episode's run folder with its plot and series, no video (why a miss ended so)
     bag: bool = False  # each episode's run folder gets bag/
     params: dict[str, dict[str, Any]] = field(default_factory=dict)
     interface: str = "lo"
@@ -352,6 +354,7 @@ def run_eval(
         "rtf": opts.rtf,
         "fast": opts.fast,
         "video": opts.video,
+        "plots": opts.plots,
         "bag": opts.bag,
         "episodes_dir": str(out / "episodes"),
     }

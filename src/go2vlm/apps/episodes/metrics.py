@@ -131,6 +131,17 @@ def _dedupe(states: list[Any]) -> list[Any]:
     return out
 
 
+def _reasons(status: list[tuple[float, dict[str, Any]]]) -> list[list[Any]]:
+    """[t, state, reason] each time the commander's reason changes (its numbers included: a reason
+    that counts down metres is a walk, one that stays is a stall)."""
+    out: list[list[Any]] = []
+    for t, s in status:
+        row = [t, s.get("state"), s.get("reason")]
+        if not out or out[-1][1:] != row[1:]:
+            out.append(row)
+    return out
+
+
 def grounding_metrics(
     answers: list[tuple[float, float, list[PixelBox]]],
     truth: dict[float, list[PixelBox]],
@@ -517,6 +528,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         "target_sim_t": [t for t, *_ in rec.targets],
         "target_x": [x for _, x, _, _ in rec.targets],
         "states": [[t, s.get("state")] for t, s in status],
+        "reasons": _reasons(status),  # what the commander said, on each change: why a miss ended as it did
         "cmd": [[t, vx, wz] for t, vx, _, wz in cmds],
     }
     if ep.goal is None:

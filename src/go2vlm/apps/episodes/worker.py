@@ -85,13 +85,14 @@ def run_worker_episode(
     from go2vlm.apps.episodes.runner import RunOptions, run_episode
 
     ep = Episode.from_dict(episode)
-    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if run["video"] or run["bag"] else None
+    folder = run["video"] or run["bag"] or run.get("plots")
+    out = Path(run["episodes_dir"]) / ep.id.replace("/", "-") if folder else None
     opts = RunOptions(
         rtf=run["rtf"],
         fast=run["fast"],
         out=out,
         video=run["video"],
-        plot=run["video"],
+        plot=run["video"] or bool(run.get("plots")),
         bag=run["bag"],
         interface=interface,
         domain_id=domain,
