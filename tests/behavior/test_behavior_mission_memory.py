@@ -290,3 +290,19 @@ def test_it_goes_round_what_is_in_the_way_to_a_remembered_object() -> None:
     assert out.state == "reached", (t, m.reason)
     assert least > 0.2 and t < 40.0
     assert changes <= 6, f"{changes} changes of state: the detour and the walk fight"
+
+
+def test_a_remembered_object_beyond_the_go_to_cap_is_given_up_not_the_goal() -> None:
+    """A memory 30 m away (most likely misplaced) is dropped and the search goes on; a near one is kept."""
+    far = Remembered("ball_1", "red ball", 30.0, 0.0, 0.25, (0.5, 0.5, 0.5), 0.98, 0.0, (0.01, 0.0, 0.01))
+    m = mission()
+    m.observe_memory([far], 0.0, 0.0)
+    m.observe_pose(0.0, 0.0, 0.0, 0.0)
+    m.set_goal("go to the red ball", 0.0)
+    assert m.step(0.0).state == "approaching" and m.target_obj is far
+    assert m.drop_far_memory(0.1, max_go_to_m=50.0) is None and m.target_obj is far
+    why = m.drop_far_memory(0.1, max_go_to_m=25.0)
+    assert why is not None and "ball_1" in why and "beyond max_go_to_m = 25 m" in why
+    assert m.counters["remembered_too_far"] == 1
+    out = m.step(0.2)
+    assert m.target_obj is None and out.state == "searching" and m.active, (out.state, out.reason)

@@ -100,8 +100,9 @@ still for decision_hold_s, turn turns in place at decision_turn_rate for angle/r
 motion still goes through the safety gate.
 
 Bounds (behavior/lease.py): a goal with a lease stops when its owner stops renewing it (the MCP
-server's goals all carry one); every goal stops after max_goal_s; a go to whose object is farther than
-max_go_to_m is refused (state rejected, with the reason). Leases are in wall time (an owner's silence).
+server's goals all carry one); every goal stops after max_goal_s; a go to whose seen object is farther
+than max_go_to_m is refused (rejected), a remembered one only given up (remembered_too_far). Leases
+are in wall time (an owner's silence).
 
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
@@ -365,8 +366,8 @@ class CommanderNode(Node):
         m, now, cfg = self.mission, self.clock.monotonic(), self.config
         if not m.active or m.goal is None:
             return
-        o = m.target_obj
-        far = m.base_distance(now) or (None if o is None else (m.relative(o, now) or (0.0, None))[1])
+        if (far := m.base_distance(now)) is None and (why := m.drop_far_memory(now, cfg.max_go_to_m)):
+            self.log.warning(why)
         lease_why = self._lease.expired(time.monotonic()) if self._lease is not None else None
         end = goal_end(lease_why, self._goal_t0, now, cfg.max_goal_s, m.goal.kind, far, cfg.max_go_to_m)
         if end is not None:

@@ -87,6 +87,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
+from go2vlm.behavior.lease import too_far
 from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.planner.local import BACK_SPEED, unstick
 from go2vlm.behavior.strategies.approach import Approach
@@ -197,6 +198,16 @@ class Mission:
     def base_distance(self, now: float) -> float | None:
         """Base centre -> the object's surface, while confirmed and ranged."""
         return self.ctx.base_distance(now)
+
+    def drop_far_memory(self, now: float, max_go_to_m: float) -> str | None:
+        """A go to's remembered target beyond max_go_to_m is given up (most likely misplaced: a
+        memory, not a sighting) and the search goes on without it; the reason, or None."""
+        o, kind = self.ctx.target_obj, self.goal.kind if self.goal else None
+        why = None if o is None else too_far(kind, (self.relative(o, now) or (0.0, None))[1], max_go_to_m)
+        if o is None or why is None:
+            return None
+        self.remembered.give_up(self.ctx, o, "remembered_too_far")
+        return f"the remembered {o.label} ({o.id}) is not gone to: {why.removeprefix('refused: ')}"
 
     def relative(self, o: Remembered, now: float) -> tuple[float, float] | None:
         """(bearing, base centre -> surface) of a remembered object (strategies/remembered.py)."""

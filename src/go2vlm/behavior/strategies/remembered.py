@@ -86,13 +86,19 @@ class GoToRemembered:
                 best, pick = key, o
         return pick
 
+    def give_up(self, ctx: Context, o: Remembered, counter: str) -> None:
+        """Go no more to `o` (unless it is seen again): the next pick, or the search, takes over."""
+        self.given_up[o.id] = o.last_seen
+        ctx.counters[counter] += 1
+        if ctx.target_obj is o:
+            ctx.target_obj = None
+
     def _looked_without(self, ctx: Context, o: Remembered) -> bool:
         """After an answered look that did not see `o`: count it; True when `o` is given up."""
         self.failed_looks += 1
         ctx.look.forget()  # look again: a new look waits for a newer frame
         if self.failed_looks >= ctx.params.confirm_looks:
-            self.given_up[o.id] = o.last_seen
-            ctx.counters["remembered_given_up"] += 1
+            self.give_up(ctx, o, "remembered_given_up")
             self.failed_looks = 0
             return True
         return False
