@@ -30,3 +30,20 @@ def test_lidar_sees_the_wall_ahead_and_the_floor() -> None:
     # Nothing within the robot's own body: the nearest return is outside the footprint.
     assert np.min(np.hypot(base[:, 0], base[:, 1])) > GO2.footprint_width / 2
     assert math.isinf(r[0]) or r[0] > 1.0  # behind: open ground for over a metre
+
+
+@pytest.mark.parametrize("gap", [0.55, 0.8, 1.2])
+def test_lidar_keeps_a_table_top_in_the_scan_as_the_robot_comes_near(gap: float) -> None:
+    """The household's coffee table (top 0.51 m off the floor, its edge at x = -2.3): facing it from
+    `gap` m, the scan ahead ends at the table, not under it at the wall beyond (the rows above the
+    horizon; with the +8 row alone, rays passed under it from 1.5 m on)."""
+    sim = Go2Sim(SimConfig(world="household", spawn=(-2.3 + gap, 0.2, math.pi), mode="kinematic"))
+    sim.step(10)
+    lidar = Lidar(sim.model, sim.model.body("base").id)
+    base = to_base(lidar.scan(sim.data), (lidar.mount_r, lidar.mount_t))
+    s = GO2.scan_spec()
+    r = cloud_to_ranges(base, s)
+    ahead = int(round(-s.angle_min / s.angle_increment))
+    x = sim.state().position[0]
+    assert x + 2.3 == pytest.approx(gap, abs=0.05)  # where it was put, facing the table
+    assert r[ahead] <= (x + 2.3) + 0.4, r[ahead - 2 : ahead + 3]  # the edge, or the top just beyond it

@@ -7,7 +7,11 @@ frame of the real rt/utlidar/cloud), so that the sim publishes the cloud a real 
 The real L1 covers 360 x 90 degrees with ~21600 points/s. The sim casts a cheap subset: `azimuths`
 rays around (2 degrees apart by default) on each of the `ELEVATIONS` rows (degrees above the base's
 horizontal plane): the rows below the horizon reach the floor within ~1.3 and ~2.6 m, so the cloud is
-never empty while the sensor works, the horizon row sees walls, and the one above sees tall things.
+never empty while the sensor works, the horizon row sees walls, and those above see what overhangs:
+a table top 0.21 m above the lidar (0.48 m off the floor) is met by the +8 row from 1.5 m, the +15
+row from 0.8 m and the +30 row from 0.36 m away, so the edge of a table stays in /scan as the robot
+comes near it (with only +8, rays passed under it from 1.5 m on, the map cleared the space under it,
+and footprints met tabletops). The real L1's 90 degrees of elevation hold these rows and more.
 The robot's own geoms (groups 2 and 3, sim/go2_model.py) are not hit: real clouds of the legs are
 left out of /scan by the self box instead.
 """
@@ -24,7 +28,7 @@ from go2vlm.robot_profile.go2 import GO2
 
 __all__ = ["ELEVATIONS", "Lidar"]
 
-ELEVATIONS = (-12.0, -6.0, 0.0, 8.0)  # degrees
+ELEVATIONS = (-12.0, -6.0, 0.0, 8.0, 15.0, 22.0, 30.0, 40.0)  # degrees
 CUTOFF = 10.0  # m: beyond this a ray returns nothing (the scan's range_max)
 _GEOMGROUP = np.array([1, 1, 0, 0, 1, 1], dtype=np.uint8)  # not the robot's groups 2 and 3
 
