@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.planner import PlannerParams, corridor_free, steer
-from go2vlm.behavior.planner.local import BACK_SPEED, unstick
+from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN, unstick
 from go2vlm.geometry.footprint import rect_distance
 
 P = PlannerParams()
@@ -114,19 +114,26 @@ def _clearance(points: np.ndarray, x: float, y: float, th: float) -> float:
 def test_a_turn_in_place_facing_a_table_edge_backs_away_and_a_clear_turn_is_left_alone() -> None:
     table = _edge(P.half_length + 0.25)  # 0.25 m ahead of the footprint: the corners would sweep closer
     back = unstick(0.0, 0.5, table, P)
-    assert back is not None and back.vx == -BACK_SPEED and back.wz == 0.0 and back.blocked
-    assert "backing away" in back.note
+    assert back is not None and back.vx == -BACK_SPEED and back.wz == BACK_TURN and back.blocked
+    assert "backing away, turning" in back.note  # reversing out: the way it wanted to turn
     assert unstick(0.0, 0.5, _edge(P.half_length + 1.0), P) is None  # room to turn
     walking = unstick(0.3, 0.5, table, P)  # walking on turning into it: the guard would hold it too
-    assert walking is not None and (walking.vx, walking.wz) == (-BACK_SPEED, 0.0)
+    assert walking is not None and (walking.vx, walking.wz) == (-BACK_SPEED, BACK_TURN)
     assert unstick(0.3, 0.5, _edge(P.half_length + 1.5), P) is None  # its arc is clear
     post = np.array([[0.15, 0.5], [0.3, 0.5]])  # beside it, on the left: a walking left turn sweeps into it
     turn_first = unstick(0.3, 0.8, post, P)
-    assert turn_first is None or (turn_first.vx, turn_first.wz) in ((0.0, 0.8), (-BACK_SPEED, 0.0))
+    assert turn_first is None or (turn_first.vx, turn_first.wz) in (
+        (0.0, 0.8),
+        (-BACK_SPEED, 0.0),
+        (-BACK_SPEED, BACK_TURN),
+    )
     assert unstick(0.0, 0.5, np.zeros((0, 2)), P) is None
     assert unstick(0.0, 0.5, None, P) is None
     boxed = np.vstack([table, _edge(-P.half_length - 0.1)])  # a wall just behind too: nothing to do
     assert unstick(0.0, 0.5, boxed, P) is None
+    post = np.array([[-0.35, -0.55]])  # behind on the right: reversing on a left turn swings the tail into it
+    straight = unstick(0.0, 0.5, np.vstack([table, post]), P)
+    assert straight is not None and (straight.vx, straight.wz) == (-BACK_SPEED, 0.0), straight
 
 
 @settings(max_examples=200, deadline=None)
@@ -141,10 +148,15 @@ def test_unstick_backs_away_only_from_a_turn_it_cannot_sweep_and_only_where_ther
     out = unstick(0.0, wz, points, P)
     if out is None:
         return
-    assert (out.vx, out.wz) == (-BACK_SPEED, 0.0)
+    assert out.vx == -BACK_SPEED and out.wz in (0.0, math.copysign(BACK_TURN, wz)), out
     now = _clearance(points, 0.0, 0.0, 0.0)
     keep = min(P.margin, now) - 1e-9
     turns = [_clearance(points, 0.0, 0.0, math.copysign(a, wz)) for a in np.linspace(0.0, math.radians(30), 7)]
     assert min(turns) < keep, "it backed away from a turn it could sweep"
-    backs = [_clearance(points, -d, 0.0, 0.0) for d in np.linspace(0.0, 0.3, 7)]
+    t = np.linspace(0.0, 0.3 / BACK_SPEED, 7)
+    if out.wz == 0.0:
+        backs = [_clearance(points, -BACK_SPEED * tk, 0.0, 0.0) for tk in t]
+    else:  # its reversing arc, the whole 0.3 m of it
+        w, v = out.wz, -BACK_SPEED
+        backs = [_clearance(points, v * math.sin(w * tk) / w, v * (1 - math.cos(w * tk)) / w, w * tk) for tk in t]
     assert min(backs) >= keep, "it backed into something"

@@ -73,8 +73,9 @@ Rules
   Once turn-and-look is exhausted the next search strategy in the chain is asked; none left: `not_found`.
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular, with one exception: a turn in
   place that the footprint cannot sweep (beside a table, facing a wall: the gate's guard would hold
-  it at zero for ever) becomes a straight back-away at the local planner's BACK_SPEED while there is
-  room behind (planner/local.py `unstick`; with avoid_obstacles and a fresh scan).
+  it at zero for ever) becomes a back-away at the local planner's BACK_SPEED, turning the way it
+  wanted to where that is clear, while there is room behind (planner/local.py `unstick`; with
+  avoid_obstacles and a fresh scan).
 """
 
 from __future__ import annotations

@@ -23,9 +23,10 @@ guard's way, it does not replace it.
 - `unstick`: a turn whose sweep would bring the footprint within `margin` of a scan point (or closer
   than it is, if already inside it) is one the guard holds: the robot would stand there at zero for
   ever (beside a table, facing a wall). A walking turn whose next ARC_CHECK_S does so turns in place
-  instead, if that is clear; a turn in place that is not becomes a slow straight back-away
-  (BACK_SPEED) while the way behind is clear for BACK_CHECK_M; with no room behind the command stays
-  as it was (the guard holds it, and says so).
+  instead, if that is clear; a turn in place that is not becomes a slow back-away (BACK_SPEED)
+  turning the way it wanted to at BACK_TURN, if that sweep is clear for BACK_CHECK_M, else straight
+  back while that is clear; with no room behind the command stays as it was (the guard holds it,
+  and says so).
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
 TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)
 BACK_SPEED = 0.15  # m/s: backing away from what a turn in place would sweep into
 BACK_CHECK_M = 0.3  # m of room behind it needs to back away
+BACK_TURN = 0.4  # rad/s: the turn while backing away, towards the turn it could not make in place
 ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
 
 
@@ -198,6 +200,13 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
+    # Backing away turning the way it wants to turn, as a driver reverses out of a tight spot: each
+    # back-away then gains heading (a straight one alone, followed by the same blocked walk, can
+    # rock the robot back and forth where it stands for ever).
+    bw = math.copysign(BACK_TURN, wz)
+    th = bw * np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)
+    if _sweep_ok(pts, -BACK_SPEED * np.sin(th) / bw, -BACK_SPEED * (1.0 - np.cos(th)) / bw, th, p):
+        return Steer(-BACK_SPEED, bw, math.pi, True, "too near something to turn: backing away, turning")
     if not _sweep_ok(pts, -np.linspace(0.0, BACK_CHECK_M, n), zero, zero, p):
         return None
     return Steer(-BACK_SPEED, 0.0, math.pi, True, "too near something to turn: backing away")
