@@ -102,3 +102,32 @@ def test_go_to_a_target_the_tracker_cannot_range_is_ranged_by_the_scan_on_its_be
         assert ctx.base_distance(1.0) == pytest.approx(surface, abs=0.01)
     ctx.scan = (np.column_stack([np.full_like(ys, 3.0), ys]), 1.0)  # only far returns: not its face
     assert ctx.base_distance(1.0) is None
+
+
+def test_a_range_by_size_beyond_what_the_scan_shows_on_its_bearing_gives_way_to_the_scan() -> None:
+    """A cone ranged by its assumed size at 1.2 m stood 0.65 m away, and the guard held every step
+    closer until the goal timed out: a scan return on the target's bearing nearer than the tracker's
+    range (within 2 m) is the range; a farther one (what is behind a small object) is not."""
+    import pytest
+
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.sighting import Sighting
+    from go2vlm.behavior.strategies.approach import Approach
+    from go2vlm.behavior.strategies.base import Context
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    p = MissionParams()
+    cf = p.camera_forward_m
+    ctx = Context(p, goal=parse_goal("go to the cone"), view=math.radians(73))
+    ys = np.linspace(-0.1, 0.1, 5)
+    for face, ranged, want, method in ((0.75, 1.2, 0.75, "lidar"), (1.9, 1.2, 1.2 + cf, "size")):
+        ctx.scan = (np.column_stack([np.full_like(ys, face), ys]), 1.0)
+        ctx.sighting = Sighting(1.0, "cone", "tracking", 0.0, ranged, "size", 0.0, math.radians(73))
+        ctx.last_seen = 1.0
+        assert ctx.base_distance(1.0) == pytest.approx(want, abs=0.01)
+        cmd = Approach().step(ctx, 1.0)
+        assert cmd is not None and f"({method})" in cmd.reason, cmd
+    assert cmd.state == "approaching"
+    ctx.scan = (np.column_stack([np.full_like(ys, 0.75), ys]), 1.0)
+    ctx.sighting = Sighting(1.0, "cone", "tracking", 0.0, 1.2, "size", 0.0, math.radians(73))
+    assert Approach().step(ctx, 1.0).state == "reached"

@@ -151,18 +151,21 @@ class Context:
 
     def base_distance(self, now: float) -> float | None:
         """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
-        without one (the box's bottom edge cut by the image when it is near) the nearest fresh scan
-        return on its bearing within SCAN_RANGE_M."""
+        the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer (the
+        box's bottom edge cut by the image when it is near; a range by an assumed size that is off:
+        a cone ranged at 1.2 m stood 0.65 m away, where the guard held every step closer)."""
         s = self.sighting
         if not self.confirmed(now) or s is None:
             return None
         cf = self.params.camera_forward_m
-        if s.distance is not None and math.isfinite(s.distance):
-            return s.distance + cf
+        ranged = s.distance is not None and math.isfinite(s.distance)
         if not math.isfinite(s.bearing):
-            return None
+            return s.distance + cf if ranged else None
         d = nearest_return(self.fresh_scan(now), (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        return None if d is None or d > SCAN_RANGE_M else d + cf
+        near = d is not None and d <= SCAN_RANGE_M
+        if ranged and not (near and d < s.distance):
+            return s.distance + cf
+        return d + cf if near else None
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
