@@ -9,6 +9,7 @@ import math
 from typing import Any
 
 import numpy as np
+import pytest
 from scipy import ndimage
 
 from go2vlm.behavior.planner.global_path import Costmap
@@ -228,7 +229,7 @@ def test_a_look_where_the_camera_has_seen_everything_near_ends_at_once() -> None
     s.explorer.frontier = Frontier(1, (3.0, -2.0), (3.0, -2.0), cell(3.0, -2.0), 10, 0.5)
     ctx.pose = Pose(3.0, -2.0, 0.0, 1.0)
     cmd = s.step(ctx, 1.0)
-    assert cmd is not None and (cmd.vx, cmd.wz) == (0.0, 0.0) and "nothing near left unseen" in cmd.reason
+    assert cmd is not None and (cmd.vx, cmd.wz) == (0.0, 0.0) and "nothing in sight left unseen" in cmd.reason
     assert s.explorer.phase == "choose" and s.explorer.status()["visited"] == 1
     s2, ctx2 = _explore_from_the_room()  # nothing looked at yet: the look turns
     s2.explorer.set_map(ctx2.costmap)
@@ -284,3 +285,25 @@ def test_with_coverage_it_walks_to_what_the_camera_has_not_seen_and_ends_with_th
     assert "view" in kinds  # it walked to free space the camera had not seen
     assert unseen_first is not None and unseen_first < 0.1  # the first pass saw nine tenths of the house
     assert cov.params.range_m == 2.0 and share < 0.25  # and the second, from within 2 m, most of it again
+
+
+@pytest.mark.parametrize("looked_left", [True, False])
+def test_a_look_turns_the_short_way_to_what_is_left_unseen(looked_left: bool) -> None:
+    """Half the view round the place looked at already (frames on the way): the look turns towards
+    the other half, not always left, and not all round."""
+    from go2vlm.behavior.strategies.base import Pose
+    from go2vlm.world.frontiers import Frontier
+
+    s, ctx = _explore_from_the_room()
+    cm = ctx.costmap
+    assert cm is not None
+    sign = 1.0 if looked_left else -1.0
+    for k in range(7):  # facing +x (yaw 0) and round to one side
+        ctx.coverage.observe(cm.data, cm.resolution, cm.origin, 3.0, -2.0, sign * k * math.pi / 6, math.radians(73))
+    s.explorer.set_map(cm)
+    s.explorer.phase = "look"
+    s.explorer.frontier = Frontier(1, (3.0, -2.0), (3.0, -2.0), cell(3.0, -2.0), 10, 0.5)
+    ctx.pose = Pose(3.0, -2.0, 0.0, 1.0)
+    cmd = s.step(ctx, 1.0)
+    assert cmd is not None and cmd.vx == 0.0 and cmd.wz != 0.0, cmd
+    assert math.copysign(1.0, cmd.wz) == -sign, (looked_left, cmd)

@@ -74,3 +74,24 @@ def test_bad_frames_look_at_nothing() -> None:
     assert cov.observe(g, RES, ORIGIN, math.nan, 0.0, 0.0, 1.0) == 0
     assert cov.observe(g, RES, ORIGIN, 0.0, 0.0, 0.0, 0.0) == 0
     assert not cov.looked.any()
+
+
+def test_what_a_look_could_still_see_stops_at_walls_and_says_which_way_to_turn() -> None:
+    """From (0, 0) facing +x with a wall at x = 1: the unseen space behind the wall does not count; the
+    room behind the robot does, and once it has turned left through +y to face -x, what is left (y < 0)
+    lies on its left: turning on is the short way."""
+    cov = Coverage(CoverageParams(range_m=3.0))
+    g = room(wall_x=1.0)
+    view = math.radians(60)
+    area, left, right = cov.unseen_visible(g, RES, ORIGIN, 99, 0.0, 0.0, 0.0, view)
+    assert 10.0 < area < math.pi * 9  # about the 3 m half disc behind and beside it, not past the wall
+    assert abs(left - right) < math.radians(3) and left > math.pi  # all round: either way is as long
+    for yaw in np.arange(0.0, math.pi + 0.01, math.radians(10)):  # turn left to face -x: the left half looked at
+        cov.observe(g, RES, ORIGIN, 0.0, 0.0, yaw, view)
+    area2, left2, right2 = cov.unseen_visible(g, RES, ORIGIN, 99, 0.0, 0.0, math.pi, view)
+    assert 0.0 < area2 < area and left2 < right2, (area2, left2, right2)
+    for yaw in np.arange(math.pi, 2 * math.pi + 0.01, math.radians(10)):
+        cov.observe(g, RES, ORIGIN, 0.0, 0.0, yaw, view)
+    assert cov.unseen_visible(g, RES, ORIGIN, 99, 0.0, 0.0, 0.0, view) == (0.0, 0.0, 0.0)
+    behind_wall = cov.unlooked(g, RES, ORIGIN, lethal=99)[int((0 - ORIGIN[1]) / RES), int((2.0 - ORIGIN[0]) / RES)]
+    assert behind_wall  # unseen, but no look from here would see it

@@ -20,6 +20,9 @@ Rules
   walls. Unknown cells do not stop it (the camera sees what the lidar did not map); cells off the map
   neither.
 - `unlooked`: costmap cells a robot may stand on (0 <= cost < lethal) that no frame has looked at.
+- `unseen_visible`: of those, the ones in the line of sight of a place (rays all round, as a
+  frame's), and which way to turn to see them soonest: a look there ends when they are seen, and a
+  look at a place whose unseen space lies behind a wall does not turn all round for nothing.
 """
 
 from __future__ import annotations
@@ -29,7 +32,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Coverage", "CoverageParams"]
+__all__ = ["AROUND_RAYS", "Coverage", "CoverageParams"]
+
+AROUND_RAYS = 180  # rays all round, for what a look from a place could still see (2 degrees apart)
 
 
 @dataclass(frozen=True)
@@ -128,18 +133,47 @@ class Coverage:
         r, c, ok = self._lattice(np.array([x]), np.array([y]))
         return bool(ok[0] and self.looked[r[0], c[0]])
 
-    def unseen_near(
-        self, costmap: np.ndarray, resolution: float, origin: tuple[float, float], lethal: int, x: float, y: float
-    ) -> float:
-        """m^2 of standable costmap cells within range of (x, y) that no frame has looked at."""
+    def unseen_visible(
+        self,
+        costmap: np.ndarray,
+        resolution: float,
+        origin: tuple[float, float],
+        lethal: int,
+        x: float,
+        y: float,
+        yaw: float,
+        view: float,
+    ) -> tuple[float, float, float]:
+        """What a look from (x, y) could still see: m^2 of standable, unlooked cells in its line of
+        sight all round (rays as a frame's, `AROUND_RAYS` of them over 360 degrees), and the turn left
+        and the turn right (rad, >= 0) that would bring all of them into a `view` rad wide view from
+        the heading `yaw`. Cells behind a wall do not count: no turn here would see them."""
+        p = self.params
+        if not all(math.isfinite(v) for v in (x, y, yaw, view)) or resolution <= 0:
+            return 0.0, 0.0, 0.0
+        step = min(resolution, p.cell_m) / 2.0
+        t = np.arange(1, int(p.range_m / step) + 1) * step
+        a = np.linspace(-math.pi, math.pi, AROUND_RAYS, endpoint=False)
+        px = x + np.cos(yaw + a)[:, None] * t[None, :]
+        py = y + np.sin(yaw + a)[:, None] * t[None, :]
         g = np.asarray(costmap)
-        r = int(math.ceil(self.params.range_m / resolution))
-        row, col = math.floor((y - origin[1]) / resolution), math.floor((x - origin[0]) / resolution)
-        r0, c0 = max(0, row - r), max(0, col - r)
-        win = g[r0 : row + r + 1, c0 : col + r + 1]
-        if win.size == 0:
-            return 0.0
-        o = (origin[0] + c0 * resolution, origin[1] + r0 * resolution)
-        rows, cols = np.indices(win.shape)
-        near = np.hypot(o[0] + (cols + 0.5) * resolution - x, o[1] + (rows + 0.5) * resolution - y)
-        return float((self.unlooked(win, resolution, o, lethal) & (near <= self.params.range_m)).sum()) * resolution**2
+        col = np.floor((px - origin[0]) / resolution).astype(np.int64)
+        row = np.floor((py - origin[1]) / resolution).astype(np.int64)
+        on = (row >= 0) & (row < g.shape[0]) & (col >= 0) & (col < g.shape[1])
+        value = np.full(px.shape, -1, dtype=np.int16)
+        value[on] = g[row[on], col[on]]
+        stop = value >= p.blocked
+        first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
+        seen = np.arange(len(t))[None, :] < first[:, None]
+        r, c, ok = self._lattice(px, py)
+        want = seen & ok & (value >= 0) & (value < lethal)
+        want[want] = ~self.looked[r[want], c[want]]
+        if not want.any():
+            return 0.0, 0.0, 0.0
+        cells = np.unique(r[want] * (2 * self.half) + c[want])
+        b = np.broadcast_to(a[:, None], want.shape)[want]  # bearings off the heading, [-pi, pi)
+        half = view / 2.0
+        out = np.abs(b) > half  # those in the view now need no turn
+        left = float(np.where(out, np.where(b >= 0, b, b + 2 * math.pi) - half, 0.0).max())
+        right = float(np.where(out, np.where(b <= 0, -b, 2 * math.pi - b) - half, 0.0).max())
+        return len(cells) * p.cell_m**2, left, right

@@ -41,7 +41,7 @@ from go2vlm.behavior.planner.global_path import Costmap, plan_path
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
-from go2vlm.behavior.strategies.route import follow_waypoint
+from go2vlm.behavior.strategies.route import DEFAULT_VIEW, follow_waypoint
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.world.coverage import Coverage
@@ -136,12 +136,13 @@ class Explorer:
         """A region of unseen free space the camera has looked at since (on the way there): done."""
         return f.kind == "view" and self.coverage is not None and self.coverage.looked_at(*f.goal)
 
-    def unseen_near(self, x: float, y: float) -> float:
-        """m^2 of free space within the camera's range of (x, y) that it has not looked at (inf: unknown)."""
+    def unseen_visible(self, x: float, y: float, yaw: float, view: float) -> tuple[float, float, float]:
+        """m^2 of free space in sight of (x, y) within the camera's range that it has not looked at (inf:
+        unknown), and the turn left and right that would see all of it (Coverage.unseen_visible)."""
         cm, cov = self.costmap, self.coverage
         if cm is None or cov is None or not cov.frames:  # no answered frame yet: nothing known
-            return math.inf
-        return cov.unseen_near(cm.data, cm.resolution, cm.origin, self.params.planner.lethal, x, y)
+            return math.inf, 0.0, 0.0
+        return cov.unseen_visible(cm.data, cm.resolution, cm.origin, self.params.planner.lethal, x, y, yaw, view)
 
     def _give_up(self, why: str) -> None:
         if self.frontier is not None:
@@ -280,10 +281,11 @@ class Explorer:
 class Explore:
     """The search that leaves the room: a SearchStrategy (strategies/base.py) over the Explorer,
     asked once turn-and-look is exhausted. Walks to the chosen frontier along the global route
-    (route.follow_waypoint: the approach law and the local planner), looks around there (a whole
-    turn: search.TurnAndLook's stop and look with slow answers, else a continuous turn at
-    `search_yaw_rate`; one the safety gate holds, near a wall, ends after LOOK_SLACK times a whole
-    turn's time), and repeats; ends the goal `not_found` with the explorer's reason when no
+    (route.follow_waypoint: the approach law and the local planner), looks around there
+    (search.TurnAndLook's stop and look with slow answers, else a continuous turn at
+    `search_yaw_rate` the short way round to the free space in sight that the camera has not looked
+    at; it ends when none is left, after a whole turn, or, held by the safety gate near a wall, after
+    LOOK_SLACK times a whole turn's time), and repeats; ends the goal `not_found` with the explorer's reason when no
     frontier is left or none is reachable. State `exploring` throughout (`detouring` while the local
     planner steers)."""
 
@@ -297,6 +299,7 @@ class Explore:
         self._turned = 0.0
         self._t: float | None = None
         self._look_t0 = 0.0  # when the look began
+        self._dir = 0.0  # the look's turn: +1 left, -1 right, 0 not chosen yet
 
     @property
     def params(self) -> ExploreParams:
@@ -339,12 +342,16 @@ class Explore:
         if not self.looking:
             self.looking = True
             self.look.reset(now)
-            self._yaw, self._turned, self._t, self._look_t0 = None, 0.0, now, now
+            self._yaw, self._turned, self._t, self._look_t0, self._dir = None, 0.0, now, now, 0.0
         pose = ctx.fresh_pose(now)
-        if pose is not None and self.explorer.unseen_near(pose.x, pose.y) < self.params.look_done_m2:
-            self.looking = False  # the camera has looked at all it can see from here (on the way, or now)
-            self.explorer.looked(now)
-            return Command.still("exploring", f"{reason}: nothing near left unseen")
+        if pose is not None:
+            area, left, right = self.explorer.unseen_visible(pose.x, pose.y, pose.yaw, ctx.view or DEFAULT_VIEW)
+            if area < self.params.look_done_m2:
+                self.looking = False  # the camera has looked at all it can see from here (on the way, or now)
+                self.explorer.looked(now)
+                return Command.still("exploring", f"{reason}: nothing in sight left unseen")
+            if self._dir == 0.0 and math.isfinite(area):  # the short way round to what is left, kept
+                self._dir = 1.0 if left <= right else -1.0
         if self.look.stop_and_look(ctx):
             cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
             if cmd is not None:
@@ -352,6 +359,7 @@ class Explore:
         else:
             pose = ctx.fresh_pose(now)
             wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
+            wz = math.copysign(wz, self._dir) if self._dir else wz
             if pose is not None:
                 if self._yaw is not None:
                     self._turned += abs(wrap_angle(pose.yaw - self._yaw))

@@ -33,7 +33,7 @@ class ExploreParams:
     stuck_s: float = 20.0  # ... within this long, else the frontier is given up
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
     min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
-    look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left within the camera's range
+    look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left in sight, in range
     second_pass_m: float = 2.0  # all seen and time left: look at it all again, a frame counting out to this
     timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
                              max=3600.0, live=True)  # fmt: skip
