@@ -123,7 +123,9 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
         state = out.state
         # Speeds within the limits, never backwards.
         assert -BACK_SPEED <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
-        assert out.vx >= 0.0 or (out.vx == -BACK_SPEED and abs(out.wz) in (0.0, BACK_TURN)), out  # only a back-away
+        assert out.vx >= 0.0 or (out.vx == -BACK_SPEED and abs(out.wz) in (0.0, min(BACK_TURN, p.max_angular))), (
+            out
+        )  # only a back-away
         # Terminal states, "stop" and goals it cannot parse: zero, no target for the follower, no query.
         if state in TERMINAL:
             if t_terminal is None:

@@ -160,3 +160,15 @@ def test_unstick_backs_away_only_from_a_turn_it_cannot_sweep_and_only_where_ther
         w, v = out.wz, -BACK_SPEED
         backs = [_clearance(points, v * math.sin(w * tk) / w, v * (1 - math.cos(w * tk)) / w, w * tk) for tk in t]
     assert min(backs) >= keep, "it backed into something"
+
+
+def test_a_straight_walk_the_guard_would_hold_backs_away_and_one_it_would_not_is_left_alone() -> None:
+    """Inside the margin already, the guard allows no step closer: a straight walk into it stood at
+    zero until the frontier was given up (rooms 12); it backs straight away instead."""
+    near = _edge(P.half_length + P.margin + 0.01)  # 1 cm outside the margin: the first 3 cm break it
+    back = unstick(0.3, 0.0, near, P)
+    assert back is not None and (back.vx, back.wz) == (-BACK_SPEED, 0.0) and "walk on" in back.note
+    assert unstick(0.3, 0.0, _edge(P.half_length + P.margin + 0.2), P) is None  # room to walk: the guard slows it
+    assert unstick(0.0, 0.0, near, P) is None  # a stop is a stop
+    boxed = np.vstack([near, _edge(-P.half_length - 0.1)])
+    assert unstick(0.3, 0.0, boxed, P) is None  # no room behind: the guard holds it, and says so

@@ -324,7 +324,8 @@ class Mission:
         if goal is not None and self.active and p.avoid_obstacles:
             back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner)
             if back is not None:
-                vx, wz, self.planner_note = max(back.vx, -BACK_SPEED), back.wz, back.note
+                wz = max(-p.max_angular, min(p.max_angular, back.wz))
+                vx, self.planner_note = max(back.vx, -BACK_SPEED), back.note
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)

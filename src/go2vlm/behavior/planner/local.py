@@ -25,8 +25,9 @@ guard's way, it does not replace it.
   ever (beside a table, facing a wall). A walking turn whose next ARC_CHECK_S does so turns in place
   instead, if that is clear; a turn in place that is not becomes a slow back-away (BACK_SPEED)
   turning the way it wanted to at BACK_TURN, if that sweep is clear for BACK_CHECK_M, else straight
-  back while that is clear; with no room behind the command stays as it was (the guard holds it,
-  and says so).
+  back while that is clear; a straight walk whose first HOLD_CHECK_M the guard would refuse (inside
+  the margin already, it allows no step closer) backs straight away; with no room behind the
+  command stays as it was (the guard holds it, and says so).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the
 BACK_SPEED = 0.15  # m/s: backing away from what a turn in place would sweep into
 BACK_CHECK_M = 0.3  # m of room behind it needs to back away
 BACK_TURN = 0.4  # rad/s: the turn while backing away, towards the turn it could not make in place
+HOLD_CHECK_M = 0.03  # m: a straight walk whose first this much the guard would refuse is held at zero
 ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
 
 
@@ -181,7 +183,8 @@ def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, 
 def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -> Steer | None:
     """What to do instead of a command the footprint cannot sweep (module docstring), or None: its
     way is clear, or nothing better is (no room behind)."""
-    if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or abs(wz) < 1e-3 or vx < 0.0:
+    straight = abs(wz) < 1e-3
+    if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or vx < 0.0 or (straight and vx <= TURN_ONLY_VX):
         return None
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     reach = math.hypot(p.half_length, p.half_width) + p.margin + BACK_CHECK_M + vx * ARC_CHECK_S
@@ -189,7 +192,12 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -
     if len(pts) == 0:
         return None
     n = 7
-    zero, turn = np.zeros(n), np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
+    zero = np.zeros(n)
+    if straight:  # held at zero only if its very first step comes closer than the guard allows
+        if _sweep_ok(pts, np.linspace(0.0, HOLD_CHECK_M, n), zero, zero, p):
+            return None
+        return _back_away(pts, 0.0, p, n, "too near something to walk on")
+    turn = np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
     if vx > TURN_ONLY_VX:  # an arc: its next ARC_CHECK_S, as the guard would stop it
         t = np.linspace(0.0, ARC_CHECK_S, n)
         th = wz * t
@@ -200,13 +208,20 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
-    # Backing away turning the way it wants to turn, as a driver reverses out of a tight spot: each
-    # back-away then gains heading (a straight one alone, followed by the same blocked walk, can
-    # rock the robot back and forth where it stands for ever).
-    bw = math.copysign(BACK_TURN, wz)
-    th = bw * np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)
-    if _sweep_ok(pts, -BACK_SPEED * np.sin(th) / bw, -BACK_SPEED * (1.0 - np.cos(th)) / bw, th, p):
-        return Steer(-BACK_SPEED, bw, math.pi, True, "too near something to turn: backing away, turning")
+    return _back_away(pts, wz, p, n, "too near something to turn")
+
+
+def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str) -> Steer | None:
+    """Back away, turning the way it wants to turn (`wz`, 0: straight) where that sweep is clear, as
+    a driver reverses out of a tight spot: each back-away then gains heading (a straight one alone,
+    followed by the same blocked walk, rocked the robot where it stood for ever); else straight back;
+    None: no room behind."""
+    zero = np.zeros(n)
+    if wz != 0.0:
+        bw = math.copysign(BACK_TURN, wz)
+        th = bw * np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)
+        if _sweep_ok(pts, -BACK_SPEED * np.sin(th) / bw, -BACK_SPEED * (1.0 - np.cos(th)) / bw, th, p):
+            return Steer(-BACK_SPEED, bw, math.pi, True, f"{why}: backing away, turning")
     if not _sweep_ok(pts, -np.linspace(0.0, BACK_CHECK_M, n), zero, zero, p):
         return None
-    return Steer(-BACK_SPEED, 0.0, math.pi, True, "too near something to turn: backing away")
+    return Steer(-BACK_SPEED, 0.0, math.pi, True, f"{why}: backing away")
