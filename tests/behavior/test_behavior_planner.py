@@ -141,25 +141,28 @@ def test_a_turn_in_place_facing_a_table_edge_backs_away_and_a_clear_turn_is_left
     pts=st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)), min_size=1, max_size=30),
     wz=st.floats(-1.0, 1.0).filter(lambda w: abs(w) > 0.01),
 )
-def test_unstick_backs_away_only_from_a_turn_it_cannot_sweep_and_only_where_there_is_room(
+def test_unstick_moves_only_instead_of_a_turn_it_cannot_sweep_and_only_where_its_move_is_clear(
     pts: list[tuple[float, float]], wz: float
 ) -> None:
     points = np.array(pts, dtype=float)
     out = unstick(0.0, wz, points, P)
     if out is None:
         return
-    assert out.vx == -BACK_SPEED and out.wz in (0.0, math.copysign(BACK_TURN, wz)), out
+    moves = {(-BACK_SPEED, math.copysign(BACK_TURN, wz)), (-BACK_SPEED, 0.0), (0.0, -wz)}  # never on
+    assert (out.vx, out.wz) in moves, out
     now = _clearance(points, 0.0, 0.0, 0.0)
     keep = min(P.margin, now) - 1e-9
     turns = [_clearance(points, 0.0, 0.0, math.copysign(a, wz)) for a in np.linspace(0.0, math.radians(30), 7)]
-    assert min(turns) < keep, "it backed away from a turn it could sweep"
+    assert min(turns) < keep, "it moved instead of a turn it could sweep"
     t = np.linspace(0.0, 0.3 / BACK_SPEED, 7)
-    if out.wz == 0.0:
-        backs = [_clearance(points, -BACK_SPEED * tk, 0.0, 0.0) for tk in t]
+    if out.vx == 0.0:  # the other way round
+        path = [_clearance(points, 0.0, 0.0, -math.copysign(a, wz)) for a in np.linspace(0.0, math.radians(30), 7)]
+    elif out.wz == 0.0:  # straight back, or straight on
+        path = [_clearance(points, out.vx * tk, 0.0, 0.0) for tk in t]
     else:  # its reversing arc, the whole 0.3 m of it
-        w, v = out.wz, -BACK_SPEED
-        backs = [_clearance(points, v * math.sin(w * tk) / w, v * (1 - math.cos(w * tk)) / w, w * tk) for tk in t]
-    assert min(backs) >= keep, "it backed into something"
+        w, v = out.wz, out.vx
+        path = [_clearance(points, v * math.sin(w * tk) / w, v * (1 - math.cos(w * tk)) / w, w * tk) for tk in t]
+    assert min(path) >= keep, "it moved into something"
 
 
 def test_a_straight_walk_the_guard_would_hold_backs_away_and_one_it_would_not_is_left_alone() -> None:
@@ -172,3 +175,17 @@ def test_a_straight_walk_the_guard_would_hold_backs_away_and_one_it_would_not_is
     assert unstick(0.0, 0.0, near, P) is None  # a stop is a stop
     boxed = np.vstack([near, _edge(-P.half_length - 0.1)])
     assert unstick(0.3, 0.0, boxed, P) is None  # no room behind: the guard holds it, and says so
+
+
+def test_a_turn_with_no_room_behind_walks_on_straight_or_turns_the_other_way_round() -> None:
+    """Boxed in behind (rooms 12: a left turn the guard held in the corridor for 80 s, with no room
+    to back away): straight on where that is clear, to turn later; else the other way round."""
+    behind = _edge(-P.half_length - 0.1)  # inside the margin: neither backing nor turning in place
+    on = unstick(0.1, 0.8, behind, P)  # walking on turning sharply: straight on, no faster
+    assert on is not None and (on.vx, on.wz) == (0.1, 0.0) and "walking on straight" in on.note
+    assert unstick(0.0, 0.5, behind, P) is None  # a turn in place never becomes a walk: held
+    tail = np.array([[-0.3, -0.465]])  # right of the rear-right corner: a left turn swings the tail into it
+    posts = np.array([[-P.half_length - 0.5, 0.0], [P.half_length + 0.5, 0.0]])  # no 0.3 m ahead nor behind
+    other = unstick(0.0, 0.5, np.vstack([tail, posts]), P)
+    assert other is not None and (other.vx, other.wz) == (0.0, -0.5) and "the other way round" in other.note
+    assert unstick(0.0, -0.5, np.vstack([tail, posts]), P) is None  # the right turn itself is clear

@@ -26,7 +26,9 @@ guard's way, it does not replace it.
   instead, if that is clear; a turn in place that is not becomes a slow back-away (BACK_SPEED)
   turning the way it wanted to at BACK_TURN, if that sweep is clear for BACK_CHECK_M, else straight
   back while that is clear; a straight walk whose first HOLD_CHECK_M the guard would refuse (inside
-  the margin already, it allows no step closer) backs straight away; with no room behind the
+  the margin already, it allows no step closer) backs straight away; a walking turn with no room
+  behind walks on straight (at most BACK_SPEED) where that is clear (room to turn in later), and a turn
+  with no room behind turns the other way round where that is clear; with none of these clear the
   command stays as it was (the guard holds it, and says so).
 """
 
@@ -208,20 +210,28 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
-    return _back_away(pts, wz, p, n, "too near something to turn")
+    return _back_away(pts, wz, p, n, "too near something to turn", walk=vx if vx > TURN_ONLY_VX else 0.0)
 
 
-def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str) -> Steer | None:
-    """Back away, turning the way it wants to turn (`wz`, 0: straight) where that sweep is clear, as
-    a driver reverses out of a tight spot: each back-away then gains heading (a straight one alone,
-    followed by the same blocked walk, rocked the robot where it stood for ever); else straight back;
-    None: no room behind."""
-    zero = np.zeros(n)
+def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float = 0.0) -> Steer | None:
+    """Out of a spot where the command is held: back away turning the way it wants to turn (`wz`, 0:
+    straight) where that sweep is clear, as a driver reverses out of a tight spot (each back-away
+    then gains heading: a straight one alone, followed by the same blocked walk, rocked the robot
+    where it stood for ever); else straight back; else, with no room behind but a turn to make,
+    straight on, no faster than it was walking (`walk`, m/s; room ahead to turn in later; a turn in
+    place never becomes a walk), or the turn the other way round; None: nothing is clear (the guard holds it)."""
+    zero, room = np.zeros(n), np.linspace(0.0, BACK_CHECK_M, n)
     if wz != 0.0:
         bw = math.copysign(BACK_TURN, wz)
         th = bw * np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)
         if _sweep_ok(pts, -BACK_SPEED * np.sin(th) / bw, -BACK_SPEED * (1.0 - np.cos(th)) / bw, th, p):
             return Steer(-BACK_SPEED, bw, math.pi, True, f"{why}: backing away, turning")
-    if not _sweep_ok(pts, -np.linspace(0.0, BACK_CHECK_M, n), zero, zero, p):
+    if _sweep_ok(pts, -room, zero, zero, p):
+        return Steer(-BACK_SPEED, 0.0, math.pi, True, f"{why}: backing away")
+    if wz == 0.0:
         return None
-    return Steer(-BACK_SPEED, 0.0, math.pi, True, f"{why}: backing away")
+    if walk > 0.0 and _sweep_ok(pts, room, zero, zero, p):
+        return Steer(min(walk, BACK_SPEED), 0.0, 0.0, True, f"{why}, nor back: walking on straight to turn later")
+    if _sweep_ok(pts, zero, zero, np.linspace(0.0, -math.copysign(TURN_SWEEP, wz), n), p):
+        return Steer(0.0, -wz, -wz, True, f"{why}, nor back: turning the other way round")
+    return None
