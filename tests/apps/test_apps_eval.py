@@ -37,7 +37,8 @@ def _ok(proc: subprocess.CompletedProcess[str]) -> None:
 def test_smoke_suite_for_color_and_oracle(tmp_path: Path) -> None:
     """CI's eval: both variants succeed on the smoke suite; every result carries its configuration."""
     for variant in ("color", "oracle"):
-        proc = _eval(tmp_path, "--suite", "smoke", "--perception", variant, "--fast", "--workers", "2")
+        plots = ("--plots",) if variant == "oracle" else ()  # run folders without a video
+        proc = _eval(tmp_path, "--suite", "smoke", "--perception", variant, "--fast", "--workers", "2", *plots)
         _ok(proc)
         assert "success" in proc.stdout and "results.jsonl" in proc.stdout
     lines = read_jsonl(tmp_path / "results.jsonl")
@@ -65,6 +66,11 @@ def test_smoke_suite_for_color_and_oracle(tmp_path: Path) -> None:
     assert len(set(domains.values())) >= 2
     for name in ("success_by_variant.png", "iou_hist.png", "success_vs_latency.png"):
         assert (tmp_path / name).read_bytes()[:8] == PNG_MAGIC
+    folders = sorted((tmp_path / "episodes").iterdir())
+    assert len(folders) == 4 and all((f / "plot.png").read_bytes()[:8] == PNG_MAGIC for f in folders)
+    assert not any((f / "video.mp4").exists() for f in folders)
+    reasons = json.loads((folders[0] / "series.json").read_text())["reasons"]
+    assert reasons and all(len(r) == 3 and isinstance(r[2], str) for r in reasons)  # [t, state, reason]
     report = (tmp_path / "report.md").read_text()
     assert "| smoke | color |" in report and "| smoke | oracle |" in report
     # The same run again is refused: nothing is overwritten.
