@@ -80,6 +80,27 @@ class Coverage:
         n = 2 * self.half
         return r, c, (r >= 0) & (r < n) & (c >= 0) & (c < n)
 
+    def _cast(
+        self, costmap: np.ndarray, resolution: float, origin: tuple[float, float], x: float, y: float, a: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rays from (x, y) at world angles `a` out to range_m, sampled finer than a cell: their
+        points (x, y), the costmap value under each (-1 off the map), and which lie before the ray's
+        first `blocked` cell (the camera does not see through walls)."""
+        p = self.params
+        step = min(resolution, p.cell_m) / 2.0
+        t = np.arange(1, int(p.range_m / step) + 1) * step
+        px = x + np.cos(a)[:, None] * t[None, :]
+        py = y + np.sin(a)[:, None] * t[None, :]
+        g = np.asarray(costmap)
+        col = np.floor((px - origin[0]) / resolution).astype(np.int64)
+        row = np.floor((py - origin[1]) / resolution).astype(np.int64)
+        on = (row >= 0) & (row < g.shape[0]) & (col >= 0) & (col < g.shape[1])
+        value = np.full(px.shape, -1, dtype=np.int16)
+        value[on] = g[row[on], col[on]]
+        stop = value >= p.blocked
+        first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
+        return px, py, value, np.arange(len(t))[None, :] < first[:, None]
+
     def observe(
         self,
         costmap: np.ndarray,
@@ -94,20 +115,7 @@ class Coverage:
         p = self.params
         if not all(math.isfinite(v) for v in (x, y, yaw, view)) or view <= 0 or resolution <= 0:
             return 0
-        step = min(resolution, p.cell_m) / 2.0
-        t = np.arange(1, int(p.range_m / step) + 1) * step
-        a = yaw + np.linspace(-view / 2.0, view / 2.0, p.rays)
-        px = x + np.cos(a)[:, None] * t[None, :]
-        py = y + np.sin(a)[:, None] * t[None, :]
-        g = np.asarray(costmap)
-        col = np.floor((px - origin[0]) / resolution).astype(np.int64)
-        row = np.floor((py - origin[1]) / resolution).astype(np.int64)
-        on = (row >= 0) & (row < g.shape[0]) & (col >= 0) & (col < g.shape[1])
-        value = np.full(px.shape, -1, dtype=np.int16)
-        value[on] = g[row[on], col[on]]
-        stop = value >= p.blocked
-        first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
-        seen = np.arange(len(t))[None, :] < first[:, None]
+        px, py, _, seen = self._cast(costmap, resolution, origin, x, y, yaw + np.linspace(-view / 2, view / 2, p.rays))
         r, c, ok = self._lattice(px[seen], py[seen])
         r, c = r[ok], c[ok]
         new = int((~self.looked[r, c]).sum())
@@ -151,20 +159,8 @@ class Coverage:
         p = self.params
         if not all(math.isfinite(v) for v in (x, y, yaw, view)) or resolution <= 0:
             return 0.0, 0.0, 0.0
-        step = min(resolution, p.cell_m) / 2.0
-        t = np.arange(1, int(p.range_m / step) + 1) * step
         a = np.linspace(-math.pi, math.pi, AROUND_RAYS, endpoint=False)
-        px = x + np.cos(yaw + a)[:, None] * t[None, :]
-        py = y + np.sin(yaw + a)[:, None] * t[None, :]
-        g = np.asarray(costmap)
-        col = np.floor((px - origin[0]) / resolution).astype(np.int64)
-        row = np.floor((py - origin[1]) / resolution).astype(np.int64)
-        on = (row >= 0) & (row < g.shape[0]) & (col >= 0) & (col < g.shape[1])
-        value = np.full(px.shape, -1, dtype=np.int16)
-        value[on] = g[row[on], col[on]]
-        stop = value >= p.blocked
-        first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
-        seen = np.arange(len(t))[None, :] < first[:, None]
+        px, py, value, seen = self._cast(costmap, resolution, origin, x, y, yaw + a)
         r, c, ok = self._lattice(px, py)
         want = seen & ok & (value >= 0) & (value < lethal)
         want[want] = ~self.looked[r[want], c[want]]
