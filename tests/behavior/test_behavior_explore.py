@@ -307,3 +307,30 @@ def test_a_look_turns_the_short_way_to_what_is_left_unseen(looked_left: bool) ->
     cmd = s.step(ctx, 1.0)
     assert cmd is not None and cmd.vx == 0.0 and cmd.wz != 0.0, cmd
     assert math.copysign(1.0, cmd.wz) == -sign, (looked_left, cmd)
+
+
+def test_a_walk_that_makes_no_headway_gives_its_frontier_up_even_when_it_is_chosen_anew() -> None:
+    """The robot held where it stands (rooms 0: a turn flipped left and right for 120 s; rooms 28: rocked
+    in place), while the frontier is re-chosen as the map changes (each choice restarted the progress
+    check): after HEADWAY_S x stuck_s without moving 2 x stuck_m, the frontier is given up."""
+    from go2vlm.behavior.strategies.explore import HEADWAY_S
+
+    truth = house()
+    known = np.full(truth.shape, -1, np.int8)
+    sense(truth, known, 3.0, -2.0)
+    ex = Explorer(ExploreParams())
+    ex.reset(0.0)
+    ex.set_map(costmap(known, 0.0))
+    first = ex.step(3.0, -2.0, 0.0, 0.0)
+    assert first.action == "walk" and ex.frontier is not None
+    limit = HEADWAY_S * ex.params.stuck_s
+    t, gave = 0.0, None
+    while t < limit + 5.0:
+        t += 0.5
+        ex.phase, ex._progress = "walk", (math.inf, t)  # as if re-chosen: the progress check restarts
+        ex.step(3.0 + 0.1 * math.sin(t), -2.0, 0.0, t)  # rocking 10 cm where it stands
+        if ex.given_up:
+            gave = t
+            break
+    assert gave is not None and limit <= gave <= limit + 1.0, (gave, ex.reason)
+    assert "no headway" in ex.reason

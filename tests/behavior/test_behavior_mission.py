@@ -285,3 +285,27 @@ def test_a_search_turn_beside_a_table_backs_away_first() -> None:
     m.observe_scan(table + [1.0, 0.0], 0.2)  # backed off: room to turn
     out = m.step(0.2)
     assert out.vx == 0.0 and out.wz != 0.0
+
+
+def test_a_turn_sent_the_other_way_round_is_kept_for_half_a_turn() -> None:
+    """No room behind and the left turn held (rooms 0): the mission turns right instead and keeps
+    turning right though the search still asks left, until half a turn's time is up."""
+    from go2vlm.behavior.planner.local import PlannerParams
+
+    pp = PlannerParams()
+    m = Mission(MissionParams())
+    m.set_goal("look for the blue cylinder", 0.0)
+    tail = np.array([[-0.3, -0.465]])  # a left turn swings the tail into it
+    posts = np.array([[-pp.half_length - 0.5, 0.0], [pp.half_length + 0.5, 0.0]])  # no 0.3 m ahead, nor behind
+    scan = np.vstack([tail, posts])
+    m.observe_pose(0.0, 0.0, 0.0, 0.1)
+    m.observe_scan(scan, 0.1)
+    out = m.step(0.1)
+    assert out.vx == 0.0 and out.wz < 0.0 and "other way round" in m.planner_note, (out, m.planner_note)
+    m.observe_scan(np.vstack([posts]), 0.2)  # the left turn would be free now: it keeps turning right
+    out = m.step(0.2)
+    assert out.vx == 0.0 and out.wz < 0.0, out
+    late = 0.1 + math.pi / abs(out.wz) + 0.5
+    m.observe_pose(0.0, 0.0, 0.0, late)
+    m.observe_scan(np.vstack([posts]), late)
+    assert m.step(late).wz > 0.0  # half a turn later: the search's own way again

@@ -90,7 +90,7 @@ import numpy as np
 from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.lease import too_far
 from go2vlm.behavior.planner.global_path import Costmap
-from go2vlm.behavior.planner.local import BACK_SPEED, unstick
+from go2vlm.behavior.planner.local import BACK_SPEED, TURN_ONLY_VX, unstick
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -129,6 +129,7 @@ class Mission:
         self.reason = "no goal yet"
         self.cmd = (0.0, 0.0)
         self.planner_note = ""  # what the local planner did on the last step ("" = nothing)
+        self._other_way: tuple[float, float] | None = None  # a turn the other way round: (sign, until)
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
         self._postures: list[str] = []
         self._zero_until = -math.inf
@@ -322,13 +323,28 @@ class Mission:
         vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
         if goal is not None and self.active and p.avoid_obstacles:
-            back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner)
-            if back is not None:
-                wz = max(-p.max_angular, min(p.max_angular, back.wz))
-                vx, self.planner_note = max(back.vx, -BACK_SPEED), back.note
+            vx, wz = self._unstick(vx, wz, now)
+        else:
+            self._other_way = None
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)
+
+    def _unstick(self, vx: float, wz: float, now: float) -> tuple[float, float]:
+        """planner/local.py `unstick` on the command; a turn it sent the other way round is kept for
+        half a turn (else the way it wanted, free again a few degrees on, flipped it back and forth)."""
+        p, ow = self.params, self._other_way
+        if ow is not None and now < ow[1] and vx <= TURN_ONLY_VX and wz * ow[0] < 0:
+            wz = math.copysign(abs(wz), ow[0])
+        elif ow is not None:
+            self._other_way = None
+        back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner)
+        if back is None:
+            return vx, wz
+        if back.vx == 0.0 and back.wz * wz < 0 and self._other_way is None:
+            self._other_way = (math.copysign(1.0, back.wz), now + math.pi / max(abs(back.wz), 1e-3))
+        self.planner_note = back.note
+        return max(back.vx, -BACK_SPEED), max(-p.max_angular, min(p.max_angular, back.wz))
 
     def _control(self, now: float) -> Command:
         """Ask the strategies, in order (the module docstring's rules): a VLM decision or a turn goal

@@ -43,7 +43,7 @@ from go2vlm.declare import param
 from go2vlm.geometry.footprint import rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
-__all__ = ["BACK_SPEED", "PlannerParams", "Steer", "corridor_free", "steer", "unstick"]
+__all__ = ["BACK_SPEED", "BACK_TURN", "TURN_ONLY_VX", "PlannerParams", "Steer", "corridor_free", "steer", "unstick"]
 
 TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
 TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)

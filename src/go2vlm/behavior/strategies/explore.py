@@ -53,6 +53,7 @@ __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explo
 # A continuous look that has not turned all round in this many times a whole turn's time at
 # search_yaw_rate ends anyway (the safety gate holding a turn near a wall would keep it there).
 LOOK_SLACK = 3.0
+HEADWAY_S = 1.5  # x stuck_s: walking, never more than 2 x stuck_m from where it stood this long: give up
 
 
 @dataclass(frozen=True)
@@ -83,6 +84,8 @@ class Explorer:
         self.given_up = 0
         self.views = ViewScores()  # vlm: the model's scores of the ways it looked (world yaw)
         self._progress = (math.inf, now)  # best remaining distance, and when it last improved
+        self._anchor = (math.nan, math.nan, now)  # where the robot last moved to (x, y, t), walking
+        self._walked = now  # the last step that was not a look
         self._frontier_stamp: float | None = None
         self.reason = ""
 
@@ -226,7 +229,17 @@ class Explorer:
         if x is None or y is None or yaw is None or not all(math.isfinite(v) for v in (x, y, yaw)):
             return ExploreStep("wait", "no fresh pose: holding still")
         if self.phase == "look":
+            self._anchor = (x, y, now)
             return ExploreStep("look", self._at())
+        ax, ay, at = self._anchor
+        if not math.hypot(x - ax, y - ay) <= 2 * p.stuck_m or now - self._walked > 1.0:
+            self._anchor = (x, y, now)  # it moved (nan: the first step), or something else drove it
+        elif now - at > HEADWAY_S * p.stuck_s and self.frontier is not None:
+            # Frontiers re-chosen as the map changes restart the progress check; this one does not.
+            self._anchor = (x, y, now)
+            self._give_up(f"no headway: within {2 * p.stuck_m:g} m of ({x:.1f}, {y:.1f}) for "
+                          f"{HEADWAY_S * p.stuck_s:g} s")  # fmt: skip
+        self._walked = now
         self._refresh()
         for _ in range(8):  # a few frontiers may be dropped in one step (gone, unplannable)
             if self.phase == "choose":
