@@ -99,10 +99,9 @@ is ignored, logged and counted (decisions_rejected). The text never becomes a ve
 still for decision_hold_s, turn turns in place at decision_turn_rate for angle/rate seconds; all
 motion still goes through the safety gate.
 
-Bounds (behavior/lease.py): a goal with a lease stops when its owner stops renewing it (the MCP
-server's goals all carry one); every goal stops after max_goal_s; a go to whose seen object is farther
-than max_go_to_m is refused (rejected), a remembered one only given up (remembered_too_far). Leases
-are in wall time (an owner's silence).
+Bounds (behavior/lease.py): a leased goal stops when its owner stops renewing it (the MCP server's goals all
+carry one); every goal stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m is rejected,
+a remembered one only given up (remembered_too_far). Leases are in wall time (an owner's silence).
 
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
