@@ -183,7 +183,9 @@ def test_a_turn_with_no_room_behind_walks_on_straight_or_turns_the_other_way_rou
     behind = _edge(-P.half_length - 0.1)  # inside the margin: neither backing nor turning in place
     on = unstick(0.1, 0.8, behind, P)  # walking on turning sharply: straight on, no faster
     assert on is not None and (on.vx, on.wz) == (0.1, 0.0) and "walking on straight" in on.note
-    assert unstick(0.0, 0.5, behind, P) is None  # a turn in place never becomes a walk: held
+    assert unstick(0.0, 0.5, behind, P) is None  # a search's turn in place never becomes a walk: held
+    route = unstick(0.0, 0.5, behind, P, walk=BACK_SPEED)  # a route's turn (the explorer walks on anyway)
+    assert route is not None and (route.vx, route.wz) == (BACK_SPEED, 0.0), route
     tail = np.array([[-0.3, -0.465]])  # right of the rear-right corner: a left turn swings the tail into it
     posts = np.array([[-P.half_length - 0.5, 0.0], [P.half_length + 0.5, 0.0]])  # no 0.3 m ahead nor behind
     other = unstick(0.0, 0.5, np.vstack([tail, posts]), P)

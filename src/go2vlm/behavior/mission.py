@@ -338,7 +338,8 @@ class Mission:
             wz = math.copysign(abs(wz), ow[0])
         elif ow is not None:
             self._other_way = None
-        back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner)
+        walk = BACK_SPEED if self.state == "exploring" else 0.0  # a route's turn: it walks on anyway
+        back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner, walk)
         if back is None:
             return vx, wz
         if back.vx == 0.0 and back.wz * wz < 0 and self._other_way is None:

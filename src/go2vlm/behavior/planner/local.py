@@ -182,9 +182,10 @@ def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, 
     return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
 
 
-def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -> Steer | None:
+def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, walk: float = 0.0) -> Steer | None:
     """What to do instead of a command the footprint cannot sweep (module docstring), or None: its
-    way is clear, or nothing better is (no room behind)."""
+    way is clear, or nothing better is (no room behind). `walk` (m/s): a turn in place may become a
+    straight walk this fast (its caller walks that way anyway: a route's turn); 0: never."""
     straight = abs(wz) < 1e-3
     if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or vx < 0.0 or (straight and vx <= TURN_ONLY_VX):
         return None
@@ -210,7 +211,7 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams) -
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
-    return _back_away(pts, wz, p, n, "too near something to turn", walk=vx if vx > TURN_ONLY_VX else 0.0)
+    return _back_away(pts, wz, p, n, "too near something to turn", walk=vx if vx > TURN_ONLY_VX else walk)
 
 
 def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float = 0.0) -> Steer | None:
