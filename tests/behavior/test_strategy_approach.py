@@ -8,12 +8,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.control import CENTRED_X
 from go2vlm.behavior.goals import parse_goal
-from go2vlm.behavior.strategies.approach import Approach
+from go2vlm.behavior.strategies.approach import ALIGN_FOUND_S, Approach
 from go2vlm.behavior.strategies.base import Context, Pose, Sighting
 from go2vlm.behavior.strategies.params import MissionParams
 
@@ -62,7 +63,9 @@ def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
         assert 0.0 <= cmd.vx <= p.max_linear + 1e-9 and abs(cmd.wz) <= p.max_angular + 1e-9
         if kind == "look_for":
             assert ctx.confirmed(now) and ctx.sighting is not None and cmd.vx == 0.0
-            assert (cmd.state == "found") == (abs(ctx.sighting.x) < CENTRED_X)
+            x_now, since = ctx.sighting.x, ctx.align_since
+            late = since is not None and now - since > ALIGN_FOUND_S and abs(x_now) < 1.0  # the turn held
+            assert (cmd.state == "found") == (abs(x_now) < CENTRED_X or late)
         if cmd.state == "reached":
             d = ctx.base_distance(now)
             assert kind == "go_to" and d is not None and d - p.stop_distance_m <= p.distance_tolerance_m
@@ -131,3 +134,27 @@ def test_a_range_by_size_beyond_what_the_scan_shows_on_its_bearing_gives_way_to_
     ctx.scan = (np.column_stack([np.full_like(ys, 0.75), ys]), 1.0)
     ctx.sighting = Sighting(1.0, "cone", "tracking", 0.0, 1.2, "size", 0.0, math.radians(73))
     assert Approach().step(ctx, 1.0).state == "reached"
+
+
+def test_a_look_for_whose_turn_is_held_is_found_in_view_all_the_same() -> None:
+    """In a doorway the gate held every turn to centre the green box, 25 deg off, until the goal timed
+    out (rooms 7): confirmed in view but not centred for ALIGN_FOUND_S, it is found, saying how far off."""
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.sighting import Sighting
+    from go2vlm.behavior.strategies.base import Context
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    ctx = Context(MissionParams(), goal=parse_goal("look for the green box"), view=math.radians(73))
+    a, states = Approach(), []
+    for k in range(int((ALIGN_FOUND_S + 1.0) / 0.1)):
+        now = 1.0 + 0.1 * k
+        ctx.sighting = Sighting(now, "green box", "tracking", -0.7, 2.0, "bottom", math.radians(25), math.radians(73))
+        ctx.last_seen = now
+        cmd = a.step(ctx, now)
+        assert cmd is not None
+        states.append(cmd.state)
+        if cmd.state == "found":
+            break
+    assert states[0] == "aligning" and states[-1] == "found", states
+    assert 0.1 * (len(states) - 1) == pytest.approx(ALIGN_FOUND_S, abs=0.15)
+    assert "25 deg to the left" in cmd.reason and "not centred" in cmd.reason

@@ -318,6 +318,8 @@ class Mission:
             if cmd.state in TERMINAL or (cmd.state, cmd.reason) != (self.state, self.reason):
                 self._enter(cmd.state, cmd.reason, now)
             self.planner_note = cmd.note
+            if cmd.state != "aligning":
+                self.ctx.align_since = None
             vx, wz, publish = cmd.vx, cmd.wz, True
         p = self.params
         vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0

@@ -1,6 +1,7 @@
 """Approach a target the tracker confirms: go to (turn, then walk, stop `stop_distance_m` from its
-surface: `reached`), look for (turn until it is centred: `found`), follow (keep
-`follow_distance_m`); the local planner steers round what the fresh scan shows in the way
+surface: `reached`), look for (turn until it is centred: `found`; confirmed in view but not centred
+after ALIGN_FOUND_S, the turn held by the gate in a doorway: `found` all the same, saying how far
+off), follow (keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
 (`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
 towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
 blocked; a free way turns back towards it. The laws are behavior/control.py's. Pure."""
@@ -12,7 +13,9 @@ import math
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
 
-__all__ = ["Approach"]
+__all__ = ["ALIGN_FOUND_S", "Approach"]
+
+ALIGN_FOUND_S = 3.0  # look for: confirmed in view but not centred this long (the turn held): found all the same
 
 
 class Approach:
@@ -37,6 +40,12 @@ class Approach:
             wz, centred = align_command(s.x, ap)
             if centred:
                 return Command.still("found", f"the {label} is straight ahead{ctx.where()}")
+            since = ctx.align_since = now if ctx.align_since is None else ctx.align_since
+            if now - since > ALIGN_FOUND_S and abs(s.x) < 1.0:  # the turn held (a doorway), or it flickers
+                off = math.degrees(s.bearing) if math.isfinite(s.bearing) else 0.0
+                return Command.still("found", f"the {label} is in view, {abs(off):.0f} deg to the "
+                                     f"{'left' if off > 0 else 'right'} (not centred in {ALIGN_FOUND_S:g} s)"
+                                     f"{ctx.where()}")  # fmt: skip
             return Command(0.0, wz, "aligning", "target in view: turning to face it")
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)

@@ -97,6 +97,7 @@ class Context:
         default_factory=lambda: PoseHistory(horizon_s=POSES_KEPT_S, max_extrapolation_s=VIEW_POSE_S)
     )
     viewed_through: float = -math.inf  # the newest answered frame already in `coverage`
+    align_since: float | None = None  # when a look for's turn to centre a confirmed target began
 
     # -- the goal ------------------------------------------------------------------------------
     @property
@@ -110,6 +111,7 @@ class Context:
         self.last_seen = None
         self.last_x = 0.0
         self.goal_xy = None
+        self.align_since = None
         self.route = None
         self.avoider.reset()
         self.look.forget()
