@@ -67,6 +67,7 @@ folder (map.npz, map.png).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -131,10 +132,10 @@ def _dedupe(states: list[Any]) -> list[Any]:
     return out
 
 
-def _reasons(status: list[tuple[float, dict[str, Any]]]) -> list[list[Any]]:
+def _reasons(status: Sequence[tuple[float, Mapping[str, object]]]) -> list[list[object]]:
     """[t, state, reason] each time the commander's reason changes (its numbers included: a reason
     that counts down metres is a walk, one that stays is a stall)."""
-    out: list[list[Any]] = []
+    out: list[list[object]] = []
     for t, s in status:
         row = [t, s.get("state"), s.get("reason")]
         if not out or out[-1][1:] != row[1:]:

@@ -160,14 +160,13 @@ class Context:
         if not self.confirmed(now) or s is None:
             return None
         cf = self.params.camera_forward_m
-        ranged = s.distance is not None and math.isfinite(s.distance)
+        own = s.distance if s.distance is not None and math.isfinite(s.distance) else None
         if not math.isfinite(s.bearing):
-            return s.distance + cf if ranged else None
+            return None if own is None else own + cf
         d = nearest_return(self.fresh_scan(now), (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        near = d is not None and d <= SCAN_RANGE_M
-        if ranged and not (near and d < s.distance):
-            return s.distance + cf
-        return d + cf if near else None
+        if d is not None and d <= SCAN_RANGE_M and (own is None or d < own):
+            return d + cf
+        return None if own is None else own + cf
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
