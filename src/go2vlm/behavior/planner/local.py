@@ -202,16 +202,19 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, w
         return _back_away(pts, 0.0, p, n, "too near something to walk on")
     turn = np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
     if vx > TURN_ONLY_VX:  # an arc: its next ARC_CHECK_S, as the guard would stop it
-        t = np.linspace(0.0, ARC_CHECK_S, n)
-        th = wz * t
-        ax, ay = vx * np.sin(th) / wz, vx * (1.0 - np.cos(th)) / wz
-        if _sweep_ok(pts, ax, ay, th, p):
+        if _sweep_ok(pts, *_arc(vx, wz, np.linspace(0.0, ARC_CHECK_S, n)), p):
             return None
         if _sweep_ok(pts, zero, zero, turn, p):
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
     return _back_away(pts, wz, p, n, "too near something to turn", walk=vx if vx > TURN_ONLY_VX else walk)
+
+
+def _arc(vx: float, wz: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Poses (x, y, yaw; base frame now) along the arc of (vx, wz != 0) at times `t`."""
+    th = wz * t
+    return vx * np.sin(th) / wz, vx * (1.0 - np.cos(th)) / wz, th
 
 
 def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float = 0.0) -> Steer | None:
@@ -224,8 +227,7 @@ def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, w
     zero, room = np.zeros(n), np.linspace(0.0, BACK_CHECK_M, n)
     if wz != 0.0:
         bw = math.copysign(BACK_TURN, wz)
-        th = bw * np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)
-        if _sweep_ok(pts, -BACK_SPEED * np.sin(th) / bw, -BACK_SPEED * (1.0 - np.cos(th)) / bw, th, p):
+        if _sweep_ok(pts, *_arc(-BACK_SPEED, bw, np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)), p):
             return Steer(-BACK_SPEED, bw, math.pi, True, f"{why}: backing away, turning")
     if _sweep_ok(pts, -room, zero, zero, p):
         return Steer(-BACK_SPEED, 0.0, math.pi, True, f"{why}: backing away")
