@@ -185,10 +185,10 @@ def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
 
 def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
     """The robot at a frontier beside a wall: the safety gate holds its turn (the pose never turns).
-    The look ends after LOOK_SLACK whole turns' time, the place counts as visited, and the search goes
-    on to the next frontier instead of waiting there until the goal times out."""
+    The look ends once it has gained nothing for LOOK_STALL_S, the place counts as visited, and the
+    search goes on to the next frontier instead of waiting there until the goal times out."""
     from go2vlm.behavior.strategies.base import Pose
-    from go2vlm.behavior.strategies.explore import LOOK_SLACK
+    from go2vlm.behavior.strategies.explore import LOOK_STALL_S
 
     s, ctx = _explore_from_the_room()
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
@@ -209,8 +209,37 @@ def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
         x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
     assert look_began is not None, "it never looked"
     assert s.explorer.status()["visited"] == 1 and not s.looking
-    assert now - look_began >= LOOK_SLACK * 2 * math.pi / ctx.params.search_yaw_rate - 0.1
+    assert LOOK_STALL_S - 0.1 <= now - look_began <= 2 * LOOK_STALL_S + 0.1
     assert "could not turn all round" in reasons[-1]
+
+
+def test_a_look_rocking_in_place_turns_nothing_and_ends_held() -> None:
+    """The gate holds the look's turn and the robot rocks: its yaw jitters +-0.1 rad. The jitter is no
+    turn (it once added up to "looked all round"): the look ends held, having turned about nothing."""
+    from go2vlm.behavior.strategies.base import Pose
+    from go2vlm.behavior.strategies.explore import LOOK_STALL_S
+
+    s, ctx = _explore_from_the_room()
+    x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
+    look_began: float | None = None
+    reasons: list[str] = []
+    k = 0
+    for _ in range(8000):
+        now += 0.05
+        ctx.pose = Pose(x, y, yaw + (0.1 if s.looking and k % 2 else 0.0), now)
+        cmd = s.step(ctx, now)
+        assert cmd is not None
+        reasons.append(cmd.reason)
+        if s.looking:
+            look_began, k = (now if look_began is None else look_began), k + 1
+            continue
+        if look_began is not None:
+            break
+        yaw += cmd.wz * 0.05
+        x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
+    assert look_began is not None, "it never looked"
+    assert now - look_began <= 2 * LOOK_STALL_S + 0.1
+    assert "could not turn all round (turned 0 deg)" in reasons[-1], reasons[-1]
 
 
 def test_a_look_where_the_camera_has_seen_everything_near_ends_at_once() -> None:

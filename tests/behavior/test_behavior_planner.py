@@ -191,3 +191,69 @@ def test_a_turn_with_no_room_behind_walks_on_straight_or_turns_the_other_way_rou
     other = unstick(0.0, 0.5, np.vstack([tail, posts]), P)
     assert other is not None and (other.vx, other.wz) == (0.0, -0.5) and "the other way round" in other.note
     assert unstick(0.0, -0.5, np.vstack([tail, posts]), P) is None  # the right turn itself is clear
+
+
+def _corridor(half_width: float = 0.75, length: float = 8.0) -> np.ndarray:
+    xs = np.arange(-length, length, 0.02)
+    return np.vstack([np.c_[xs, np.full_like(xs, half_width)], np.c_[xs, np.full_like(xs, -half_width)]])
+
+
+def _clearance(walls: np.ndarray, x: float, y: float, yaw: float) -> float:
+    dx, dy = walls[:, 0] - x, walls[:, 1] - y
+    c, s = math.cos(yaw), math.sin(yaw)
+    return float(rect_distance(c * dx + s * dy, -s * dx + c * dy, P.half_length, P.half_width).min())
+
+
+def test_askew_in_a_corridor_it_backs_towards_a_way_on_behind_it() -> None:
+    """Rooms 14: askew and off the middle of a 1.5 m corridor, the way on behind. The turn towards it
+    does not keep the margin; `reverse` backs towards the way on, turning the rear onto it."""
+    from go2vlm.behavior.planner.local import REVERSE_SPEED, reverse
+
+    walls, x, y, yaw = _corridor(), 0.0, -0.2, math.radians(15)
+    base = _to_base(walls, x, y, yaw)
+    toward = math.radians(170)  # the way on: along the corridor, behind on the left
+    plain = unstick(0.0, W, base, P)
+    assert plain is not None and plain.vx >= -BACK_SPEED and "way on" not in plain.note  # held: without a way on
+    st = unstick(0.0, W, base, P, toward=toward)
+    assert st is not None and st.vx == -REVERSE_SPEED and st.wz < 0.0 and "backing towards the way on" in st.note
+    assert reverse(base, math.radians(10), P) is not None  # (behind or not is unstick's call)
+    end = np.c_[np.full(40, -0.7), np.linspace(-0.75, 0.75, 40)]  # a wall across, 0.35 m behind the tail
+    assert reverse(_to_base(np.vstack([walls, end]), 0.0, 0.0, 0.0), math.pi, P) is None
+
+
+def _to_base(pts: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = pts[:, 0] - x, pts[:, 1] - y
+    return np.c_[c * dx + s * dy, -s * dx + c * dy]
+
+
+def test_a_route_behind_in_a_corridor_is_walked_backwards_under_the_guards_rule() -> None:
+    """The mission's escape (planner/escape.py) over a route 3 m behind, the robot askew and off the
+    middle of a 1.5 m corridor, each step applied only as the guard would (never closer than the
+    margin, or than it is, if inside it): it gets there. Without `toward`, it rocks where it stands."""
+    from go2vlm.behavior.planner.escape import Escape
+
+    walls, goal, dt = _corridor(), (-3.0, 0.0), 0.05
+
+    def run(with_toward: bool) -> float:
+        esc, (x, y, yaw) = Escape(), (0.0, -0.2, math.radians(45))
+        for k in range(1200):
+            bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
+            bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+            vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.3 else (0.4, 1.5 * bearing)
+            out = esc.step(vx, wz, k * dt, _to_base(walls, x, y, yaw), P, max_angular=W, walk=BACK_SPEED,
+                           toward=bearing if with_toward else None)  # fmt: skip
+            if out is not None:
+                vx, wz = out[0], out[1]
+            nyaw = yaw + wz * dt
+            nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
+            now_c, next_c = _clearance(walls, x, y, yaw), _clearance(walls, nx, ny, nyaw)
+            if next_c >= min(0.3, now_c) - 1e-9:  # the guard's rule
+                x, y, yaw = nx, ny, nyaw
+            if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
+                break
+        assert _clearance(walls, x, y, yaw) > 0.0
+        return math.hypot(goal[0] - x, goal[1] - y)
+
+    assert run(True) < 0.4
+    assert run(False) > 2.0

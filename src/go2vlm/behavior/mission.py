@@ -74,8 +74,8 @@ Rules
 - Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular, with one exception: a turn in
   place that the footprint cannot sweep (beside a table, facing a wall: the gate's guard would hold
   it at zero for ever) becomes a back-away at the local planner's BACK_SPEED, turning the way it
-  wanted to where that is clear, while there is room behind (planner/local.py `unstick`; with
-  avoid_obstacles and a fresh scan).
+  wanted to where that is clear, while there is room behind, or towards a route's way on behind it at
+  REVERSE_SPEED (planner/local.py `unstick`, planner/escape.py; with avoid_obstacles and a fresh scan).
 """
 
 from __future__ import annotations
@@ -89,8 +89,9 @@ import numpy as np
 
 from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.lease import too_far
+from go2vlm.behavior.planner.escape import Escape
 from go2vlm.behavior.planner.global_path import Costmap
-from go2vlm.behavior.planner.local import BACK_SPEED, TURN_ONLY_VX, unstick
+from go2vlm.behavior.planner.local import BACK_SPEED
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -129,7 +130,7 @@ class Mission:
         self.reason = "no goal yet"
         self.cmd = (0.0, 0.0)
         self.planner_note = ""  # what the local planner did on the last step ("" = nothing)
-        self._other_way: tuple[float, float] | None = None  # a turn the other way round: (sign, until)
+        self.escape = Escape()  # out of the guard's way, step after step
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
         self._postures: list[str] = []
         self._zero_until = -math.inf
@@ -310,6 +311,7 @@ class Mission:
         postures, self._postures = tuple(self._postures), []
         self.planner_note = ""
         goal = self.ctx.goal
+        toward = None
         if goal is None or not self.active:
             vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
@@ -320,34 +322,29 @@ class Mission:
             self.planner_note = cmd.note
             if cmd.state != "aligning":
                 self.ctx.align_since = None
-            vx, wz, publish = cmd.vx, cmd.wz, True
+            vx, wz, publish, toward = cmd.vx, cmd.wz, True, cmd.toward
         p = self.params
         vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
         if goal is not None and self.active and p.avoid_obstacles:
-            vx, wz = self._unstick(vx, wz, now)
+            vx, wz = self._unstick(vx, wz, now, toward)
         else:
-            self._other_way = None
+            self.escape.reset()
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)
 
-    def _unstick(self, vx: float, wz: float, now: float) -> tuple[float, float]:
-        """planner/local.py `unstick` on the command; a turn it sent the other way round is kept for
-        half a turn (else the way it wanted, free again a few degrees on, flipped it back and forth)."""
-        p, ow = self.params, self._other_way
-        if ow is not None and now < ow[1] and vx <= TURN_ONLY_VX and wz * ow[0] < 0:
-            wz = math.copysign(abs(wz), ow[0])
-        elif ow is not None:
-            self._other_way = None
+    def _unstick(self, vx: float, wz: float, now: float, toward: float | None) -> tuple[float, float]:
+        """planner/escape.py on the command: out of the guard's way (a route's turn may walk on)."""
+        p = self.params
         walk = BACK_SPEED if self.state == "exploring" else 0.0  # a route's turn: it walks on anyway
-        back = unstick(vx, wz, self.ctx.fresh_scan(now), p.planner, walk)
-        if back is None:
+        out = self.escape.step(
+            vx, wz, now, self.ctx.fresh_scan(now), p.planner, max_angular=p.max_angular, walk=walk, toward=toward
+        )
+        if out is None:
             return vx, wz
-        if back.vx == 0.0 and back.wz * wz < 0 and self._other_way is None:
-            self._other_way = (math.copysign(1.0, back.wz), now + math.pi / max(abs(back.wz), 1e-3))
-        self.planner_note = back.note
-        return max(back.vx, -BACK_SPEED), max(-p.max_angular, min(p.max_angular, back.wz))
+        self.planner_note = out[2]
+        return out[0], out[1]
 
     def _control(self, now: float) -> Command:
         """Ask the strategies, in order (the module docstring's rules): a VLM decision or a turn goal

@@ -30,6 +30,11 @@ guard's way, it does not replace it.
   behind walks on straight (at most BACK_SPEED) where that is clear (room to turn in later), and a turn
   with no room behind turns the other way round where that is clear; with none of these clear the
   command stays as it was (the guard holds it, and says so).
+- A held turn towards a way on that lies behind the robot (`toward`, a route's waypoint) backs towards
+  it first (`reverse`: at REVERSE_SPEED, the rear turned onto it), as a driver reverses out of a
+  narrow lane rather than turning in it. In a 1.5 m corridor a Go2 standing askew, off the middle,
+  can turn neither way inside the guard's margin; backing away and walking on in turn rocked it where
+  it stood for a minute and more (rooms 12, 14, 18).
 """
 
 from __future__ import annotations
@@ -43,7 +48,17 @@ from go2vlm.declare import param
 from go2vlm.geometry.footprint import rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
-__all__ = ["BACK_SPEED", "BACK_TURN", "TURN_ONLY_VX", "PlannerParams", "Steer", "corridor_free", "steer", "unstick"]
+__all__ = [
+    "BACK_SPEED",
+    "BACK_TURN",
+    "TURN_ONLY_VX",
+    "PlannerParams",
+    "Steer",
+    "corridor_free",
+    "reverse",
+    "steer",
+    "unstick",
+]
 
 TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
 TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)
@@ -52,6 +67,7 @@ BACK_CHECK_M = 0.3  # m of room behind it needs to back away
 BACK_TURN = 0.4  # rad/s: the turn while backing away, towards the turn it could not make in place
 HOLD_CHECK_M = 0.03  # m: a straight walk whose first this much the guard would refuse is held at zero
 ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
+REVERSE_SPEED = 0.25  # m/s: backing towards a way on behind the robot (a walk, not an escape)
 
 
 @dataclass(frozen=True)
@@ -182,10 +198,13 @@ def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, 
     return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
 
 
-def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, walk: float = 0.0) -> Steer | None:
+def unstick(
+    vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, walk: float = 0.0, toward: float | None = None
+) -> Steer | None:
     """What to do instead of a command the footprint cannot sweep (module docstring), or None: its
     way is clear, or nothing better is (no room behind). `walk` (m/s): a turn in place may become a
-    straight walk this fast (its caller walks that way anyway: a route's turn); 0: never."""
+    straight walk this fast (its caller walks that way anyway: a route's turn); 0: never. `toward`
+    (rad, + left): the way on the command heads for (None: none, a search's turn)."""
     straight = abs(wz) < 1e-3
     if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or vx < 0.0 or (straight and vx <= TURN_ONLY_VX):
         return None
@@ -208,11 +227,32 @@ def unstick(vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, w
             return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
-    return _back_away(pts, wz, p, n, "too near something to turn", walk=vx if vx > TURN_ONLY_VX else walk)
+    why = "too near something to turn"
+    if toward is not None and abs(_wrap(toward)) > math.pi / 2:
+        back = reverse(pts, toward, p, why)
+        if back is not None:
+            return back
+    return _back_away(pts, wz, p, n, why, walk=vx if vx > TURN_ONLY_VX else walk)
+
+
+def reverse(points: np.ndarray | None, toward: float, p: PlannerParams, why: str = "") -> Steer | None:
+    """Back towards `toward` (rad, + left; behind the robot) at REVERSE_SPEED, turning the rear onto it
+    (at most BACK_TURN), where BACK_CHECK_M of that arc keeps the margin; None: it does not."""
+    if points is None or not math.isfinite(toward):
+        return None
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    bw = max(-BACK_TURN, min(BACK_TURN, p.kp * _wrap(toward - math.pi)))
+    t = np.linspace(0.0, BACK_CHECK_M / REVERSE_SPEED, 7)
+    if len(pts) and not _sweep_ok(pts, *_arc(-REVERSE_SPEED, bw, t), p):
+        return None
+    note = "backing towards the way on"
+    return Steer(-REVERSE_SPEED, bw, toward, True, f"{why}: {note}" if why else note)
 
 
 def _arc(vx: float, wz: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Poses (x, y, yaw; base frame now) along the arc of (vx, wz != 0) at times `t`."""
+    """Poses (x, y, yaw; base frame now) along the arc of (vx, wz) at times `t`."""
+    if abs(wz) < 1e-6:
+        return vx * t, 0.0 * t, 0.0 * t
     th = wz * t
     return vx * np.sin(th) / wz, vx * (1.0 - np.cos(th)) / wz, th
 

@@ -47,15 +47,16 @@ class Command:
     reason: str
     note: str = ""  # what the local planner did ("" = nothing)
     basis: str = ""  # what the motion is based on when not the tracker's confirmation: "memory"
+    toward: float | None = None  # rad (+ left): the way on it heads for (a route's waypoint), to back towards
 
     @classmethod
     def still(cls, state: str, reason: str) -> Command:
         return cls(0.0, 0.0, state, reason)
 
     @classmethod
-    def detour(cls, st: Steer, reason: str, basis: str = "") -> Command:
+    def detour(cls, st: Steer, reason: str, basis: str = "", toward: float | None = None) -> Command:
         """The planner's way round an obstacle (`st` blocked)."""
-        return cls(st.vx, st.wz, "detouring", reason, note=st.note, basis=basis)
+        return cls(st.vx, st.wz, "detouring", reason, note=st.note, basis=basis, toward=toward)
 
 
 @dataclass(frozen=True)

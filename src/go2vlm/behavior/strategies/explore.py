@@ -50,9 +50,12 @@ from go2vlm.world.poses import wrap_angle
 
 __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
 
-# A continuous look that has not turned all round in this many times a whole turn's time at
-# search_yaw_rate ends anyway (the safety gate holding a turn near a wall would keep it there).
+# A continuous look not all round in LOOK_SLACK whole turns' time at search_yaw_rate, or gaining less
+# than LOOK_STALL_RAD in LOOK_STALL_S, is held by the gate (near a wall, in a corridor) and ends (rocking
+# in place, it once "turned all round" by its jitter in 48 s: rooms 18).
 LOOK_SLACK = 3.0
+LOOK_STALL_S = 4.0
+LOOK_STALL_RAD = 0.2
 HEADWAY_S = 1.5  # x stuck_s: walking, never more than 2 x stuck_m from where it stood this long: give up
 
 
@@ -297,10 +300,10 @@ class Explore:
     (route.follow_waypoint: the approach law and the local planner), looks around there
     (search.TurnAndLook's stop and look with slow answers, else a continuous turn at
     `search_yaw_rate` the short way round to the free space in sight that the camera has not looked
-    at; it ends when none is left, after a whole turn, or, held by the safety gate near a wall, after
-    LOOK_SLACK times a whole turn's time), and repeats; ends the goal `not_found` with the explorer's reason when no
-    frontier is left or none is reachable. State `exploring` throughout (`detouring` while the local
-    planner steers)."""
+    at; it ends when none is left, after a whole turn, or, held by the safety gate near a wall, when
+    it gains less than LOOK_STALL_RAD in LOOK_STALL_S, or after LOOK_SLACK times a whole turn's time),
+    and repeats; ends the goal `not_found` with the explorer's reason when no frontier is left or none
+    is reachable. State `exploring` throughout (`detouring` while the local planner steers)."""
 
     name = "explore"
 
@@ -312,6 +315,7 @@ class Explore:
         self._turned = 0.0
         self._t: float | None = None
         self._look_t0 = 0.0  # when the look began
+        self._mark: tuple[float, float] = (0.0, 0.0)  # (time, turned): the look's last headway check
         self._dir = 0.0  # the look's turn: +1 left, -1 right, 0 not chosen yet
 
     @property
@@ -355,7 +359,7 @@ class Explore:
         if not self.looking:
             self.looking = True
             self.look.reset(now)
-            self._yaw, self._turned, self._t, self._look_t0, self._dir = None, 0.0, now, now, 0.0
+            self._yaw, self._turned, self._t, self._look_t0, self._dir, self._mark = None, 0.0, now, now, 0, (now, 0)
         pose = ctx.fresh_pose(now)
         if pose is not None:
             area, left, right = self.explorer.unseen_visible(pose.x, pose.y, pose.yaw, ctx.view or DEFAULT_VIEW)
@@ -373,15 +377,17 @@ class Explore:
             pose = ctx.fresh_pose(now)
             wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
             wz = math.copysign(wz, self._dir) if self._dir else wz
-            if pose is not None:
+            if pose is not None:  # net, the look's way round: rocking in place turns nothing
                 if self._yaw is not None:
-                    self._turned += abs(wrap_angle(pose.yaw - self._yaw))
+                    self._turned += wrap_angle(pose.yaw - self._yaw) * math.copysign(1.0, wz)
                 self._yaw = pose.yaw
             elif self._t is not None:
                 self._turned += abs(wz) * max(0.0, now - self._t)
             self._t = now
             whole = 2 * math.pi - (ctx.view or 0.0)
             held = now - self._look_t0 > LOOK_SLACK * 2 * math.pi / max(p.search_yaw_rate, 1e-3)
+            if now - self._mark[0] >= LOOK_STALL_S:  # its headway since the last check
+                held, self._mark = held or self._turned - self._mark[1] < LOOK_STALL_RAD, (now, self._turned)
             if self._turned < whole and not held:
                 return Command(0.0, wz, "exploring", reason)
             if self._turned < whole:

@@ -37,8 +37,8 @@ def follow_waypoint(
     vx, wz, _ = approach_command(-bearing / (view / 2.0), max(remaining, dist), ap)
     st = ctx.avoid(vx, wz, ap, (bearing, dist), now)
     if st is not None and st.blocked:
-        return Command.detour(st, f"{reason}: {st.note}", basis=basis)
-    return Command(vx, wz, state, reason, basis=basis)
+        return Command.detour(st, f"{reason}: {st.note}", basis=basis, toward=bearing)
+    return Command(vx, wz, state, reason, basis=basis, toward=bearing)
 
 
 def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, skip_m: float) -> bool:
