@@ -6,9 +6,6 @@ commands, with what it must remember from one step to the next. Pure, timestamp-
 - A back-away towards the way on (`toward`, behind the robot: local.py `reverse`) is kept up for
   REVERSE_HOLD_S while that way stays behind and the arc clear: else the turn, free again a few
   degrees on, was tried and held again, and the robot backed a few centimetres at a time.
-- Any other back-away is kept up for BACK_HOLD_S while its arc stays clear: backed off a tick at a
-  time, the walk that came next took it straight back, and the robot rocked in place beside a mug
-  for two minutes (rooms 28).
 """
 
 from __future__ import annotations
@@ -17,23 +14,21 @@ import math
 
 import numpy as np
 
-from go2vlm.behavior.planner.local import REVERSE_SPEED, TURN_ONLY_VX, PlannerParams, arc_clear, reverse, unstick
+from go2vlm.behavior.planner.local import REVERSE_SPEED, TURN_ONLY_VX, PlannerParams, reverse, unstick
 from go2vlm.world.poses import wrap_angle
 
-__all__ = ["BACK_HOLD_S", "REVERSE_HOLD_S", "Escape"]
+__all__ = ["REVERSE_HOLD_S", "Escape"]
 
 REVERSE_HOLD_S = 2.0  # s a back-away towards the way on is kept up
-BACK_HOLD_S = 1.5  # s any other back-away is kept up (0.2 m at BACK_SPEED, 0.6 rad turned at BACK_TURN)
 
 
 class Escape:
     def __init__(self) -> None:
         self.other_way: tuple[float, float] | None = None  # a turn the other way round: (sign, until)
         self.reverse_until = -math.inf  # backing towards a way on behind: kept up till then
-        self.back: tuple[float, float, str, float] | None = None  # another back-away (vx, wz, why, until)
 
     def reset(self) -> None:
-        self.other_way, self.reverse_until, self.back = None, -math.inf, None
+        self.other_way, self.reverse_until = None, -math.inf
 
     def step(
         self, vx: float, wz: float, now: float, scan: np.ndarray | None, p: PlannerParams, *, max_angular: float,
@@ -47,10 +42,6 @@ class Escape:
             if back is not None:
                 return back.vx, max(-max_angular, min(max_angular, back.wz)), back.note
         self.reverse_until = -math.inf
-        b = self.back
-        if b is not None and now < b[3] and arc_clear(scan, b[0], b[1], p):
-            return b[0], b[1], f"{b[2]} (kept up)"
-        self.back = None
         ow, kept = self.other_way, None
         if ow is not None and now < ow[1] and vx <= TURN_ONLY_VX and wz * ow[0] < 0:
             wz = math.copysign(abs(wz), ow[0])
@@ -62,8 +53,6 @@ class Escape:
             return kept
         if back.vx < 0.0 and behind:
             self.reverse_until = now + REVERSE_HOLD_S
-        elif back.vx < 0.0:
-            self.back = (back.vx, max(-max_angular, min(max_angular, back.wz)), back.note, now + BACK_HOLD_S)
         if back.vx == 0.0 and back.wz * wz < 0 and self.other_way is None:
             self.other_way = (math.copysign(1.0, back.wz), now + math.pi / max(abs(back.wz), 1e-3))
         return max(back.vx, -REVERSE_SPEED), max(-max_angular, min(max_angular, back.wz)), back.note

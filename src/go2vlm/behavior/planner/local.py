@@ -235,16 +235,6 @@ def unstick(
     return _back_away(pts, wz, p, n, why, walk=vx if vx > TURN_ONLY_VX else walk)
 
 
-def arc_clear(points: np.ndarray | None, vx: float, wz: float, p: PlannerParams) -> bool:
-    """Does BACK_CHECK_M (or a turn's TURN_SWEEP) along the arc of (vx, wz) keep the margin (or what
-    the footprint has now, if less)? No scan: no."""
-    if points is None or not (math.isfinite(vx) and math.isfinite(wz)):
-        return False
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    t_end = BACK_CHECK_M / abs(vx) if abs(vx) > 1e-3 else TURN_SWEEP / max(abs(wz), 1e-3)
-    return len(pts) == 0 or _sweep_ok(pts, *_arc(vx, wz, np.linspace(0.0, t_end, 7)), p)
-
-
 def reverse(points: np.ndarray | None, toward: float, p: PlannerParams, why: str = "") -> Steer | None:
     """Back towards `toward` (rad, + left; behind the robot) at REVERSE_SPEED, turning the rear onto it
     (at most BACK_TURN), where BACK_CHECK_M of that arc keeps the margin; None: it does not."""
