@@ -54,6 +54,9 @@ def test_line_of_sight() -> None:
     assert line_of_sight(cm, (3.0, -2.0), (3.0, 2.0), p, 0.6)
     assert line_of_sight(cm, (2.0, 0.0), (-2.0, 0.0), p, 0.6)  # through the door
     assert not line_of_sight(cm, (3.0, -2.0), (30.0, 0.0), p, 0.6)  # off the map
+    # rooms 6: the wall 0.55 m from the robot, the object 1.2 m behind it; the robot in the inflation
+    assert not line_of_sight(cm, (0.55, -2.0), (-1.2, -2.0), p, 1.05)
+    assert line_of_sight(cm, (0.55, -2.0), (3.0, -2.0), p, 1.05)  # away from the wall: its inflation skipped
 
 
 def test_a_remembered_object_in_the_other_room_is_walked_to_through_the_door() -> None:
