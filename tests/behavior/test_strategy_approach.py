@@ -131,6 +131,12 @@ def test_a_range_by_size_beyond_what_the_scan_shows_on_its_bearing_gives_way_to_
         cmd = Approach().step(ctx, 1.0)
         assert cmd is not None and f"({method})" in cmd.reason, cmd
     assert cmd.state == "approaching"
+    for far in (10.0, 2.6):  # rooms 37 and 47: a door jamb, a brick on the bearing, the object far beyond
+        ctx.scan = (np.column_stack([np.full_like(ys, 0.75), ys]), 1.0)
+        ctx.sighting = Sighting(1.0, "cone", "tracking", 0.0, far, "bottom", 0.0, math.radians(73))
+        assert ctx.base_distance(1.0) == pytest.approx(far + cf, abs=0.01)
+        cmd = Approach().step(ctx, 1.0)
+        assert cmd is not None and cmd.state in ("approaching", "detouring") and "(bottom)" in cmd.reason, cmd
     ctx.scan = (np.column_stack([np.full_like(ys, 0.75), ys]), 1.0)
     ctx.sighting = Sighting(1.0, "cone", "tracking", 0.0, 1.2, "size", 0.0, math.radians(73))
     assert Approach().step(ctx, 1.0).state == "reached"

@@ -33,6 +33,10 @@ POSES_KEPT_S = 60.0  # the mission's recent poses, to find where an answered fra
 VIEW_POSE_S = 0.5  # an answered frame newer than the newest pose by more than this looks at nothing
 SCAN_CONE = math.radians(3.0)  # an unranged target's scan return lies this near its bearing ...
 SCAN_RANGE_M = 2.0  # ... and this near the camera (farther, it may be what is behind a small object)
+# ... and at least this share of the tracker's range (base frame): a return much nearer is something
+# else on the bearing (a door jamb with the shelf 10 m beyond it, rooms 37; a brick before the counter,
+# rooms 47), and ended go-tos `reached` metres short
+SCAN_AGREE = 0.45
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,8 @@ class Context:
 
     def base_distance(self, now: float) -> float | None:
         """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
-        the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer (the
+        the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer, but not
+        below SCAN_AGREE of it (the
         box's bottom edge cut by the image when it is near; a range by an assumed size that is off:
         a cone ranged at 1.2 m stood 0.65 m away, where the guard held every step closer)."""
         s = self.sighting
@@ -165,7 +170,7 @@ class Context:
         if not math.isfinite(s.bearing):
             return None if own is None else own + cf
         d = nearest_return(self.fresh_scan(now), (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        if d is not None and d <= SCAN_RANGE_M and (own is None or d < own):
+        if d is not None and d <= SCAN_RANGE_M and (own is None or SCAN_AGREE * (own + cf) <= d + cf < own + cf):
             return d + cf
         return None if own is None else own + cf
 
