@@ -100,16 +100,17 @@ still for decision_hold_s, turn turns in place at decision_turn_rate for angle/r
 motion still goes through the safety gate.
 
 Bounds (behavior/lease.py): a leased goal stops when its owner stops renewing it (the MCP server's goals all
-carry one); every goal stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m for a
-second (FarSeen) is rejected, a remembered one only given up (remembered_too_far). Leases: wall time.
+carry one); every goal stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m is rejected,
+a remembered one only given up (remembered_too_far). Leases are in wall time (an owner's silence).
 
 Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
 decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
 
 Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
 At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
-decision limits, avoid_obstacles, planner_margin_m, detour_memory_s, the memory settings; goal (use
-/goal), robot (its camera mount), frontier_choice, the topics, scan_timeout_s, the rates: read-only.
+decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory settings; goal
+(use /goal), robot (its head camera's mount, from the robot profile), frontier_choice, the topics,
+scan_timeout_s and the rates are read-only.
 """
 
 from __future__ import annotations
@@ -121,7 +122,7 @@ from typing import Any
 
 from go2vlm.behavior.commander_config import CommanderConfig
 from go2vlm.behavior.commander_msgs import commander_status, route_path, way_answer, way_query
-from go2vlm.behavior.lease import FarSeen, Lease, LeaseError, goal_end, parse_goal, parse_renewal
+from go2vlm.behavior.lease import Lease, LeaseError, goal_end, parse_goal, parse_renewal
 from go2vlm.behavior.mission import Intent, Mission
 from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.planner.route import Route
@@ -185,7 +186,7 @@ class CommanderNode(Node):
         GOAL.subscription(self, self.on_goal)
         GOAL_LEASE.subscription(self, self.on_lease)
         self._lease: Lease | None = None  # the running goal's, on wall time
-        self._goal_t0, self._far = 0.0, FarSeen()  # FarSeen: a seen range beyond max_go_to_m, held
+        self._goal_t0 = 0.0
         TARGET_TRACKED.subscription(self, self.on_tracked)
         VLM_DECISION.subscription(self, self.on_decision)
         SCAN.subscription(self, self.on_scan, name=cfg.scan_topic)
@@ -364,8 +365,7 @@ class CommanderNode(Node):
         m, now, cfg = self.mission, self.clock.monotonic(), self.config
         if not m.active or m.goal is None:
             return
-        far = self._far.check(m.base_distance(now), now, cfg.max_go_to_m)
-        if far is None and (why := m.drop_far_memory(now, cfg.max_go_to_m)):
+        if (far := m.base_distance(now)) is None and (why := m.drop_far_memory(now, cfg.max_go_to_m)):
             self.log.warning(why)
         lease_why = self._lease.expired(time.monotonic()) if self._lease is not None else None
         end = goal_end(lease_why, self._goal_t0, now, cfg.max_goal_s, m.goal.kind, far, cfg.max_go_to_m)

@@ -28,13 +28,10 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["FAR_SEEN_S", "FarSeen", "MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "goal_end",
-           "overdue", "parse_goal", "parse_renewal", "too_far"]  # fmt: skip
+__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "goal_end", "overdue", "parse_goal",
+           "parse_renewal", "too_far"]  # fmt: skip
 
 MAX_LEASE_S = 60.0
-# A seen object's range beyond max_go_to_m refuses the go to only once it has held this long: one
-# frame's bottom edge hidden ranged a teddy bear 72.5 m away in a house 14 m across (rooms 14).
-FAR_SEEN_S = 1.0
 MIN_LEASE_S = 0.1
 MAX_GOAL_CHARS = 1000
 _ID = re.compile(r"[A-Za-z0-9_.:-]{1,64}")
@@ -153,22 +150,6 @@ def too_far(kind: str | None, distance_m: float | None, max_go_to_m: float) -> s
     if distance_m <= max_go_to_m:
         return None
     return f"refused: the object is {distance_m:.1f} m away, beyond max_go_to_m = {max_go_to_m:g} m"
-
-
-@dataclass
-class FarSeen:
-    """The seen object's range for `too_far`: beyond max_go_to_m only once it has been for FAR_SEEN_S
-    without a break (until then None: as if unranged)."""
-
-    since: float | None = None  # when the range went beyond max_go_to_m
-
-    def check(self, distance_m: float | None, now: float, max_go_to_m: float) -> float | None:
-        far = distance_m is not None and max_go_to_m > 0 and math.isfinite(distance_m) and distance_m > max_go_to_m
-        if not far:
-            self.since = None
-            return distance_m
-        self.since = now if self.since is None else self.since
-        return distance_m if now - self.since >= FAR_SEEN_S else None
 
 
 def goal_end(
