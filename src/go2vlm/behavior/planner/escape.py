@@ -14,8 +14,7 @@ import math
 
 import numpy as np
 
-from go2vlm.behavior.planner.local import REVERSE_SPEED, TURN_ONLY_VX, PlannerParams, reverse, unstick
-from go2vlm.world.poses import wrap_angle
+from go2vlm.behavior.planner.local import REVERSE_SPEED, TURN_ONLY_VX, PlannerParams, Steer, behind, reverse, unstick
 
 __all__ = ["REVERSE_HOLD_S", "Escape"]
 
@@ -36,11 +35,11 @@ class Escape:
     ) -> tuple[float, float, str] | None:  # fmt: skip
         """(vx, wz, why) instead of the command (vx, wz), or None: it stands. `scan`: the fresh scan's
         points (base frame; None: none); `walk` and `toward` as local.py `unstick`'s."""
-        behind = toward is not None and abs(wrap_angle(toward)) > math.pi / 2
-        if toward is not None and behind and now < self.reverse_until and vx <= TURN_ONLY_VX:
+        back_on = toward is not None and behind(toward)
+        if toward is not None and back_on and now < self.reverse_until and vx <= TURN_ONLY_VX:
             back = reverse(scan, toward, p, "keeping on")
             if back is not None:
-                return back.vx, max(-max_angular, min(max_angular, back.wz)), back.note
+                return _bounded(back, max_angular)
         self.reverse_until = -math.inf
         ow, kept = self.other_way, None
         if ow is not None and now < ow[1] and vx <= TURN_ONLY_VX and wz * ow[0] < 0:
@@ -51,8 +50,13 @@ class Escape:
         back = unstick(vx, wz, scan, p, walk, toward)
         if back is None:
             return kept
-        if back.vx < 0.0 and behind:
+        if back.vx < 0.0 and back_on:
             self.reverse_until = now + REVERSE_HOLD_S
         if back.vx == 0.0 and back.wz * wz < 0 and self.other_way is None:
             self.other_way = (math.copysign(1.0, back.wz), now + math.pi / max(abs(back.wz), 1e-3))
-        return max(back.vx, -REVERSE_SPEED), max(-max_angular, min(max_angular, back.wz)), back.note
+        return _bounded(back, max_angular)
+
+
+def _bounded(st: Steer, max_angular: float) -> tuple[float, float, str]:
+    """`st` as (vx, wz, why), backing no faster than REVERSE_SPEED and turning within max_angular."""
+    return max(st.vx, -REVERSE_SPEED), max(-max_angular, min(max_angular, st.wz)), st.note

@@ -54,6 +54,7 @@ __all__ = [
     "TURN_ONLY_VX",
     "PlannerParams",
     "Steer",
+    "behind",
     "corridor_free",
     "reverse",
     "steer",
@@ -228,11 +229,16 @@ def unstick(
     elif _sweep_ok(pts, zero, zero, turn, p):
         return None
     why = "too near something to turn"
-    if toward is not None and abs(_wrap(toward)) > math.pi / 2:
+    if toward is not None and behind(toward):
         back = reverse(pts, toward, p, why)
         if back is not None:
             return back
     return _back_away(pts, wz, p, n, why, walk=vx if vx > TURN_ONLY_VX else walk)
+
+
+def behind(toward: float) -> bool:
+    """Does the way on at `toward` (rad, + left) lie behind the robot (backed towards, not turned to)?"""
+    return abs(_wrap(toward)) > math.pi / 2
 
 
 def reverse(points: np.ndarray | None, toward: float, p: PlannerParams, why: str = "") -> Steer | None:

@@ -159,9 +159,9 @@ class Context:
     def base_distance(self, now: float) -> float | None:
         """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
         the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer, but not
-        below SCAN_AGREE of it (the
-        box's bottom edge cut by the image when it is near; a range by an assumed size that is off:
-        a cone ranged at 1.2 m stood 0.65 m away, where the guard held every step closer)."""
+        below SCAN_AGREE of it (the box's bottom edge cut by the image when it is near; a range by an
+        assumed size that is off: a cone ranged at 1.2 m stood 0.65 m away, where the guard held every
+        step closer)."""
         s = self.sighting
         if not self.confirmed(now) or s is None:
             return None

@@ -22,11 +22,11 @@ from go2vlm.behavior.control import approach_command
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, line_cells, passable, plan_path
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.world.occupancy import LETHAL
 
 __all__ = ["DEFAULT_VIEW", "RouteTo", "follow_waypoint", "line_of_sight"]
 
 DEFAULT_VIEW = math.radians(73.0)  # the head camera's, until a tracker report has said
-OBSTACLE = 100  # a costmap cell that is an obstacle (or within the footprint's inscribed radius of one)
 
 
 def follow_waypoint(
@@ -45,7 +45,7 @@ def follow_waypoint(
 def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, skip_m: float) -> bool:
     """Is the straight way from the robot at `a` to the object at `b` known and passable on `cm`, but
     for `skip_m` round `b` (the object is itself an obstacle) and the inflation within `escape_m` of
-    `a` (the robot may stand in it)? An obstacle cell (100) near the robot still blocks: a wall
+    `a` (the robot may stand in it)? An obstacle cell (LETHAL) near the robot still blocks: a wall
     0.6 m from it, with the remembered object 1.8 m away behind it, was taken for a straight way,
     and the robot pushed at the wall for three minutes (rooms 6)."""
     line = line_cells(cm.cell(*a), cm.cell(*b))
@@ -53,7 +53,7 @@ def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p
     if not ((line[:, 0] >= 0) & (line[:, 0] < h) & (line[:, 1] >= 0) & (line[:, 1] < w)).all():
         return False
     xy = cm.world(line[:, 0], line[:, 1])
-    near_a = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) <= p.escape_m) & (cm.data[line[:, 0], line[:, 1]] < OBSTACLE)
+    near_a = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) <= p.escape_m) & (cm.data[line[:, 0], line[:, 1]] < LETHAL)
     check = ~near_a & (np.hypot(xy[:, 0] - b[0], xy[:, 1] - b[1]) > skip_m)
     return bool(passable(cm, line[check], replace(p, unknown_cost=math.inf)).all())
 
