@@ -257,3 +257,36 @@ def test_a_route_behind_in_a_corridor_is_walked_backwards_under_the_guards_rule(
 
     assert run(True) < 0.4
     assert run(False) > 2.0
+
+
+def test_a_route_turn_wedged_in_edges_out_and_gets_away() -> None:
+    """Rooms 37: backed up to within 0.28 m of a wall, with furniture at the front-left corner. No turn
+    keeps the margin (the tail swings into the wall), nor 0.3 m straight on or back; the guard held the
+    route's left turn at zero for 65 s. It edges out along a short forward arc and then walks the
+    route's way, each step applied only as the guard would. Without the edge-out it stands for ever."""
+    from go2vlm.behavior.planner.escape import Escape
+
+    ys = np.linspace(-1.0, 1.0, 101)
+    wall = np.c_[np.full_like(ys, -P.half_length - 0.283), ys]  # behind, inside the guard's margin
+    front = np.array([[0.51, 0.43], [0.54, 0.42], [0.57, 0.416], [0.61, 0.41], [0.64, 0.40], [0.73, 0.39],
+                      [0.79, 0.384], [0.507, 0.457], [0.527, 0.509], [0.536, 0.595], [0.551, 0.706]])  # fmt: skip
+    world = np.vstack([wall, front])
+    assert unstick(0.0, W, world, P) is None  # a search's turn in place: held, as before
+    out = unstick(0.0, W, world, P, walk=BACK_SPEED)
+    assert out is not None and out.vx == BACK_SPEED and out.wz == -BACK_TURN and "edging out" in out.note
+    esc, (x, y, yaw), dt, goal = Escape(), (0.0, 0.0, 0.0), 0.05, (0.0, 2.5)  # the way on: left, past the furniture
+    for k in range(1200):
+        if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
+            break
+        bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.3 else (0.4, 1.5 * bearing)
+        res = esc.step(vx, wz, k * dt, _to_base(world, x, y, yaw), P, max_angular=W, walk=BACK_SPEED, toward=bearing)
+        if res is not None:
+            vx, wz = res[0], res[1]
+        nyaw = yaw + wz * dt
+        nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
+        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
+            x, y, yaw = nx, ny, nyaw
+    assert math.hypot(goal[0] - x, goal[1] - y) < 0.4, (x, y, yaw)
+    assert _clearance(world, x, y, yaw) > 0.0

@@ -35,6 +35,7 @@ def test_any_report_becomes_a_sighting_and_bad_ones_say_lost(
         assert bad is None and math.isfinite(s.x)
         assert s.distance is None or 0.0 <= s.distance < 1000.0
         assert math.isnan(s.bearing) or abs(s.bearing) < math.pi
+        assert math.isnan(s.width) or 0.0 < s.width < math.pi
     elif bad is not None:
         assert s.state == "lost" and not s.tracked
 
@@ -46,3 +47,14 @@ def test_a_box_in_the_image_gives_its_centre_offset(w: int, h: int, fx: float, f
     s, bad = sighting_of(msg, 0.0)
     assert bad is None and s.tracked
     assert abs(s.x - (2.0 * fx - 1.0)) < 1e-9  # -1 at the left edge, +1 at the right
+
+
+def test_a_box_gives_its_angular_width() -> None:
+    """A box across the whole image of a 73 degree camera is 73 degrees wide; a centred tenth of it, by
+    the pinhole, 2 atan(tan(36.5 deg) / 10)."""
+    hfov = math.radians(73)
+    for sx, want in ((640.0, hfov), (64.0, 2 * math.atan(math.tan(hfov / 2) / 10))):
+        box = BoundingBox2D(Pose2D(Point2D(320.0, 240.0)), sx, 12.0)
+        msg = TrackedTarget(label="tray", state=TRACKING, bbox=box, image_width=640, image_height=480, hfov_rad=hfov)
+        s, _ = sighting_of(msg, 0.0)
+        assert abs(s.width - want) < 1e-9

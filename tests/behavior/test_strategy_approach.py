@@ -164,3 +164,29 @@ def test_a_look_for_whose_turn_is_held_is_found_in_view_all_the_same() -> None:
     assert states[0] == "aligning" and states[-1] == "found", states
     assert 0.1 * (len(states) - 1) == pytest.approx(ALIGN_FOUND_S, abs=0.15)
     assert "25 deg to the left" in cmd.reason and "not centred" in cmd.reason
+
+
+def test_a_thin_thing_on_the_bearing_of_a_wider_target_does_not_range_it() -> None:
+    """Rooms 40: a table leg 6 cm wide stood on the bearing of the tray, 2.3 m away and ranged about
+    1.7 m; its return ranged the tray at 0.84 m and ended the go to `reached` 1.5 m short. A return
+    counts only where what it hits spans at least SCAN_COVER of the box's angular width."""
+    import pytest
+
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.sighting import Sighting
+    from go2vlm.behavior.strategies.base import SCAN_COVER, Context
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    p = MissionParams()
+    cf = p.camera_forward_m
+    ctx = Context(p, goal=parse_goal("go to the tray"), view=math.radians(73))
+    width = math.radians(10.0)
+    ctx.sighting = Sighting(1.0, "tray", "tracking", 0.0, 1.7, "bottom", 0.0, math.radians(73), width)
+    ctx.last_seen = 1.0
+    leg = np.array([[cf + 0.84, 0.0], [cf + 0.86, 0.01]])
+    ctx.scan = (leg, 1.0)
+    assert ctx.base_distance(1.0) == pytest.approx(1.7 + cf, abs=0.01)  # the leg: not the tray
+    for cover, want in ((SCAN_COVER + 0.1, 0.84 + cf), (SCAN_COVER - 0.1, 1.7 + cf)):
+        a = np.linspace(-cover * width / 2, cover * width / 2, 7)
+        ctx.scan = (np.column_stack([cf + 0.84 * np.cos(a), 0.84 * np.sin(a)]), 1.0)
+        assert ctx.base_distance(1.0) == pytest.approx(want, abs=0.01), cover

@@ -27,6 +27,7 @@ class Sighting:
     range_method: str = "none"
     bearing: float = math.nan  # rad from the camera's axis, + left (NaN: not known)
     hfov: float = math.nan  # the camera's horizontal field of view (rad) the tracker's bearings come from
+    width: float = math.nan  # rad: the box's angular width (a centred pinhole of `hfov`; NaN: not known)
 
     @property
     def tracked(self) -> bool:
@@ -51,4 +52,9 @@ def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     d = msg.distance_m
     distance = float(d) if math.isfinite(d) and 0.0 <= d < 1000.0 else None
     bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
-    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov), None
+    width = math.nan
+    if math.isfinite(hfov) and 0.0 < hfov < math.pi:
+        f = (w / 2.0) / math.tan(hfov / 2.0)
+        u1, u2 = b.center.position.x - b.size_x / 2.0 - w / 2.0, b.center.position.x + b.size_x / 2.0 - w / 2.0
+        width = math.atan(u2 / f) - math.atan(u1 / f)
+    return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov, width), None

@@ -28,8 +28,11 @@ guard's way, it does not replace it.
   back while that is clear; a straight walk whose first HOLD_CHECK_M the guard would refuse (inside
   the margin already, it allows no step closer) backs straight away; a walking turn with no room
   behind walks on straight (at most BACK_SPEED) where that is clear (room to turn in later), and a turn
-  with no room behind turns the other way round where that is clear; with none of these clear the
-  command stays as it was (the guard holds it, and says so).
+  with no room behind turns the other way round where that is clear; a route's turn wedged in a spot
+  where none of these is clear edges out along a short forward arc (EDGE_CHECK_M) that gains
+  clearance: backed up to a wall inside the guard's margin, with something at the front corner, no
+  turn and no straight step kept the margin, and the robot stood at zero for 65 s (rooms 37); with
+  none of these clear the command stays as it was (the guard holds it, and says so).
 - A held turn towards a way on that lies behind the robot (`toward`, a route's waypoint) backs towards
   it first (`reverse`: at REVERSE_SPEED, the rear turned onto it), as a driver reverses out of a
   narrow lane rather than turning in it. In a 1.5 m corridor a Go2 standing askew, off the middle,
@@ -69,6 +72,7 @@ BACK_TURN = 0.4  # rad/s: the turn while backing away, towards the turn it could
 HOLD_CHECK_M = 0.03  # m: a straight walk whose first this much the guard would refuse is held at zero
 ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
 REVERSE_SPEED = 0.25  # m/s: backing towards a way on behind the robot (a walk, not an escape)
+EDGE_CHECK_M = 0.15  # m of a short forward arc out of a wedge that must keep the margin and gain clearance
 
 
 @dataclass(frozen=True)
@@ -283,4 +287,25 @@ def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, w
         return Steer(min(walk, BACK_SPEED), 0.0, 0.0, True, f"{why}, nor back: walking on straight to turn later")
     if _sweep_ok(pts, zero, zero, np.linspace(0.0, -math.copysign(TURN_SWEEP, wz), n), p):
         return Steer(0.0, -wz, -wz, True, f"{why}, nor back: turning the other way round")
-    return None
+    return _edge_out(pts, wz, p, n, why, walk)
+
+
+def _edge_out(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float) -> Steer | None:
+    """A route's turn wedged in (module docstring): the forward arc (no faster than `walk`, turning
+    BACK_TURN either way, the wanted way first) whose EDGE_CHECK_M keeps the margin and ends with the
+    most clearance, more than now; None: none does, or it may not walk (`walk` 0)."""
+    if walk <= 0.0:
+        return None
+    v = min(walk, BACK_SPEED)
+    t = np.linspace(0.0, EDGE_CHECK_M / v, 2 * n)
+    now = float(_clearances(pts, np.zeros(1), np.zeros(1), np.zeros(1), p)[0])
+    best: tuple[float, float] | None = None
+    for w in (math.copysign(BACK_TURN, wz), -math.copysign(BACK_TURN, wz)):
+        arc = _arc(v, w, t)
+        if _sweep_ok(pts, *arc, p):
+            end = float(_clearances(pts, arc[0][-1:], arc[1][-1:], arc[2][-1:], p)[0])
+            if end > now + 1e-3 and (best is None or end > best[1]):
+                best = (w, end)
+    if best is None:
+        return None
+    return Steer(v, best[0], 0.0, True, f"{why}, nor back: edging out of a tight spot")
