@@ -190,3 +190,28 @@ def test_a_thin_thing_on_the_bearing_of_a_wider_target_does_not_range_it() -> No
         a = np.linspace(-cover * width / 2, cover * width / 2, 7)
         ctx.scan = (np.column_stack([cf + 0.84 * np.cos(a), 0.84 * np.sin(a)]), 1.0)
         assert ctx.base_distance(1.0) == pytest.approx(want, abs=0.01), cover
+
+
+def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> None:
+    """Rooms 14: one frame ranged a sliver of the teddy bear, beside a door jamb 8 m away, at 72.5 m by
+    its size, and the go to was refused. A range by size beyond the cap counts only after FAR_HOLD_S of
+    such ranges; a range by the bottom edge counts at once; a range within the cap starts the hold again."""
+    from go2vlm.behavior.goals import parse_goal
+    from go2vlm.behavior.sighting import Sighting
+    from go2vlm.behavior.strategies.base import FAR_HOLD_S, Context
+    from go2vlm.behavior.strategies.params import MissionParams
+
+    p = MissionParams()
+    cf, cap = p.camera_forward_m, 25.0
+    ctx = Context(p, goal=parse_goal("go to the teddy bear"), view=math.radians(73))
+
+    def seen(t: float, d: float, method: str) -> float | None:
+        ctx.sighting, ctx.last_seen = Sighting(t, "teddy bear", "tracking", 0.0, d, method, 0.0, 1.27), t
+        return ctx.capped_distance(t, cap)
+
+    assert seen(1.0, 72.5, "size") is None
+    assert seen(1.0 + FAR_HOLD_S / 2, 40.0, "default_size") is None
+    assert seen(1.0 + FAR_HOLD_S / 2 + 0.1, 8.0, "size") == 8.0 + cf  # within the cap: no hold
+    assert seen(2.0, 72.5, "size") is None  # the hold starts again
+    assert seen(2.0 + FAR_HOLD_S, 72.5, "size") == 72.5 + cf  # it held: the cap refuses it
+    assert seen(4.0, 30.0, "bottom") == 30.0 + cf  # by the bottom edge: at once

@@ -365,7 +365,7 @@ class CommanderNode(Node):
         m, now, cfg = self.mission, self.clock.monotonic(), self.config
         if not m.active or m.goal is None:
             return
-        if (far := m.base_distance(now)) is None and (why := m.drop_far_memory(now, cfg.max_go_to_m)):
+        if (far := m.base_distance(now, cfg.max_go_to_m)) is None and (why := m.drop_far_memory(now, cfg.max_go_to_m)):
             self.log.warning(why)
         lease_why = self._lease.expired(time.monotonic()) if self._lease is not None else None
         end = goal_end(lease_why, self._goal_t0, now, cfg.max_goal_s, m.goal.kind, far, cfg.max_go_to_m)

@@ -198,9 +198,9 @@ class Mission:
         """The newest sighting of the goal's object says tracking, and is fresh."""
         return self.ctx.confirmed(now)
 
-    def base_distance(self, now: float) -> float | None:
-        """Base centre -> the object's surface, while confirmed and ranged."""
-        return self.ctx.base_distance(now)
+    def base_distance(self, now: float, cap: float = 0.0) -> float | None:
+        """Base centre -> the object's surface, while confirmed and ranged (as a go-to `cap` judges it)."""
+        return self.ctx.capped_distance(now, cap) if cap > 0 else self.ctx.base_distance(now)
 
     def drop_far_memory(self, now: float, max_go_to_m: float) -> str | None:
         """A go to's remembered target beyond max_go_to_m is given up (most likely misplaced: a

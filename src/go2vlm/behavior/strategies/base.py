@@ -42,6 +42,10 @@ SCAN_AGREE = 0.45
 # a tray 2.3 m away, ended "go to the tray" `reached` 1.5 m short, rooms 40)
 SCAN_DEPTH_M = 0.25
 SCAN_COVER = 0.4
+# A range by the object's size puts it beyond the go-to cap only once it has held this long: a sliver of
+# a teddy bear beside a door jamb, 8 m away, was ranged 72.5 m in one frame and the go to refused (rooms 14)
+FAR_HOLD_S = 1.0
+SIZE_METHODS = ("size", "default_size")
 
 
 @dataclass(frozen=True)
@@ -107,6 +111,7 @@ class Context:
         default_factory=lambda: PoseHistory(horizon_s=POSES_KEPT_S, max_extrapolation_s=VIEW_POSE_S)
     )
     viewed_through: float = -math.inf  # the newest answered frame already in `coverage`
+    far_since: float | None = None  # since when a range by size has put the target beyond the go-to cap
     align_since: float | None = None  # when a look for's turn to centre a confirmed target began
 
     # -- the goal ------------------------------------------------------------------------------
@@ -127,6 +132,7 @@ class Context:
         self.look.forget()
         self.coverage.reset()
         self.viewed_through = self.answers.through if self.answers.through is not None else -math.inf
+        self.far_since = None
 
     def observe_view(self) -> None:
         """The newest answered frame has looked at the world (world/coverage.py), from the pose the
@@ -164,9 +170,9 @@ class Context:
     def base_distance(self, now: float) -> float | None:
         """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
         the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer, but not
-        below SCAN_AGREE of it (the box's bottom edge cut by the image when it is near; a range by an
-        assumed size that is off: a cone ranged at 1.2 m stood 0.65 m away, where the guard held every
-        step closer)."""
+        below SCAN_AGREE of it, and where what it hits is as wide as the box (SCAN_COVER) (the box's
+        bottom edge cut by the image when it is near; a range by an assumed size that is off: a cone
+        ranged at 1.2 m stood 0.65 m away, where the guard held every step closer)."""
         s = self.sighting
         if not self.confirmed(now) or s is None:
             return None
@@ -176,10 +182,21 @@ class Context:
             return None if own is None else own + cf
         scan = self.fresh_scan(now)
         d = nearest_return(scan, (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        if d is not None and d <= SCAN_RANGE_M and (own is None or SCAN_AGREE * (own + cf) <= d + cf < own + cf):
-            if scan is not None and _as_wide(scan, (cf, 0.0), d, s.bearing, s.width):
-                return d + cf
+        agrees = d is not None and d <= SCAN_RANGE_M and (own is None or SCAN_AGREE * (own + cf) <= d + cf < own + cf)
+        if agrees and d is not None and scan is not None and _as_wide(scan, (cf, 0.0), d, s.bearing, s.width):
+            return d + cf
         return None if own is None else own + cf
+
+    def capped_distance(self, now: float, cap: float) -> float | None:
+        """`base_distance` as the go-to cap (`cap` m) judges it: a range by the object's size beyond the
+        cap counts only once such ranges have held FAR_HOLD_S (None until then)."""
+        d, s = self.base_distance(now), self.sighting
+        if d is None or d <= cap or s is None or s.range_method not in SIZE_METHODS:
+            self.far_since = None
+            return d
+        if self.far_since is None:
+            self.far_since = now
+        return d if now - self.far_since >= FAR_HOLD_S else None
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
@@ -266,4 +283,3 @@ def _as_wide(points: np.ndarray, origin: tuple[float, float], d: float, bearing:
     ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
     hit = (np.abs(ang - bearing) <= width / 2.0) & (rng >= d - 1e-6) & (rng <= d + SCAN_DEPTH_M) & (rel[:, 0] > 0.0)
     return bool(hit.any() and float(ang[hit].max() - ang[hit].min()) >= SCAN_COVER * width)
-
