@@ -140,3 +140,36 @@ def test_look_for_does_not_walk_the_route_to_what_the_tracker_just_saw() -> None
     ctx.last_seen = 8.0  # 2 s ago: in sight, whatever the map says
     cmd = s.step(ctx, 10.0)
     assert cmd is not None and "can be seen" not in cmd.reason and cmd.vx == 0.0
+
+
+def test_a_remembered_place_with_no_route_and_a_blocked_way_is_given_up() -> None:
+    """Rooms 14: bad ranges placed the teddy bear beyond the outer wall; with no route on the map and
+    the straight way blocked by the wall, the robot pushed at it for 100 s, 1.2 m from the bear. After
+    UNREACHABLE_S of that the memory is given up and the search takes over; a free way keeps it."""
+    from go2vlm.behavior.strategies.remembered import UNREACHABLE_S
+
+    s = GoToRemembered()
+    ctx = ctx_at(3.0, -2.0, math.pi, two_rooms(door=False))
+    ys = np.linspace(-1.5, 1.5, 61)
+    wall = np.c_[np.full_like(ys, 0.9), ys]  # the middle wall, 0.9 m ahead across the way
+    now = 10.0
+    while True:
+        ctx.pose, ctx.scan = Pose(3.0, -2.0, math.pi, now), (wall, now)
+        ctx.target_obj = s.pick(ctx)
+        if ctx.target_obj is None:
+            break
+        cmd = s.step(ctx, now)
+        if cmd is None:
+            break
+        assert cmd.state == "detouring" and now - 10.0 <= UNREACHABLE_S, cmd
+        now += 0.1
+    assert ctx.counters["remembered_unreachable"] == 1 and s.pick(ctx) is None
+    assert now - 10.0 >= UNREACHABLE_S - 1e-6
+    free = GoToRemembered()  # no wall in the scan: it walks on, and keeps the memory
+    ctx2 = ctx_at(3.0, -2.0, math.pi, two_rooms(door=False))
+    for k in range(int(UNREACHABLE_S / 0.1) + 20):
+        t = 10.0 + 0.1 * k
+        ctx2.pose, ctx2.scan = Pose(3.0, -2.0, math.pi, t), (np.zeros((0, 2)), t)
+        ctx2.target_obj = free.pick(ctx2)
+        assert free.step(ctx2, t) is not None
+    assert ctx2.counters["remembered_unreachable"] == 0

@@ -35,7 +35,9 @@ class ScanSpec:
     range_min: float = 0.05  # m
     range_max: float = 10.0  # m
     z_min: float = -0.25  # m in the base frame: ~7 cm above the floor for a standing Go2 ...
-    z_max: float = 0.35  # ... up to ~0.35 m above the back
+    # ... up to 0.77 m above the floor: a standing Go2 is 0.40 m tall, and walking under a dining table
+    # (its top 0.69 m up, above a band to 0.67 m) put the footprint inside the table's (rooms 12, 40)
+    z_max: float = 0.45
     self_hx: float = 0.0  # half length and width of the robot's own box, left out (0 = keep all)
     self_hy: float = 0.0
 

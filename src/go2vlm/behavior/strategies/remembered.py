@@ -9,7 +9,8 @@ view is. Pure, timestamp-driven.
   looks. A place it cannot see straight on the map (a wall or unknown space on the straight line:
   another room) is walked to along the global route (route.RouteTo), through the doorway. At its
   remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
-  it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
+  it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A place with no route
+  on the map whose straight way stays blocked UNREACHABLE_S is given up (a misplaced memory).
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
   one out of sight on the map is first walked towards along the global route until it is in sight
   (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
@@ -28,9 +29,13 @@ from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["SEEN_LATELY_S", "GoToRemembered", "relative"]
+__all__ = ["SEEN_LATELY_S", "UNREACHABLE_S", "GoToRemembered", "relative"]
 
 SEEN_LATELY_S = 5.0  # look for: the tracker confirmed it this recently: it is in sight, whatever the map says
+# go to: no route on the map and the straight way blocked this long: given up (`remembered_unreachable`);
+# a teddy bear placed 0.15 m beyond the outer wall by bad ranges held the robot at that wall for 100 s,
+# 1.2 m from the bear, which a look round would have seen (rooms 14)
+UNREACHABLE_S = 15.0
 
 
 def relative(ctx: Context, o: Remembered, now: float) -> tuple[float, float] | None:
@@ -62,11 +67,13 @@ class GoToRemembered:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
         self.router = RouteTo()
+        self.unreachable_since: float | None = None  # go to: no route, the straight way blocked, since
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
         self.router.reset()
+        self.unreachable_since = None
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -89,6 +96,7 @@ class GoToRemembered:
     def give_up(self, ctx: Context, o: Remembered, counter: str) -> None:
         """Go no more to `o` (unless it is seen again): the next pick, or the search, takes over."""
         self.given_up[o.id] = o.last_seen
+        self.unreachable_since = None
         ctx.counters[counter] += 1
         if ctx.target_obj is o:
             ctx.target_obj = None
@@ -144,6 +152,13 @@ class GoToRemembered:
                 reason = f"{where}, {rest:.1f} m along the route (memory, confidence {o.confidence:.2f})"
                 return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
+            if st is None or not st.blocked or not self.router.reason:
+                self.unreachable_since = None
+            elif self.unreachable_since is None:
+                self.unreachable_since = now
+            elif now - self.unreachable_since >= UNREACHABLE_S:
+                self.give_up(ctx, o, "remembered_unreachable")
+                return None
             if st is not None and st.blocked:
                 return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
             reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})"
