@@ -304,3 +304,48 @@ def test_a_new_query_starts_from_nothing() -> None:
 )
 def test_label_match(query: str, label: str, score: int) -> None:
     assert label_match(parse_label(query), label) == score
+
+
+def test_a_tracked_blob_that_is_not_the_whole_object_is_ranged_by_the_answers_box() -> None:
+    """Rooms 45: the colour blob of a dining table is its top without its dark legs, and it spread
+    onto a door of the same wood nearer the robot: ranged by the blob's bottom edge, the table stood
+    1 m away, 3.2 m short. On an answer's frame the answer's box and the blob are both ranged; where
+    they disagree, the range is the answer box's, scaled by the blob's growth since. An object whose
+    blob is the whole object is ranged by its own box, as before."""
+    from go2vlm.perception.ranging import RangeEstimator
+
+    def scene(scale: float, door: bool) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+        img = np.full((H, W, 3), 140, np.uint8)
+        cx, half = 80.0, 20.0 * scale
+        top_y1, top_y2, floor_y = 40.0 - 6 * scale, 40.0 + 2 * scale, 60.0 + 12 * scale
+        cv2.rectangle(img, (int(cx - half), int(top_y1)), (int(cx + half), int(top_y2)), BGR["green"], -1)
+        for lx in (cx - half + 2, cx + half - 4):  # dark legs: the tracker masks dark pixels out
+            cv2.rectangle(img, (int(lx), int(top_y2)), (int(lx + 2), int(floor_y)), (20, 20, 20), -1)
+        if door:  # the same colour right below it, reaching nearer rows of the floor
+            cv2.rectangle(img, (int(cx - half), int(top_y2)), (int(cx + half), int(top_y2 + 50)), BGR["green"], -1)
+        return img, (cx - half, top_y1, cx + half + 1, floor_y + 1)
+
+    for door in (False, True):
+        t = TargetTracking(TrackingParams(grounding="vlm"))
+        t.set_query("green box")
+        img, ans = scene(1.0, door)
+        t.on_frame(0.0, img, CAM)
+        assert t.add_answer(Grounding(0.0, (("green box", ans),))) is None
+        want = RangeEstimator("box").estimate(ans, CAM).distance  # the answer's box: by the legs' feet
+        assert want is not None
+        obs = t.on_frame(0.1, scene(1.0, door)[0], CAM)
+        assert obs.state == "tracking" and obs.box is not None
+        own = RangeEstimator("box").estimate(obs.box, CAM).distance
+        if door:  # the blob reaches far below the feet: its own range is far too near
+            assert obs.box[3] > ans[3] + 10 and own is not None and own < 0.6 * want
+        assert obs.distance == pytest.approx(want, rel=0.05), (door, obs)
+        obs = t.on_frame(0.2, scene(1.25, door)[0], CAM)  # a quarter bigger: 1.25 times nearer
+        assert obs.distance == pytest.approx(want / 1.25, rel=0.1), (door, obs)
+    whole = _vlm()  # a blue cylinder's blob is the whole of it: its own box ranges it
+    o = Obj("blue", 80, 70, 0.0, 0.0, 12)
+    whole.on_frame(0.0, draw([o], 0), CAM)
+    assert whole.add_answer(Grounding(0.0, (("blue cylinder", o.box(0)),))) is None
+    obs = whole.on_frame(0.1, draw([o], 1), CAM)
+    assert obs.box is not None
+    own = RangeEstimator("cylinder").estimate(obs.box, CAM, calibrate=False)
+    assert obs.distance == pytest.approx(own.distance, rel=0.05)
