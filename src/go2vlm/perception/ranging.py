@@ -74,16 +74,7 @@ class RangeEstimator:
     def calibrated(self) -> bool:
         return bool(self._sizes)
 
-    def estimate(
-        self, xyxy: tuple[float, float, float, float], cam: PinholeCamera, calibrate: bool = True
-    ) -> RangeReading:
-        """The box's range; a bottom-edge reading also calibrates the size unless `calibrate` is False."""
-        if not calibrate:
-            saved = list(self._sizes)
-            try:
-                return self.estimate(xyxy, cam)
-            finally:
-                self._sizes[:] = saved
+    def estimate(self, xyxy: tuple[float, float, float, float], cam: PinholeCamera) -> RangeReading:
         x1, y1, x2, y2 = xyxy
         b = self.border_px
         clip_l, clip_r = x1 <= b, x2 >= cam.width - 1 - b

@@ -29,14 +29,8 @@ Rules
   the last box, until an answer grounds it again. Before the first confirmed box it is `searching`.
 - A new query drops everything of the old one (track, pending answer, range calibration).
 - Ranging (perception/ranging.py) measures each tracked box, and the camera model (the frame's
-  CameraInfo) gives its centre's bearing. The tracked box is the colour blob the tracker follows,
-  which is not always the object: a dining table's blob is its top without its dark legs (its
-  bottom edge above the horizon), and a blob may spread onto a door of the same wood. So on an
-  accepted answer's frame the answer's box and the tracked box are both ranged; where they disagree
-  by more than RANGE_AGREE, the range is the answer box's, scaled by how much the tracked box has
-  grown since (its width, or its height where the sides are cut by the image); "go to the dining
-  table" had ended `reached` 3.2 m short on the blob's range (rooms 45). `grounding_age` is the
-  frame's stamp minus the stamp of the frame the last accepted answer described.
+  CameraInfo) gives its centre's bearing; `grounding_age` is the frame's stamp minus the stamp of the
+  frame the last accepted answer described.
 - The colour grounder's own answers (`grounding="color"`: each run, the frame's stamp and the box it
   found for the query, or None) are kept in `color_answers` until the caller takes them, so that they
   can be published like a VLM's (the object memory places them).
@@ -53,7 +47,7 @@ import numpy as np
 from go2vlm.declare import param
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.perception.grounding import ground
-from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator, RangeReading
+from go2vlm.perception.ranging import DEFAULT_SIZES, RangeEstimator
 from go2vlm.perception.tracker import HistTracker
 from go2vlm.robot_profile.go2 import HEAD_CAMERA_HEIGHT
 from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
@@ -71,7 +65,6 @@ __all__ = [
 Box = tuple[float, float, float, float]  # x1, y1, x2, y2 in pixels
 STATES = ("idle", "searching", "tracking", "lost", "ungroundable")
 STAMP_EPS_S = 1e-6  # stamps this close are the same frame's (float seconds from sec + nanosec)
-RANGE_AGREE = 0.25  # the tracked box's range on an answer's frame this near the answer box's: it ranges itself
 
 
 @dataclass(frozen=True)
@@ -141,30 +134,6 @@ def _xywh(box: Box) -> tuple[float, float, float, float]:
     return box[0], box[1], box[2] - box[0], box[3] - box[1]
 
 
-@dataclass
-class _Anchor:
-    """An accepted answer's box and the tracked box on the answer's frame (module docstring: ranging)."""
-
-    answer: Box
-    tracked: Box
-    reading: RangeReading | None = None  # the answer box's, once a camera model has been seen
-    agrees: bool = True  # the tracked box's range on that frame agreed with it
-
-
-def _scale(then: Box, now: Box, w: int, h: int, border: int = 3) -> float | None:
-    """How much nearer the object is now than `then` by the tracked box's growth: width over width
-    where neither box is cut at the sides, else height over height where neither is cut at the top
-    or bottom; None: no side of it is whole."""
-
-    def whole(b: Box, lo: int, hi: int) -> bool:
-        return b[lo] > border and b[hi] < (w if lo == 0 else h) - 1 - border
-
-    for lo, hi in ((0, 2), (1, 3)):
-        if whole(then, lo, hi) and whole(now, lo, hi) and now[hi] - now[lo] > 0:
-            return (then[hi] - then[lo]) / (now[hi] - now[lo])
-    return None
-
-
 def _iou(a: Box, b: Box) -> float:
     ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
     iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
@@ -191,7 +160,6 @@ class TargetTracking:
         self._last_ground = -math.inf  # color: stamp of the last grounder run while tracking
         self._misses = 0
         self._ranger = RangeEstimator(None)
-        self._anchor: _Anchor | None = None
         self.color_answers: list[tuple[float, Box | None]] = []  # (frame stamp, box or None), taken by the caller
 
     # -- inputs --------------------------------------------------------------------------------
@@ -271,7 +239,6 @@ class TargetTracking:
     # -- internals -----------------------------------------------------------------------------
     def _drop_track(self) -> None:
         self._tracker.reset()
-        self._anchor = None
         self._box = None
         self._confidence = 0.0
         self._misses = 0
@@ -357,14 +324,12 @@ class TargetTracking:
         track = tracker.update(frames[idx][1])  # the seed must hold up on its own frame
         if track is None:
             return "untrackable"
-        anchor = _Anchor(box, track.xyxy)
         for _, img in frames[idx + 1 :]:
             track = tracker.update(img)
             if track is None:
                 return "lost_in_catch_up"
         self._tracker = tracker
         self._box, self._confidence = track.xyxy, track.confidence
-        self._anchor = anchor
         return ""
 
     def _accept(self, stamp: float) -> None:
@@ -404,23 +369,7 @@ class TargetTracking:
         distance, method, bearing = None, "none", None
         if camera is not None:
             cam = camera.scaled_to(w, h)
-            reading = self._range(box, cam, w, h)
+            reading = self._ranger.estimate(box, cam)
             distance, method = reading.distance, reading.method
             bearing = cam.bearing((box[0] + box[2]) / 2.0)
         return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)
-
-    def _range(self, box: Box, cam: PinholeCamera, w: int, h: int) -> RangeReading:
-        """The tracked box's range, or the answer box's scaled by the box's growth since (module
-        docstring: ranging)."""
-        a = self._anchor
-        if a is not None and a.reading is None:  # the first frame with a camera model since the answer
-            a.reading = self._ranger.estimate(a.answer, cam)
-            own = self._ranger.estimate(a.tracked, cam, calibrate=False).distance
-            ans = a.reading.distance
-            a.agrees = ans is None or (own is not None and abs(own - ans) <= RANGE_AGREE * max(ans, 1e-6))
-        if a is None or a.agrees or a.reading is None or a.reading.distance is None:
-            return self._ranger.estimate(box, cam)
-        s = _scale(a.tracked, box, w, h)
-        if s is None:
-            return self._ranger.estimate(box, cam)
-        return RangeReading(a.reading.distance * s, a.reading.method)
