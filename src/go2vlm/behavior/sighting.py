@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from go2vlm.geometry.camera import focal_length
 from go2vlm.geometry.target import circle_target
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 
@@ -54,7 +55,7 @@ def sighting_of(msg: TrackedTarget, t: float) -> tuple[Sighting, str | None]:
     bearing = float(msg.bearing_rad) if math.isfinite(msg.bearing_rad) and abs(msg.bearing_rad) < math.pi else math.nan
     width = math.nan
     if math.isfinite(hfov) and 0.0 < hfov < math.pi:
-        f = (w / 2.0) / math.tan(hfov / 2.0)
+        f = focal_length(w, hfov)
         u1, u2 = b.center.position.x - b.size_x / 2.0 - w / 2.0, b.center.position.x + b.size_x / 2.0 - w / 2.0
         width = math.atan(u2 / f) - math.atan(u1 / f)
     return Sighting(t, msg.label, "tracking", x, distance, msg.range_method[:32], bearing, hfov, width), None
