@@ -192,6 +192,27 @@ def test_a_thin_thing_on_the_bearing_of_a_wider_target_does_not_range_it() -> No
         assert ctx.base_distance(1.0) == pytest.approx(want, abs=0.01), cover
 
 
+def test_a_box_that_fills_the_view_is_ranged_by_the_scan_where_it_has_a_return() -> None:
+    """Rooms 37: the shelf filled the view 1.01 m away, was "ranged" 0 (fills_view) and the go to ended
+    `reached` 1 cm outside success: the scan's return ranges it, so the approach walks on to the stop
+    distance; without a return it still counts as near."""
+    p = MissionParams()
+    cf = p.camera_forward_m
+    ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
+    ys = np.linspace(-1.0, 1.0, 41)
+    for face, want in ((1.0 - cf, "approaching"), (p.stop_distance_m - 0.05 - cf, "reached")):
+        ctx.scan = (np.column_stack([np.full_like(ys, cf + face), ys]), 1.0)
+        ctx.sighting = Sighting(1.0, "shelf", "tracking", 0.0, 0.0, "fills_view", 0.0, math.radians(73),
+                                math.radians(65))  # fmt: skip
+        ctx.last_seen = 1.0
+        assert ctx.base_distance(1.0) == pytest.approx(face + cf, abs=0.01)
+        cmd = Approach().step(ctx, 1.0)
+        assert cmd is not None and cmd.state == want and "(lidar)" in cmd.reason, cmd
+    ctx.scan = (np.zeros((0, 2)), 1.0)
+    assert ctx.base_distance(1.0) == pytest.approx(cf, abs=0.01)
+    assert Approach().step(ctx, 1.0).state == "reached"
+
+
 def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> None:
     """Rooms 14: one frame ranged a sliver of the teddy bear, beside a door jamb 8 m away, at 72.5 m by
     its size, and the go to was refused. A range by size beyond the cap counts only after FAR_HOLD_S of

@@ -101,6 +101,28 @@ def test_route_to_replans_when_the_door_shuts() -> None:
     assert r.next(ctx, (-4.8, -2.6), 1.0, 10.2) is None and "unreachable" in r.reason
 
 
+def test_a_route_that_still_holds_is_kept_once_the_straight_way_clears() -> None:
+    """Rooms 19: seen from the doorway the straight way to the toy chest cleared on one map and not
+    the next, and the look for flipped each second between its route and a turn to the chest. On
+    the route, with the straight way clear, the route is walked on; off it, the straight way wins."""
+    cm, duck_at = two_rooms(), (-4.8, -2.6)
+    r = RouteTo()
+    ctx = ctx_at(3.0, -2.0, 0.0, cm)
+    assert r.next(ctx, duck_at, 1.0, 10.0) is not None
+    first = r.route
+    assert first is not None
+    w = first.plan.waypoints
+    along = [a + (b - a) * t for a, b in zip(w[:-1], w[1:], strict=True) for t in np.linspace(0, 1, 20)]
+    clear = [(float(x), float(y)) for x, y in along if math.hypot(x - w[-1][0], y - w[-1][1]) > 1.0
+             and line_of_sight(cm, (x, y), duck_at, r.params, 1.0)]  # fmt: skip
+    assert clear, "the route passes no place that sees the duck straight"
+    ctx = ctx_at(*clear[0], math.pi, cm)
+    assert r.next(ctx, duck_at, 1.0, 10.5) is not None and r.route is first
+    ctx = ctx_at(-2.0, 1.5, math.pi, cm)  # far off the route, in sight: straight
+    assert line_of_sight(cm, (-2.0, 1.5), duck_at, r.params, 1.0)
+    assert r.next(ctx, duck_at, 1.0, 11.0) is None and r.route is None
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.floats(-math.pi, math.pi), st.floats(0.1, 10.0), st.floats(0.0, 30.0))
 def test_waypoint_commands_stay_within_the_limits_and_turn_first(bearing: float, dist: float, rest: float) -> None:

@@ -10,7 +10,8 @@ goal, not an obstacle.
 - The corridor towards the goal is free for `lookahead` (or up to where the robot will stop): the
   approach's own command passes unchanged (`blocked` False).
 - Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
-  the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn).
+  the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn),
+  and near the way chosen last time (`keep`, within KEEP_WINDOW) where one there is free as far.
   The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
   that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
   With none free at `margin`, the same at the narrower `squeeze` (a gap the footprint fits through
@@ -56,6 +57,8 @@ from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 __all__ = [
     "BACK_SPEED",
     "BACK_TURN",
+    "KEEP_WINDOW",
+    "STEERING",
     "TURN_ONLY_VX",
     "PlannerParams",
     "Steer",
@@ -75,6 +78,11 @@ HOLD_CHECK_M = 0.03  # m: a straight walk whose first this much the guard would 
 ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
 REVERSE_SPEED = 0.25  # m/s: backing towards a way on behind the robot (a walk, not an escape)
 EDGE_CHECK_M = 0.15  # m of a short forward arc out of a wedge that must keep the margin and gain clearance
+# rad: a way this near the one chosen last is kept before one nearer the goal's bearing. Turning in a
+# kitchen pocket, a way 5 deg right and one 95 deg left were free in turn, and the robot swung between
+# them on the spot for two minutes (rooms 28, 32)
+KEEP_WINDOW = math.radians(20.0)
+STEERING = "steering"  # a Steer's note that names a free way (not a turn with none free)
 
 
 @dataclass(frozen=True)
@@ -152,13 +160,16 @@ def steer(
     max_angular: float,
     reach_m: float | None = None,
     side: float = 0.0,
+    keep: float | None = None,
 ) -> Steer:
     """The approach's (vx, wz), or a way round the scan `points` ((N, 2), base frame, x forward).
 
     `bearing` (rad, + left) and `goal_m` (base centre -> the goal's near surface; None: unknown)
     place the goal; `reach_m` is how far the robot still has to go (default: up to the goal).
     `speed` (>= 0) is the forward speed the approach would like on a free way, `max_angular` its turn
-    rate ceiling; `side` (-1, 0, +1) the side chosen last time."""
+    rate ceiling; `side` (-1, 0, +1) the side chosen last time; `keep` (rad from the goal's bearing)
+    the way chosen last time: a way more than KEEP_WINDOW from it is taken only where none near it is
+    free as far."""
     if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
         return Steer(vx, wz, bearing, False, "")
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -173,7 +184,8 @@ def steer(
     offsets = [k * p.step for k in range(-n, n + 1)]
 
     def cost(off: float) -> float:
-        return abs(off) + (p.side_bias if side and off * side < 0 else 0.0)
+        switch = p.max_offset if keep is not None and abs(off - keep) > KEEP_WINDOW else 0.0
+        return abs(off) + (p.side_bias if side and off * side < 0 else 0.0) + switch
 
     heads = sorted(offsets, key=cost)
     free = [(bearing + off, corridor_free(pts, bearing + off, p)) for off in heads]
@@ -188,7 +200,7 @@ def steer(
                 h, f = _wrap(ok[0][0]), ok[0][1]
                 turn = max(-max_angular, min(max_angular, p.kp * h))
                 fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
-                return Steer(fwd, turn, h, True, f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg {how}")
+                return Steer(fwd, turn, h, True, f"{STEERING} {math.degrees(_wrap(h - bearing)):+.0f} deg {how}")
     # Boxed in within max_offset of the goal: turn in place (towards the side it keeps to), never
     # standing still facing a blocked way.
     h = _wrap(max(free, key=lambda hf: hf[1])[0])

@@ -14,7 +14,9 @@ import numpy as np
 
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable
 
-__all__ = ["Route"]
+__all__ = ["GROWN", "Route"]
+
+GROWN = "the map has grown"  # the one replan that says nothing is wrong with the route
 
 
 @dataclass
@@ -87,5 +89,5 @@ class Route:
             if self.blocked(cm, p, x, y):
                 return "the route is blocked on the new map"
             if now - self.t >= p.replan_period_s:
-                return "the map has grown"
+                return GROWN
         return ""

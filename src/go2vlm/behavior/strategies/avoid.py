@@ -1,6 +1,6 @@
 """The local planner's bookkeeping for every approach (a tracked target, a remembered place, a
-detour out of view): when it last had to steer round something and the side it went round on, so
-that an obstacle dead ahead is not passed left and right in turn. The steering itself is
+detour out of view): when it last had to steer round something, the side it went round on and the
+way it chose, so that an obstacle dead ahead is not passed left and right in turn. The steering itself is
 behavior/planner/local.py's; pure, timestamp-driven."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from go2vlm.behavior.control import ApproachParams, approach_command
-from go2vlm.behavior.planner import PlannerParams, Steer, steer
+from go2vlm.behavior.planner import STEERING, PlannerParams, Steer, steer
 
 __all__ = ["SIDE_MEMORY_S", "Avoider"]
 
@@ -22,9 +22,11 @@ class Avoider:
         self.detour_t: float | None = None  # when the planner last had to steer round something
         self.side = 0.0  # the side it went round on (+1 left, -1 right)
         self.side_t = -math.inf
+        self.keep: float | None = None  # the way it chose last (rad from the goal's bearing), turning or walking
+        self.keep_t = -math.inf
 
     def reset(self) -> None:
-        self.detour_t, self.side = None, 0.0
+        self.detour_t, self.side, self.keep = None, 0.0, None
 
     def steer(
         self, points: np.ndarray | None, planner: PlannerParams, vx: float, wz: float, ap: ApproachParams,
@@ -37,12 +39,15 @@ class Avoider:
         bearing, dist = goal
         speed, _, _ = approach_command(0.0, dist, ap)
         side = self.side if now - self.side_t < SIDE_MEMORY_S else 0.0
+        keep = self.keep if now - self.keep_t < SIDE_MEMORY_S else None
         st = steer(
             vx, wz, speed, bearing, dist, points, planner, max_angular=ap.max_angular,
-            reach_m=dist - ap.stop_distance, side=side,
+            reach_m=dist - ap.stop_distance, side=side, keep=keep,
         )  # fmt: skip
         if st.blocked:
             self.detour_t = now
             if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
                 self.side, self.side_t = math.copysign(1.0, st.heading - bearing), now
+            if st.note.startswith(STEERING):
+                self.keep, self.keep_t = st.heading - bearing, now
         return st

@@ -172,7 +172,8 @@ class Context:
         the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer, but not
         below SCAN_AGREE of it, and where what it hits is as wide as the box (SCAN_COVER) (the box's
         bottom edge cut by the image when it is near; a range by an assumed size that is off: a cone
-        ranged at 1.2 m stood 0.65 m away, where the guard held every step closer)."""
+        ranged at 1.2 m stood 0.65 m away, where the guard held every step closer). A box that fills
+        the view (range 0) takes the scan's return alike: a shelf was `reached` at 1.01 m, rooms 37."""
         s = self.sighting
         if not self.confirmed(now) or s is None:
             return None
@@ -182,7 +183,9 @@ class Context:
             return None if own is None else own + cf
         scan = self.fresh_scan(now)
         d = nearest_return(scan, (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        agrees = d is not None and d <= SCAN_RANGE_M and (own is None or SCAN_AGREE * (own + cf) <= d + cf < own + cf)
+        # "fills the view" says near, not how near: the scan's return, where it has one, is the range
+        ref = None if s.range_method == "fills_view" else own
+        agrees = d is not None and d <= SCAN_RANGE_M and (ref is None or SCAN_AGREE * (ref + cf) <= d + cf < ref + cf)
         if agrees and d is not None and scan is not None and _as_wide(scan, (cf, 0.0), d, s.bearing, s.width):
             return d + cf
         return None if own is None else own + cf

@@ -8,7 +8,9 @@ the safety gate and its collision guard keep the last word. Pure, timestamp-driv
 - `RouteTo`: a route to a remembered place the robot cannot see straight (the straight line crosses a
   wall, or space the map does not know): planned on the costmap preferring known free space
   (`unknown_cost`), replanned when the map blocks it, the robot strays, or the map grows; None while
-  the straight way is clear (the direct approach does better there) or without a map.
+  the straight way is clear (the direct approach does better there) or without a map. A route that
+  still holds is walked on though the straight way clears: seen from a doorway, a look for flipped
+  each second between its route and a turn to a place the camera could not see (rooms 19).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 
 from go2vlm.behavior.control import approach_command
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, line_cells, passable, plan_path
-from go2vlm.behavior.planner.route import Route
+from go2vlm.behavior.planner.route import GROWN, Route
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.world.occupancy import LETHAL
 
@@ -80,13 +82,14 @@ class RouteTo:
             self.route = None
             return None
         p = replace(self.params, goal_tolerance_m=max(self.params.goal_tolerance_m, reach_m))
-        if line_of_sight(cm, (pose.x, pose.y), target, p, skip_m=max(p.escape_m, reach_m)):
-            self.route, self.reason = None, ""
-            return None
+        sight = line_of_sight(cm, (pose.x, pose.y), target, p, skip_m=max(p.escape_m, reach_m))
         r = self.route
-        why = "" if r is not None and r.goal == target else "new"
+        why = "" if r is not None and r.goal == target and not r.done else "new"
         if not why and r is not None:
             why = r.needs_replan(cm, pose.x, pose.y, now, p)
+        if sight and why and why != GROWN:  # a route that still holds is kept: the straight way flickers (rooms 19)
+            self.route, self.reason = None, ""
+            return None
         if why:
             plan = plan_path(cm, (pose.x, pose.y), [target], p)
             if not plan.ok:
