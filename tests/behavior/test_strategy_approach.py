@@ -213,6 +213,35 @@ def test_a_box_that_fills_the_view_is_ranged_by_the_scan_where_it_has_a_return()
     assert Approach().step(ctx, 1.0).state == "reached"
 
 
+def test_a_range_far_short_of_the_remembered_object_on_its_bearing_gives_way_to_the_memory() -> None:
+    """Rooms 37: the tracker's box spread onto a door leaf of the shelf's wood, ranged 1.0 m (bottom),
+    and the go to ended `reached` 7.4 m short, while the memory held the shelf, seen 0.5 s before,
+    8 m away on that bearing. A confident, fresh remembered object of the goal's label on the bearing,
+    far beyond the range, is the range; an old, unsure, off-bearing or near one is not."""
+    from go2vlm.behavior.strategies.base import MEMORY_FRESH_S
+    from go2vlm.world.objects_msg import Remembered
+
+    p = MissionParams()
+    cf = p.camera_forward_m
+    ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
+    ctx.pose = Pose(0.0, 0.0, 0.0, 10.0)
+    ctx.scan = (np.zeros((0, 2)), 10.0)
+    ctx.sighting = Sighting(10.0, "shelf", "tracking", 0.0, 1.0, "bottom", 0.0, math.radians(73), math.radians(8))
+    ctx.last_seen = 10.0
+
+    def shelf(x: float, y: float = 0.0, conf: float = 0.9, seen: float = 9.5, label: str = "shelf") -> Remembered:
+        return Remembered("s1", label, x, y, 0.5, (1.0, 1.0, 1.0), conf, seen, (0.01, 0.0, 0.01))
+
+    ctx.memory = [shelf(8.5)]
+    assert ctx.base_distance(10.0) == pytest.approx(8.0, abs=0.01) and ctx.ranged_by == "memory"
+    cmd = Approach().step(ctx, 10.0)
+    assert cmd is not None and cmd.state != "reached" and "(memory)" in cmd.reason
+    for other in (shelf(8.5, conf=0.3), shelf(8.5, seen=10.0 - MEMORY_FRESH_S - 0.5), shelf(8.5, y=4.0),
+                  shelf(2.2), shelf(8.5, label="duck")):  # fmt: skip
+        ctx.memory = [other]
+        assert ctx.base_distance(10.0) == pytest.approx(1.0 + cf, abs=0.01) and ctx.ranged_by == "bottom", other
+
+
 def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> None:
     """Rooms 14: one frame ranged a sliver of the teddy bear, beside a door jamb 8 m away, at 72.5 m by
     its size, and the go to was refused. A range by size beyond the cap counts only after FAR_HOLD_S of

@@ -50,8 +50,7 @@ class Approach:
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)
         vx, wz, reached = approach_command(s.x, dist, ap)
-        own = s.distance is not None and dist == s.distance + ctx.params.camera_forward_m
-        method = s.range_method if own else "lidar"  # ctx.base_distance took the scan's return
+        method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
