@@ -330,6 +330,6 @@ def test_keeps_near_the_way_it_chose_while_that_stays_free() -> None:
     assert first.blocked and first.heading < 0  # the nearest free way: round the wall's right end
     kept = steer(0.0, 0.0, 0.4, 0.0, 3.5, wall, P, max_angular=W, keep=math.radians(95))
     assert kept.blocked and abs(kept.heading - math.radians(95)) <= KEEP_WINDOW + 1e-9
-    left_shut = np.vstack([wall, [[x, 1.2] for x in np.linspace(-1.5, 1.5, 61)]])
+    left_shut = np.vstack([wall, [[x, 0.8] for x in np.linspace(-1.5, 1.5, 61)]])
     again = steer(0.0, 0.0, 0.4, 0.0, 3.5, left_shut, P, max_angular=W, keep=math.radians(95))
     assert again.blocked and again.heading < 0

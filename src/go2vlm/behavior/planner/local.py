@@ -11,7 +11,8 @@ goal, not an obstacle.
   approach's own command passes unchanged (`blocked` False).
 - Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
   the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn),
-  and near the way chosen last time (`keep`, within KEEP_WINDOW) where one there is free as far.
+  and, before all of these, near the way chosen last time (`keep`, within KEEP_WINDOW) while one there
+  is free at all.
   The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
   that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
   With none free at `margin`, the same at the narrower `squeeze` (a gap the footprint fits through
@@ -168,8 +169,8 @@ def steer(
     place the goal; `reach_m` is how far the robot still has to go (default: up to the goal).
     `speed` (>= 0) is the forward speed the approach would like on a free way, `max_angular` its turn
     rate ceiling; `side` (-1, 0, +1) the side chosen last time; `keep` (rad from the goal's bearing)
-    the way chosen last time: a way more than KEEP_WINDOW from it is taken only where none near it is
-    free as far."""
+    the way chosen last time: a way within KEEP_WINDOW of it that is free at all (min_free, at the
+    margin or the squeeze) comes before any other."""
     if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
         return Steer(vx, wz, bearing, False, "")
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -184,8 +185,7 @@ def steer(
     offsets = [k * p.step for k in range(-n, n + 1)]
 
     def cost(off: float) -> float:
-        switch = p.max_offset if keep is not None and abs(off - keep) > KEEP_WINDOW else 0.0
-        return abs(off) + (p.side_bias if side and off * side < 0 else 0.0) + switch
+        return abs(off) + (p.side_bias if side and off * side < 0 else 0.0)
 
     heads = sorted(offsets, key=cost)
     free = [(bearing + off, corridor_free(pts, bearing + off, p)) for off in heads]
@@ -193,14 +193,16 @@ def steer(
     if p.squeeze < p.margin:  # a narrow gap, at the squeeze's margin
         tight = replace(p, margin=p.squeeze)
         passes.append(([(bearing + off, corridor_free(pts, bearing + off, tight)) for off in heads], "through a gap"))
-    for ways, how in passes:
-        for want in (need, need / 2, p.min_free):  # a shorter free way is still progress
-            ok = [(h, f) for h, f in ways if f >= want]
-            if ok:
-                h, f = _wrap(ok[0][0]), ok[0][1]
-                turn = max(-max_angular, min(max_angular, p.kp * h))
-                fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
-                return Steer(fwd, turn, h, True, f"{STEERING} {math.degrees(_wrap(h - bearing)):+.0f} deg {how}")
+    tiers = [(ways, how, want) for ways, how in passes for want in (need, need / 2, p.min_free)]
+    # A shorter free way is still progress. Near the way kept, any free way comes first.
+    near = [keep] if keep is not None else []
+    for k, (ways, how, want) in [(k, t) for k in near for t in tiers] + [(None, t) for t in tiers]:
+        ok = [(h, f) for h, f in ways if f >= want and (k is None or abs(_wrap(h - bearing - k)) <= KEEP_WINDOW)]
+        if ok:
+            h, f = _wrap(ok[0][0]), ok[0][1]
+            turn = max(-max_angular, min(max_angular, p.kp * h))
+            fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
+            return Steer(fwd, turn, h, True, f"{STEERING} {math.degrees(_wrap(h - bearing)):+.0f} deg {how}")
     # Boxed in within max_offset of the goal: turn in place (towards the side it keeps to), never
     # standing still facing a blocked way.
     h = _wrap(max(free, key=lambda hf: hf[1])[0])
