@@ -17,7 +17,7 @@ from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.behavior.strategies.base import Context, Pose
 from go2vlm.behavior.strategies.params import MissionParams
 from go2vlm.behavior.strategies.remembered import GoToRemembered
-from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint, line_of_sight
+from go2vlm.behavior.strategies.route import WAYPOINT_ALIGN_STOP, RouteTo, follow_waypoint, line_of_sight
 from go2vlm.world.objects_msg import Remembered
 
 RES = 0.05
@@ -131,7 +131,7 @@ def test_waypoint_commands_stay_within_the_limits_and_turn_first(bearing: float,
     p = ctx.params
     cmd = follow_waypoint(ctx, bearing, dist, rest, 10.0, "exploring", "walking")
     assert 0.0 <= cmd.vx <= p.max_linear + 1e-9 and abs(cmd.wz) <= p.max_angular + 1e-9
-    if abs(bearing) > math.radians(73) / 2 * 0.4 + 1e-6:  # beyond the approach's align_stop: turn only
+    if abs(bearing) > math.radians(73) / 2 * WAYPOINT_ALIGN_STOP + 1e-6:  # beyond the waypoints' align_stop: turn only
         assert cmd.vx == 0.0
     if abs(bearing) > 0.05:
         assert cmd.wz * bearing > 0  # towards the waypoint
