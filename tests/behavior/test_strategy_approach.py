@@ -236,6 +236,13 @@ def test_a_range_far_short_of_the_remembered_object_on_its_bearing_gives_way_to_
     assert ctx.base_distance(10.0) == pytest.approx(8.0, abs=0.01) and ctx.ranged_by == "memory"
     cmd = Approach().step(ctx, 10.0)
     assert cmd is not None and cmd.state != "reached" and "(memory)" in cmd.reason
+    # The leaf the blob spread onto, 1.0 m ahead and 0.8 m wide: in the way, not the goal (the guard
+    # held the walk into it at zero for 8 s, and the go to ended `reached` on it, rooms 37 at 3e9e72c)
+    ys = np.linspace(-0.4, 0.4, 17)
+    ctx.scan = (np.column_stack([np.full_like(ys, 1.0 + cf), ys]), 10.0)
+    cmd = Approach().step(ctx, 10.0)
+    assert cmd is not None and cmd.state == "detouring" and "(memory)" in cmd.reason, cmd
+    ctx.scan = (np.zeros((0, 2)), 10.0)
     for other in (shelf(8.5, conf=0.3), shelf(8.5, seen=10.0 - MEMORY_FRESH_S - 0.5), shelf(8.5, y=4.0),
                   shelf(2.2), shelf(8.5, label="duck")):  # fmt: skip
         ctx.memory = [other]

@@ -55,6 +55,8 @@ class Approach:
         if reached and not follow:
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
         rel = ctx.seen_in_base(s)
+        if method == "memory" and dist is not None:  # what the tracker ranged stands in the way: go round it
+            rel = (dist * math.cos(s.bearing), dist * math.sin(s.bearing))
         if rel is not None and not reached:
             st = ctx.avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
             if st is not None and st.blocked:
