@@ -3,6 +3,6 @@ goal) and the global one (global_path.py: the shortest safe path on the map's in
 waypoints; route.py: a plan being followed, and when to replan).
 `from go2vlm.behavior.planner import steer` keeps naming the local planner."""
 
-from go2vlm.behavior.planner.local import STEERING, PlannerParams, Steer, corridor_free, steer
+from go2vlm.behavior.planner.local import PlannerParams, Steer, corridor_free, steer
 
-__all__ = ["STEERING", "PlannerParams", "Steer", "corridor_free", "steer"]
+__all__ = ["PlannerParams", "Steer", "corridor_free", "steer"]

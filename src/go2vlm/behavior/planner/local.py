@@ -59,7 +59,6 @@ __all__ = [
     "BACK_SPEED",
     "BACK_TURN",
     "KEEP_WINDOW",
-    "STEERING",
     "TURN_ONLY_VX",
     "PlannerParams",
     "Steer",
@@ -83,7 +82,6 @@ EDGE_CHECK_M = 0.15  # m of a short forward arc out of a wedge that must keep th
 # kitchen pocket, a way 5 deg right and one 95 deg left were free in turn, and the robot swung between
 # them on the spot for two minutes (rooms 28, 32)
 KEEP_WINDOW = math.radians(20.0)
-STEERING = "steering"  # a Steer's note that names a free way (not a turn with none free)
 
 
 @dataclass(frozen=True)
@@ -134,6 +132,7 @@ class Steer:
     heading: float  # rad, the chosen heading (robot frame, + left)
     blocked: bool  # the way to the goal is blocked: (vx, wz) is the planner's, not the approach's
     note: str  # why, for the commander's status ("" when the approach's command passed)
+    way: bool = False  # blocked, and `heading` is a free way chosen (not a turn with none free, nor an escape)
 
 
 def corridor_free(points: np.ndarray, heading: float, p: PlannerParams) -> float:
@@ -195,14 +194,15 @@ def steer(
         passes.append(([(bearing + off, corridor_free(pts, bearing + off, tight)) for off in heads], "through a gap"))
     tiers = [(ways, how, want) for ways, how in passes for want in (need, need / 2, p.min_free)]
     # A shorter free way is still progress. Near the way kept, any free way comes first.
-    near = [keep] if keep is not None else []
-    for k, (ways, how, want) in [(k, t) for k in near for t in tiers] + [(None, t) for t in tiers]:
+    kept = [(keep, t) for t in tiers] if keep is not None else []
+    for k, (ways, how, want) in kept + [(None, t) for t in tiers]:
         ok = [(h, f) for h, f in ways if f >= want and (k is None or abs(_wrap(h - bearing - k)) <= KEEP_WINDOW)]
         if ok:
             h, f = _wrap(ok[0][0]), ok[0][1]
             turn = max(-max_angular, min(max_angular, p.kp * h))
             fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
-            return Steer(fwd, turn, h, True, f"{STEERING} {math.degrees(_wrap(h - bearing)):+.0f} deg {how}")
+            note = f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg {how}"
+            return Steer(fwd, turn, h, True, note, way=True)
     # Boxed in within max_offset of the goal: turn in place (towards the side it keeps to), never
     # standing still facing a blocked way.
     h = _wrap(max(free, key=lambda hf: hf[1])[0])

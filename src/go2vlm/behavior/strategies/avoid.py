@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from go2vlm.behavior.control import ApproachParams, approach_command
-from go2vlm.behavior.planner import STEERING, PlannerParams, Steer, steer
+from go2vlm.behavior.planner import PlannerParams, Steer, steer
 
 __all__ = ["SIDE_MEMORY_S", "Avoider"]
 
@@ -48,6 +48,6 @@ class Avoider:
             self.detour_t = now
             if st.vx > 0.0 and abs(st.heading - bearing) > 1e-6:
                 self.side, self.side_t = math.copysign(1.0, st.heading - bearing), now
-            if st.note.startswith(STEERING):
+            if st.way:
                 self.keep, self.keep_t = st.heading - bearing, now
         return st

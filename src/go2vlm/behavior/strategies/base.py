@@ -26,7 +26,7 @@ from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
-from go2vlm.world.poses import PoseHistory, PoseUnavailable
+from go2vlm.world.poses import PoseHistory, PoseUnavailable, wrap_angle
 
 __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
 
@@ -223,8 +223,7 @@ class Context:
             if not label_fits(self.label, o.label):
                 continue
             dx, dy = o.x - pose.x, o.y - pose.y
-            off = math.atan2(dy, dx) - pose.yaw - s.bearing
-            if abs(math.atan2(math.sin(off), math.cos(off))) <= cone:
+            if abs(wrap_angle(math.atan2(dy, dx) - pose.yaw - s.bearing)) <= cone:
                 d = math.hypot(dx, dy) - o.radius
                 best = d if best is None else min(best, d)
         return best
