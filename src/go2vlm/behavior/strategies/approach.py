@@ -4,7 +4,9 @@ after ALIGN_FOUND_S, the turn held by the gate in a doorway: `found` all the sam
 off), follow (keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
 (`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
 towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
-blocked; a free way turns back towards it. The laws are behavior/control.py's. Pure."""
+blocked; a free way turns back towards it. A go to without headway walks the global route to the
+target's place for a while (strategies/headway.py): the memory's place for it, else its last
+confirmed one. The laws are behavior/control.py's. Pure."""
 
 from __future__ import annotations
 
@@ -12,6 +14,8 @@ import math
 
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.headway import Headway
+from go2vlm.behavior.strategies.route import follow_waypoint
 
 __all__ = ["ALIGN_FOUND_S", "Approach"]
 
@@ -22,16 +26,18 @@ class Approach:
     """The tracked target's strategy: `step` answers while the tracker confirms it, or while a detour
     hides it; None otherwise."""
 
+    def __init__(self) -> None:
+        self.headway = Headway()  # its other state is the context's track
+
     def reset(self, now: float) -> None:
-        pass  # its state is the context's track
+        self.headway.reset()
 
     def step(self, ctx: Context, now: float) -> Command | None:
         if ctx.confirmed(now):
             return self.tracked(ctx, now)
         return self.detour_unseen(ctx, now)
 
-    @staticmethod
-    def tracked(ctx: Context, now: float) -> Command:
+    def tracked(self, ctx: Context, now: float) -> Command:
         goal, s = ctx.goal, ctx.sighting
         assert goal is not None and s is not None
         label = ctx.label
@@ -54,6 +60,10 @@ class Approach:
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
+        if not follow and (via := self._unstall(ctx, now)) is not None:
+            b, d, rest = via
+            return follow_waypoint(ctx, b, d, rest, now, "approaching",
+                                   f"target at {how}: no headway, along the route ({rest:.1f} m left)")  # fmt: skip
         rel = ctx.seen_in_base(s)
         if method == "memory" and dist is not None:  # what the tracker ranged stands in the way: go round it
             rel = (dist * math.cos(s.bearing), dist * math.sin(s.bearing))
@@ -64,6 +74,16 @@ class Approach:
         if follow:
             return Command(vx, wz, "tracking", "target in view: following")
         return Command(vx, wz, "approaching", f"target at {how}")
+
+    def _unstall(self, ctx: Context, now: float) -> tuple[float, float, float] | None:
+        """The headway watch's way out (strategies/headway.py), towards the memory's place for the
+        target, else its last confirmed place."""
+        o, stop = ctx.target_obj, ctx.approach_params().stop_distance
+        if o is not None:
+            return self.headway.step(ctx, (o.x, o.y), stop + o.radius, now)
+        if ctx.goal_xy is not None:
+            return self.headway.step(ctx, ctx.goal_xy, stop, now)
+        return None
 
     @staticmethod
     def detour_unseen(ctx: Context, now: float) -> Command | None:

@@ -10,7 +10,8 @@ view is. Pure, timestamp-driven.
   another room) is walked to along the global route (route.RouteTo), through the doorway. At its
   remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
   it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A place with no route
-  on the map whose straight way stays blocked UNREACHABLE_S is given up (a misplaced memory).
+  on the map whose straight way stays blocked UNREACHABLE_S is given up (a misplaced memory). One in
+  sight that the local planner makes no headway to is walked to along the route (headway.py).
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
   one out of sight on the map is first walked towards along the global route until it is in sight
   (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
@@ -25,6 +26,7 @@ import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.headway import Headway
 from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
@@ -67,12 +69,14 @@ class GoToRemembered:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
         self.router = RouteTo()
+        self.headway = Headway()
         self.unreachable_since: float | None = None  # go to: no route, the straight way blocked, since
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
         self.router.reset()
+        self.headway.reset()
         self.unreachable_since = None
 
     def pick(self, ctx: Context) -> Remembered | None:
@@ -150,6 +154,11 @@ class GoToRemembered:
             if via is not None:  # out of sight on the map: along the global route
                 b, d, rest = via
                 reason = f"{where}, {rest:.1f} m along the route (memory, confidence {o.confidence:.2f})"
+                return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
+            via = self.headway.step(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
+            if via is not None:  # in sight, and no headway: along the global route all the same
+                b, d, rest = via
+                reason = f"{where}: no headway, along the route ({rest:.1f} m left)"
                 return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
             if st is None or not st.blocked or not self.router.reason:

@@ -80,17 +80,17 @@ class RouteTo:
         self.route, self.reason = None, ""
 
     def next(
-        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float
+        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float, force: bool = False
     ) -> tuple[float, float, float] | None:
         """(bearing, distance) to the next waypoint and the metres left along the route to `target`
         (whose surface the robot stops `reach_m` short of); None: go straight (no map, no pose, the
-        straight way is clear, or no route could be planned: `reason` says why)."""
+        straight way is clear unless `force`, or no route could be planned: `reason` says why)."""
         cm, pose = ctx.costmap, ctx.fresh_pose(now)
         if cm is None or pose is None:
             self.route = None
             return None
         p = replace(self.params, goal_tolerance_m=max(self.params.goal_tolerance_m, reach_m))
-        sight = line_of_sight(cm, (pose.x, pose.y), target, p, skip_m=max(p.escape_m, reach_m))
+        sight = not force and line_of_sight(cm, (pose.x, pose.y), target, p, skip_m=max(p.escape_m, reach_m))
         r = self.route
         why = "" if r is not None and r.goal == target and not r.done else "new"
         if not why and r is not None:

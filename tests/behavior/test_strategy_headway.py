@@ -1,0 +1,103 @@
+"""The headway watch of a go to (behavior/strategies/headway.py): a robot that keeps moving never
+stalls; one held within HEADWAY_M of a spot for HEADWAY_S walks the global route to the target's
+place, through the doorway, until it is ROUTE_OUT_M out, and the watch then starts afresh; a pause in
+the go to starts it afresh too. Through the tracked approach: the dining table seen through a
+doorway from beside its jamb (rooms 45) is walked to along the route once the approach stalls."""
+
+from __future__ import annotations
+
+import math
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_strategy_route import ctx_at, two_rooms
+
+from go2vlm.behavior.strategies.approach import Approach
+from go2vlm.behavior.strategies.base import Context, Sighting
+from go2vlm.behavior.strategies.headway import GAP_S, HEADWAY_M, HEADWAY_S, ROUTE_OUT_M, Headway
+
+DUCK = (-4.8, -2.6)  # in the left room; the door is at x = 0, |y| < 0.6
+
+
+def crossings(ctx: Context) -> list[float]:
+    """Where the route crosses the middle wall's line (x = 0)."""
+    assert ctx.route is not None
+    w = ctx.route.plan.waypoints
+    return [float(a[1] + (b[1] - a[1]) * (0 - a[0]) / (b[0] - a[0])) for a, b in zip(w[:-1], w[1:], strict=True)
+            if a[0] * b[0] < 0]  # fmt: skip
+
+
+@settings(max_examples=100, deadline=None)
+@given(speed=st.floats(HEADWAY_M / HEADWAY_S * 1.1, 0.6), heading=st.floats(-math.pi, math.pi),
+       dt=st.floats(0.05, 0.5))  # fmt: skip
+def test_a_robot_that_moves_never_stalls(speed: float, heading: float, dt: float) -> None:
+    h, cm = Headway(), two_rooms()
+    for i in range(int(3 * HEADWAY_S / dt)):
+        t = i * dt
+        ctx = ctx_at(2.0 + speed * t * math.cos(heading), speed * t * math.sin(heading), 0.0, cm, now=t)
+        assert h.step(ctx, DUCK, 1.0, t) is None
+        assert ctx.counters["stalled"] == 0
+
+
+def test_a_stalled_go_to_walks_the_route_through_the_door_then_watches_afresh() -> None:
+    h, cm, t = Headway(), two_rooms(), 0.0
+    while t < HEADWAY_S - 0.2:  # rocking within a few cm of (0.5, -1.0), beside the jamb
+        ctx = ctx_at(0.5 + 0.05 * math.sin(t), -1.0, 2.0, cm, now=t)
+        assert h.step(ctx, DUCK, 1.0, t) is None
+        t += 0.1
+    while True:
+        ctx = ctx_at(0.5, -1.0, 2.0, cm, now=t)
+        via = h.step(ctx, DUCK, 1.0, t)
+        if via is not None:
+            break
+        assert t < HEADWAY_S + 0.5
+        t += 0.1
+    assert ctx.counters["stalled"] == 1 and ctx.route is not None
+    assert crossings(ctx) and all(abs(y) < 0.6 for y in crossings(ctx))  # through the door
+    bearing, dist, rest = via
+    assert dist > 0.0 and rest >= dist
+    # Still near the stall: the route goes on; out by ROUTE_OUT_M: the watch restarts there.
+    assert h.step(ctx_at(0.2, -0.5, 2.0, cm, now=t + 1), DUCK, 1.0, t + 1) is not None
+    out = ctx_at(0.5 - ROUTE_OUT_M - 0.1, -0.2, math.pi, cm, now=t + 2)
+    assert h.step(out, DUCK, 1.0, t + 2) is None
+    assert h.stalled is None and h.anchor is not None and h.anchor[2] == t + 2
+
+
+def test_a_pause_in_the_go_to_starts_the_watch_afresh() -> None:
+    h, cm = Headway(), two_rooms()
+    for i in range(int(HEADWAY_S * 10) - 5):
+        assert h.step(ctx_at(0.5, -1.0, 2.0, cm, now=i / 10), DUCK, 1.0, i / 10) is None
+    t = HEADWAY_S + GAP_S + 1.0  # a search or a look in between
+    for i in range(int(HEADWAY_S * 10) - 5):
+        assert h.step(ctx_at(0.5, -1.0, 2.0, cm, now=t + i / 10), DUCK, 1.0, t + i / 10) is None
+
+
+def test_no_route_leaves_the_approach_as_it_was() -> None:
+    h, cm, t = Headway(), two_rooms(door=False), 0.0
+    ctx = ctx_at(0.5, -1.0, 2.0, cm, now=t)
+    while t < 2.5 * HEADWAY_S:
+        ctx.pose = ctx_at(0.5, -1.0, 2.0, cm, now=t).pose
+        assert h.step(ctx, DUCK, 1.0, t) is None
+        t += 0.1
+    assert ctx.counters["stalled"] == 2 and ctx.route is None  # it stalled, found no route, watched again
+
+
+def test_the_tracked_approach_takes_the_route_once_it_stalls() -> None:
+    """The duck in view through the door, ranged 1.2 m by the jamb in front of it; the robot held
+    where it stands: first the local planner's way, then the route through the door."""
+    a, cm = Approach(), two_rooms()
+    states: list[str] = []
+    t, ctx = 0.0, ctx_at(0.5, -1.0, 2.6, cm, now=0.0)
+    while t < HEADWAY_S + 2.0:
+        ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=t).pose
+        s = Sighting(t, "duck", "tracking", 0.1, 1.2, "bottom", -0.1)
+        ctx.sighting = s
+        ctx.saw(s)
+        ctx.target_obj = ctx.memory[0] if ctx.memory else None
+        cmd = a.step(ctx, t)
+        assert cmd is not None and cmd.state != "reached"
+        states.append(cmd.reason)
+        t += 0.1
+    assert not any("no headway" in r for r in states[: int(HEADWAY_S * 10) - 2])
+    assert "no headway, along the route" in states[-1] and ctx.route is not None
+    assert crossings(ctx) and all(abs(y) < 0.6 for y in crossings(ctx))
