@@ -245,8 +245,40 @@ def test_a_range_far_short_of_the_remembered_object_on_its_bearing_gives_way_to_
     ctx.scan = (np.zeros((0, 2)), 10.0)
     for other in (shelf(8.5, conf=0.3), shelf(8.5, seen=10.0 - MEMORY_FRESH_S - 0.5), shelf(8.5, y=4.0),
                   shelf(2.2), shelf(8.5, label="duck")):  # fmt: skip
-        ctx.memory = [other]
+        ctx.memory, ctx.overruled = [other], None  # (not held from the overrule above: MEMORY_HOLD_S)
         assert ctx.base_distance(10.0) == pytest.approx(1.0 + cf, abs=0.01) and ctx.ranged_by == "bottom", other
+
+
+def test_the_memory_s_range_is_held_a_moment_after_it_overruled() -> None:
+    """Rooms 37 at 405ed76: for one step the shelf fell out of the memory's cone, and the blob on the
+    door leaf, 0.81 m away and ranged by the lidar, was `reached` 7.4 m short. The memory's range
+    stands MEMORY_HOLD_S after it last overruled, while the tracker's is still as far short of it."""
+    from go2vlm.behavior.strategies.base import MEMORY_HOLD_S
+    from go2vlm.world.objects_msg import Remembered
+
+    p = MissionParams()
+    cf = p.camera_forward_m
+    ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
+    ctx.scan = (np.zeros((0, 2)), 10.0)
+    ctx.memory = [Remembered("s1", "shelf", 8.5, 0.0, 0.5, (1.0, 1.0, 1.0), 0.9, 9.5, (0.01, 0.0, 0.01))]
+
+    def seen(now: float, dist: float, bearing: float = 0.0) -> float | None:
+        ctx.pose = Pose(0.0, 0.0, 0.0, now)
+        ctx.sighting = Sighting(now, "shelf", "tracking", 0.0, dist, "bottom", bearing, math.radians(73),
+                                math.radians(8))  # fmt: skip
+        ctx.last_seen = now
+        return ctx.base_distance(now)
+
+    assert seen(10.0, 1.0) == pytest.approx(8.0, abs=0.01) and ctx.ranged_by == "memory"
+    off = math.radians(30)  # the box has slid off the shelf's bearing: the memory has nothing on it
+    assert seen(11.0, p.stop_distance_m - cf - 0.1, off) == pytest.approx(8.0, abs=0.01)
+    cmd = Approach().step(ctx, 11.0)
+    assert cmd is not None and cmd.state != "reached" and "(memory)" in cmd.reason
+    assert seen(11.5, 6.0, off) == pytest.approx(6.0 + cf, abs=0.01)  # not far short of it: the tracker's
+    assert seen(10.0 + MEMORY_HOLD_S + 0.1, p.stop_distance_m - cf - 0.1, off) == pytest.approx(p.stop_distance_m - 0.1)
+    assert Approach().step(ctx, 10.0 + MEMORY_HOLD_S + 0.1).state == "reached"
+    ctx.new_goal(parse_goal("go to the shelf"))
+    assert ctx.overruled is None
 
 
 def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> None:
