@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import TERMINAL, ZERO_BURST_S, Mission, MissionParams, Sighting
 from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
+from go2vlm.behavior.strategies.approach import REACH_SETTLE_S
 
 GOALS = [
     "go to the blue cylinder",
@@ -186,8 +187,14 @@ def test_go_to_approaches_a_confirmed_target_and_stops_at_the_distance() -> None
     assert m.step(1.5).state == "searching" and m.step(1.5).wz < 0  # towards where it was (right)
     _seen(m, 1.6, x=0.0, d=0.5)  # 0.5 + 0.327 from the base: within 0.8 + 0.05
     out = m.step(1.6)
+    assert out.state == "approaching" and out.vx == out.wz == 0.0  # just seen again: held for the memory's say
+    t = 1.6
+    while t < 1.6 + REACH_SETTLE_S:
+        t += 0.25
+        _seen(m, t, x=0.0, d=0.5)
+    out = m.step(t)
     assert out.state == "reached" and out.vx == out.wz == 0.0 and out.publish_cmd and out.query == ""
-    assert m.step(1.6 + ZERO_BURST_S + 0.01).publish_cmd is False  # then quiet
+    assert m.step(t + ZERO_BURST_S + 0.01).publish_cmd is False  # then quiet
 
 
 def test_follow_drives_only_a_confirmed_target_and_decisions_gate_it() -> None:

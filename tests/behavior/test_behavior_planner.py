@@ -333,3 +333,36 @@ def test_keeps_near_the_way_it_chose_while_that_stays_free() -> None:
     left_shut = np.vstack([wall, [[x, 0.8] for x in np.linspace(-1.5, 1.5, 61)]])
     again = steer(0.0, 0.0, 0.4, 0.0, 3.5, left_shut, P, max_angular=W, keep=math.radians(95))
     assert again.blocked and again.heading < 0
+
+
+def test_wedged_between_a_wall_and_a_table_it_backs_out_along_the_gap() -> None:
+    """Rooms 1 at 1871f77 rocked forward and back for 25 s between the living room's wall and the
+    coffee table, its route's way on behind it. Here the two are 1.2 m apart, the robot askew between
+    them: backing with the rear turned fully onto the way on does not keep the margin, and it rocked
+    (about 1200 changes of direction a minute). A gentler turn, or none, while backing is tried too:
+    it backs out along the gap and walks on, each step applied only as the guard would."""
+    from go2vlm.behavior.planner.escape import Escape
+
+    xs = np.arange(-4.0, 4.0, 0.02)
+    table = np.arange(-2.0, 0.8, 0.02)
+    world = np.vstack([np.c_[xs, np.full_like(xs, -0.6)], np.c_[table, np.full_like(table, 0.6)]])
+    esc, (x, y, yaw), dt, goal = Escape(), (0.0, 0.0, 2.3), 0.05, (3.0, 0.8)
+    flips, last = 0, 0.0
+    for k in range(1200):
+        if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
+            break
+        bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.77 else (0.4, 1.5 * bearing)
+        res = esc.step(vx, wz, k * dt, _to_base(world, x, y, yaw), P, max_angular=W, walk=BACK_SPEED, toward=bearing)
+        if res is not None:
+            vx, wz = res[0], res[1]
+        if vx * last < 0:
+            flips += 1
+        last = vx if vx != 0 else last
+        nyaw = yaw + wz * dt
+        nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
+        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
+            x, y, yaw = nx, ny, nyaw
+    assert math.hypot(goal[0] - x, goal[1] - y) < 0.4, (x, y, yaw, flips)
+    assert flips < 10

@@ -304,3 +304,46 @@ def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> 
     assert seen(2.0, 72.5, "size") is None  # the hold starts again
     assert seen(2.0 + FAR_HOLD_S, 72.5, "size") == 72.5 + cf  # it held: the cap refuses it
     assert seen(4.0, 30.0, "bottom") == 30.0 + cf  # by the bottom edge: at once
+
+
+def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None:
+    """Rooms 37 at d201535: the shelf, first seen through a doorway, was ranged 1.1 m on the blob's
+    door leaf and `reached` 0.4 s later, 7.5 m short; the memory placed it right 0.3 s after. Within
+    REACH_SETTLE_S of the first confirmation it holds still; the memory's place, arriving then,
+    overrules the range and it walks on; with nothing against the range, it is reached after."""
+    from go2vlm.behavior.strategies.approach import REACH_SETTLE_S
+    from go2vlm.world.objects_msg import Remembered
+
+    p = MissionParams()
+    cf = p.camera_forward_m
+    near = p.stop_distance_m - cf - 0.05
+
+    def run(memory_at: float | None) -> list[str]:
+        ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
+        ctx.scan = None
+        states, a, t = [], Approach(), 30.0
+        while t < 30.0 + REACH_SETTLE_S + 0.5:
+            ctx.pose = Pose(0.0, 0.0, 0.0, t)
+            s = Sighting(t, "shelf", "tracking", 0.0, near, "bottom", 0.0, math.radians(73), math.radians(8))
+            ctx.sighting = s
+            ctx.saw(s)
+            if memory_at is not None and t >= memory_at:
+                ctx.memory = [Remembered("s1", "shelf", 8.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.9, t, (0.01, 0.0, 0.01))]
+            cmd = a.step(ctx, t)
+            assert cmd is not None
+            if t - 30.0 < REACH_SETTLE_S - 1e-9:
+                assert cmd.state != "reached"
+            states.append(cmd.state)
+            if cmd.state == "reached":
+                break
+            t += 0.1
+        return states
+
+    alone = run(None)
+    assert alone[0] == "approaching" and alone[-1] == "reached"
+    with_memory = run(30.3)
+    assert "reached" not in with_memory and with_memory[-1] in ("approaching", "detouring")
+    ctx = Context(p, goal=parse_goal("go to the shelf"))
+    ctx.saw(Sighting(1.0, "shelf", "tracking", 0.0, 1.0, "bottom"))
+    ctx.saw(Sighting(1.0 + p.lost_timeout_s + 0.1, "shelf", "tracking", 0.0, 1.0, "bottom"))
+    assert ctx.seen_since == 1.0 + p.lost_timeout_s + 0.1  # a gap: the confirmation starts afresh

@@ -38,10 +38,10 @@ guard's way, it does not replace it.
   turn and no straight step kept the margin, and the robot stood at zero for 65 s (rooms 37); with
   none of these clear the command stays as it was (the guard holds it, and says so).
 - A held turn towards a way on that lies behind the robot (`toward`, a route's waypoint) backs towards
-  it first (`reverse`: at REVERSE_SPEED, the rear turned onto it), as a driver reverses out of a
-  narrow lane rather than turning in it. In a 1.5 m corridor a Go2 standing askew, off the middle,
-  can turn neither way inside the guard's margin; backing away and walking on in turn rocked it where
-  it stood for a minute and more (rooms 12, 14, 18).
+  it first (`reverse`: at REVERSE_SPEED, the rear turned onto it, or less where that is not clear), as
+  a driver reverses out of a narrow lane rather than turning in it. In a 1.5 m corridor a Go2
+  standing askew, off the middle, can turn neither way inside the guard's margin; backing away and
+  walking on in turn rocked it where it stood for a minute and more (rooms 12, 14, 18).
 """
 
 from __future__ import annotations
@@ -273,16 +273,19 @@ def behind(toward: float) -> bool:
 
 def reverse(points: np.ndarray | None, toward: float, p: PlannerParams, why: str = "") -> Steer | None:
     """Back towards `toward` (rad, + left; behind the robot) at REVERSE_SPEED, turning the rear onto it
-    (at most BACK_TURN), where BACK_CHECK_M of that arc keeps the margin; None: it does not."""
+    (at most BACK_TURN), where BACK_CHECK_M of that arc keeps the margin; else half that turn, none,
+    or a little the other way (askew in a gap, the full turn swings a corner into its side, and the
+    robot rocked where it stood: rooms 1); None: none of them does."""
     if points is None or not math.isfinite(toward):
         return None
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    bw = max(-BACK_TURN, min(BACK_TURN, p.kp * _wrap(toward - math.pi)))
+    want = max(-BACK_TURN, min(BACK_TURN, p.kp * _wrap(toward - math.pi)))
     t = np.linspace(0.0, BACK_CHECK_M / REVERSE_SPEED, 7)
-    if len(pts) and not _sweep_ok(pts, *_arc(-REVERSE_SPEED, bw, t), p):
-        return None
-    note = "backing towards the way on"
-    return Steer(-REVERSE_SPEED, bw, toward, True, f"{why}: {note}" if why else note)
+    for bw in (want, want / 2.0, 0.0, -want / 4.0):
+        if not len(pts) or _sweep_ok(pts, *_arc(-REVERSE_SPEED, bw, t), p):
+            note = "backing towards the way on"
+            return Steer(-REVERSE_SPEED, bw, toward, True, f"{why}: {note}" if why else note)
+    return None
 
 
 def _arc(vx: float, wz: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

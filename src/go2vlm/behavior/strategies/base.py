@@ -114,6 +114,7 @@ class Context:
     view: float | None = None  # the camera's horizontal field of view (rad), from the tracker's reports
     target_obj: Remembered | None = None  # the remembered object the goal goes to / looks at this step
     last_seen: float | None = None  # arrival of the last confirmed sighting
+    seen_since: float | None = None  # since when confirmed without a gap longer than lost_timeout_s
     last_x: float = 0.0  # its offset x (a search turns that way)
     goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry frame)
     look: Look = field(default_factory=Look)
@@ -139,7 +140,7 @@ class Context:
         """A new goal: forget the target's track (the observations of the world stay)."""
         self.goal = goal
         self.sighting = None
-        self.last_seen = None
+        self.last_seen = self.seen_since = None
         self.last_x = 0.0
         self.goal_xy = None
         self.align_since = None
@@ -260,6 +261,8 @@ class Context:
 
     def saw(self, s: Sighting) -> None:
         """A confirmed sighting: keep when and where (in the odometry frame, if ranged) it was."""
+        if self.last_seen is None or self.seen_since is None or s.t - self.last_seen > self.params.lost_timeout_s:
+            self.seen_since = s.t
         self.last_seen = s.t
         self.last_x = s.x
         pose = self.fresh_pose(s.t)
