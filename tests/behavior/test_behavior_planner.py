@@ -227,36 +227,46 @@ def _to_base(pts: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:
     return np.c_[c * dx + s * dy, -s * dx + c * dy]
 
 
-def test_a_route_behind_in_a_corridor_is_walked_backwards_under_the_guards_rule() -> None:
-    """The mission's escape (planner/escape.py) over a route 3 m behind, the robot askew and off the
-    middle of a 1.5 m corridor, each step applied only as the guard would (never closer than the
-    margin, or than it is, if inside it): it gets there. Without `toward`, it rocks where it stands."""
+def _walk_under_guard(
+    world: np.ndarray, start: tuple[float, float, float], goal: tuple[float, float], align: float,
+    with_toward: bool = True,
+) -> tuple[float, float, float, int]:  # fmt: skip
+    """The mission's escape (planner/escape.py) over a turn-then-walk law towards `goal` (turning in
+    place beyond `align` rad off), for 60 s at 20 Hz, each step applied only as the guard would (never
+    closer than the margin, or than it is, if inside it): the pose it ends at, and how many times it
+    changed between walking forward and back."""
     from go2vlm.behavior.planner.escape import Escape
 
-    walls, goal, dt = _corridor(), (-3.0, 0.0), 0.05
+    esc, (x, y, yaw), dt, flips, last = Escape(), start, 0.05, 0, 0.0
+    for k in range(1200):
+        if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
+            break
+        bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > align else (0.4, 1.5 * bearing)
+        out = esc.step(vx, wz, k * dt, _to_base(world, x, y, yaw), P, max_angular=W, walk=BACK_SPEED,
+                       toward=bearing if with_toward else None)  # fmt: skip
+        if out is not None:
+            vx, wz = out[0], out[1]
+        flips += vx * last < 0
+        last = vx or last
+        nyaw = yaw + wz * dt
+        nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
+        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
+            x, y, yaw = nx, ny, nyaw
+    assert _clearance(world, x, y, yaw) > 0.0
+    return x, y, yaw, flips
 
-    def run(with_toward: bool) -> float:
-        esc, (x, y, yaw) = Escape(), (0.0, -0.2, math.radians(45))
-        for k in range(1200):
-            bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
-            bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-            vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.3 else (0.4, 1.5 * bearing)
-            out = esc.step(vx, wz, k * dt, _to_base(walls, x, y, yaw), P, max_angular=W, walk=BACK_SPEED,
-                           toward=bearing if with_toward else None)  # fmt: skip
-            if out is not None:
-                vx, wz = out[0], out[1]
-            nyaw = yaw + wz * dt
-            nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
-            now_c, next_c = _clearance(walls, x, y, yaw), _clearance(walls, nx, ny, nyaw)
-            if next_c >= min(0.3, now_c) - 1e-9:  # the guard's rule
-                x, y, yaw = nx, ny, nyaw
-            if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
-                break
-        assert _clearance(walls, x, y, yaw) > 0.0
-        return math.hypot(goal[0] - x, goal[1] - y)
 
-    assert run(True) < 0.4
-    assert run(False) > 2.0
+def test_a_route_behind_in_a_corridor_is_walked_backwards_under_the_guards_rule() -> None:
+    """The mission's escape over a route 3 m behind, the robot askew and off the middle of a 1.5 m
+    corridor, each step applied only as the guard would: it gets there. Without `toward`, it rocks
+    where it stands."""
+    walls, goal, start = _corridor(), (-3.0, 0.0), (0.0, -0.2, math.radians(45))
+    x, y, _, _ = _walk_under_guard(walls, start, goal, 0.3)
+    assert math.hypot(goal[0] - x, goal[1] - y) < 0.4
+    x, y, _, _ = _walk_under_guard(walls, start, goal, 0.3, with_toward=False)
+    assert math.hypot(goal[0] - x, goal[1] - y) > 2.0
 
 
 def test_a_route_turn_wedged_in_edges_out_and_gets_away() -> None:
@@ -264,8 +274,6 @@ def test_a_route_turn_wedged_in_edges_out_and_gets_away() -> None:
     keeps the margin (the tail swings into the wall), nor 0.3 m straight on or back; the guard held the
     route's left turn at zero for 65 s. It edges out along a short forward arc and then walks the
     route's way, each step applied only as the guard would. Without the edge-out it stands for ever."""
-    from go2vlm.behavior.planner.escape import Escape
-
     ys = np.linspace(-1.0, 1.0, 101)
     wall = np.c_[np.full_like(ys, -P.half_length - 0.283), ys]  # behind, inside the guard's margin
     front = np.array([[0.51, 0.43], [0.54, 0.42], [0.57, 0.416], [0.61, 0.41], [0.64, 0.40], [0.73, 0.39],
@@ -274,22 +282,9 @@ def test_a_route_turn_wedged_in_edges_out_and_gets_away() -> None:
     assert unstick(0.0, W, world, P) is None  # a search's turn in place: held, as before
     out = unstick(0.0, W, world, P, walk=BACK_SPEED)
     assert out is not None and out.vx == BACK_SPEED and out.wz == -BACK_TURN and "edging out" in out.note
-    esc, (x, y, yaw), dt, goal = Escape(), (0.0, 0.0, 0.0), 0.05, (0.0, 2.5)  # the way on: left, past the furniture
-    for k in range(1200):
-        if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
-            break
-        bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
-        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-        vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.3 else (0.4, 1.5 * bearing)
-        res = esc.step(vx, wz, k * dt, _to_base(world, x, y, yaw), P, max_angular=W, walk=BACK_SPEED, toward=bearing)
-        if res is not None:
-            vx, wz = res[0], res[1]
-        nyaw = yaw + wz * dt
-        nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
-        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
-            x, y, yaw = nx, ny, nyaw
+    goal = (0.0, 2.5)  # the way on: left, past the furniture
+    x, y, yaw, _ = _walk_under_guard(world, (0.0, 0.0, 0.0), goal, 0.3)
     assert math.hypot(goal[0] - x, goal[1] - y) < 0.4, (x, y, yaw)
-    assert _clearance(world, x, y, yaw) > 0.0
 
 
 def test_a_gap_too_narrow_for_the_margin_is_steered_through_at_the_squeeze() -> None:
@@ -341,28 +336,10 @@ def test_wedged_between_a_wall_and_a_table_it_backs_out_along_the_gap() -> None:
     them: backing with the rear turned fully onto the way on does not keep the margin, and it rocked
     (about 1200 changes of direction a minute). A gentler turn, or none, while backing is tried too:
     it backs out along the gap and walks on, each step applied only as the guard would."""
-    from go2vlm.behavior.planner.escape import Escape
-
     xs = np.arange(-4.0, 4.0, 0.02)
     table = np.arange(-2.0, 0.8, 0.02)
     world = np.vstack([np.c_[xs, np.full_like(xs, -0.6)], np.c_[table, np.full_like(table, 0.6)]])
-    esc, (x, y, yaw), dt, goal = Escape(), (0.0, 0.0, 2.3), 0.05, (3.0, 0.8)
-    flips, last = 0, 0.0
-    for k in range(1200):
-        if math.hypot(goal[0] - x, goal[1] - y) < 0.4:
-            break
-        bearing = math.atan2(goal[1] - y, goal[0] - x) - yaw
-        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-        vx, wz = (0.0, math.copysign(W, bearing)) if abs(bearing) > 0.77 else (0.4, 1.5 * bearing)
-        res = esc.step(vx, wz, k * dt, _to_base(world, x, y, yaw), P, max_angular=W, walk=BACK_SPEED, toward=bearing)
-        if res is not None:
-            vx, wz = res[0], res[1]
-        if vx * last < 0:
-            flips += 1
-        last = vx if vx != 0 else last
-        nyaw = yaw + wz * dt
-        nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
-        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
-            x, y, yaw = nx, ny, nyaw
+    goal = (3.0, 0.8)
+    x, y, yaw, flips = _walk_under_guard(world, (0.0, 0.0, 2.3), goal, 0.77)
     assert math.hypot(goal[0] - x, goal[1] - y) < 0.4, (x, y, yaw, flips)
     assert flips < 10
