@@ -49,7 +49,9 @@ Rules
   view carries on towards that place for up to `detour_memory_s` after the last confirmation, but only
   while the direct way is blocked: a free direct way with the target unseen turns in place towards
   where it was (no forward speed), and then the lost/search rules apply. No fresh scan: no planning,
-  the straight approach (the safety gate's collision guard still stops it short of anything).
+  the straight approach (the safety gate's collision guard still stops it short of anything). A go
+  to held near one spot walks the global route for a while (strategies/headway.py), and is not
+  `reached` in the first REACH_SETTLE_S of a confirmation (strategies/approach.py).
 - The world (`observe_memory`: the object memory's remembered objects from /objects, and the stamp
   of the newest answer it has taken in, on this clock): go to and look for use the most confident
   remembered object of the goal's label (at least `memory_min_confidence`) while the tracker does not
