@@ -15,7 +15,6 @@ import math
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.headway import Headway
-from go2vlm.behavior.strategies.route import follow_waypoint
 
 __all__ = ["ALIGN_FOUND_S", "REACH_SETTLE_S", "Approach"]
 
@@ -68,10 +67,8 @@ class Approach:
                 return Command.still("approaching", f"{dist:.2f} m from the {label} ({method}): just seen, "
                                      "waiting for the memory's place")  # fmt: skip
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
-        if not follow and (via := self._unstall(ctx, now)) is not None:
-            b, d, rest = via
-            return follow_waypoint(ctx, b, d, rest, now, "approaching",
-                                   f"target at {how}: no headway, along the route ({rest:.1f} m left)")  # fmt: skip
+        if not follow and (out := self._unstall(ctx, ap.stop_distance, f"target at {how}", now)) is not None:
+            return out
         rel = ctx.seen_in_base(s)
         if method == "memory" and dist is not None:  # what the tracker ranged stands in the way: go round it
             rel = (dist * math.cos(s.bearing), dist * math.sin(s.bearing))
@@ -83,14 +80,14 @@ class Approach:
             return Command(vx, wz, "tracking", "target in view: following")
         return Command(vx, wz, "approaching", f"target at {how}")
 
-    def _unstall(self, ctx: Context, now: float) -> tuple[float, float, float] | None:
+    def _unstall(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
         """The headway watch's way out (strategies/headway.py), towards the memory's place for the
         target, else its last confirmed place."""
-        o, stop = ctx.target_obj, ctx.approach_params().stop_distance
+        o = ctx.target_obj
         if o is not None:
-            return self.headway.step(ctx, (o.x, o.y), stop + o.radius, now)
+            return self.headway.walk(ctx, (o.x, o.y), stop + o.radius, now, why)
         if ctx.goal_xy is not None:
-            return self.headway.step(ctx, ctx.goal_xy, stop, now)
+            return self.headway.walk(ctx, ctx.goal_xy, stop, now, why)
         return None
 
     @staticmethod

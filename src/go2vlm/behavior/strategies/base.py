@@ -212,14 +212,16 @@ class Context:
             return None
         else:
             ranged = own + cf
+
+        def far(mem: float) -> bool:
+            return mem > MEMORY_FAR * ranged and mem > ranged + MEMORY_GAP_M
+
         mem = self.remembered_on(s, now)
-        if mem is not None and mem > MEMORY_FAR * ranged and mem > ranged + MEMORY_GAP_M:
+        if mem is not None and far(mem):
             self.overruled = (now, mem)
-        elif self.overruled is None or not 0.0 <= now - self.overruled[0] <= MEMORY_HOLD_S:
-            return ranged
-        mem = self.overruled[1]
-        if mem > MEMORY_FAR * ranged and mem > ranged + MEMORY_GAP_M:
-            self.ranged_by, ranged = "memory", mem
+        held = self.overruled
+        if held is not None and 0.0 <= now - held[0] <= MEMORY_HOLD_S and far(held[1]):
+            self.ranged_by, ranged = "memory", held[1]
         return ranged
 
     def remembered_on(self, s: Sighting, now: float) -> float | None:

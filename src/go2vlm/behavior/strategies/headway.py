@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 
-from go2vlm.behavior.strategies.base import Context
-from go2vlm.behavior.strategies.route import RouteTo
+from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 
 __all__ = ["HEADWAY_M", "HEADWAY_S", "ROUTE_FOR_S", "ROUTE_OUT_M", "Headway"]
 
@@ -67,3 +67,14 @@ class Headway:
         self.stalled = (pose.x, pose.y, now)
         ctx.counters["stalled"] += 1
         return self.step(ctx, target, reach_m, now)
+
+    def walk(
+        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float, why: str, basis: str = ""
+    ) -> Command | None:
+        """`step`'s way out as a command along the route (`why` opens its reason); None: carry on as before."""
+        via = self.step(ctx, target, reach_m, now)
+        if via is None:
+            return None
+        b, d, rest = via
+        return follow_waypoint(ctx, b, d, rest, now, "approaching",
+                               f"{why}: no headway, along the route ({rest:.1f} m left)", basis=basis)  # fmt: skip

@@ -155,11 +155,9 @@ class GoToRemembered:
                 b, d, rest = via
                 reason = f"{where}, {rest:.1f} m along the route (memory, confidence {o.confidence:.2f})"
                 return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
-            via = self.headway.step(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
-            if via is not None:  # in sight, and no headway: along the global route all the same
-                b, d, rest = via
-                reason = f"{where}: no headway, along the route ({rest:.1f} m left)"
-                return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
+            out = self.headway.walk(ctx, (o.x, o.y), ap.stop_distance + o.radius, now, where, basis="memory")
+            if out is not None:  # in sight, and no headway: along the global route all the same
+                return out
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
             if st is None or not st.blocked or not self.router.reason:
                 self.unreachable_since = None
