@@ -1,6 +1,7 @@
 """The commander's parameters (its contract: behavior/commander_node.py). Those its pure cores share,
-the mission's (MissionParams), the local planner's margin (PlannerParams) and exploring's
-(ExploreParams), are declared once on the cores' fields and taken over here with `from_core`
+the mission's (MissionParams), the local planner's margin (PlannerParams), the navigator's
+(NavParams, as `nav_<name>`) and exploring's (ExploreParams), are declared once on the cores' fields
+and taken over here with `from_core`
 (go2vlm/declare.py), some under the node's own name (`planner_margin_m` is PlannerParams' `margin`);
 `core_params` builds the cores' params back from a config. The camera mount is the robot profile's."""
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from go2vlm.behavior.mission import MissionParams
+from go2vlm.behavior.navigate import NavParams
 from go2vlm.behavior.planner import PlannerParams
 from go2vlm.behavior.strategies.explore import ExploreParams
 from go2vlm.bus import core_params, from_core, param
@@ -60,11 +62,34 @@ class CommanderConfig:
     max_go_to_m: float = param(
         25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
     )
+    nav_goal_moved_m: float = from_core(NavParams, "goal_moved_m")
+    nav_arrive_m: float = from_core(NavParams, "arrive_m")
+    nav_lookahead_s: float = from_core(NavParams, "lookahead_s")
+    nav_lookahead_min_m: float = from_core(NavParams, "lookahead_min_m")
+    nav_lookahead_max_m: float = from_core(NavParams, "lookahead_max_m")
+    nav_rotate_to_heading_deg: float = from_core(NavParams, "rotate_to_heading_deg")
+    nav_rotate_gain: float = from_core(NavParams, "rotate_gain")
+    nav_min_turn_rate: float = from_core(NavParams, "min_turn_rate")
+    nav_min_radius_m: float = from_core(NavParams, "min_radius_m")
+    nav_slow_near_m: float = from_core(NavParams, "slow_near_m")
+    nav_approach_gain: float = from_core(NavParams, "approach_gain")
+    nav_min_speed: float = from_core(NavParams, "min_speed")
+    nav_horizon_s: float = from_core(NavParams, "horizon_s")
+    nav_clearance_m: float = from_core(NavParams, "clearance_m")
+    nav_clearance_per_mps: float = from_core(NavParams, "clearance_per_mps")
+    nav_progress_m: float = from_core(NavParams, "progress_m")
+    nav_progress_s: float = from_core(NavParams, "progress_s")
+    nav_spin_deg: float = from_core(NavParams, "spin_deg")
+    nav_back_up_m: float = from_core(NavParams, "back_up_m")
+    nav_back_up_speed: float = from_core(NavParams, "back_up_speed")
+    nav_wait_s: float = from_core(NavParams, "wait_s")
+    nav_recovery_s: float = from_core(NavParams, "recovery_s")
     explore: bool = param(True, help="go to / look for: walk to frontiers of costmap_topic once turn-and-look "
                           "finds nothing", live=True)  # fmt: skip
     frontier_choice: str = from_core(ExploreParams, "frontier_choice")
     explore_unknown_cost: float = from_core(ExploreParams, "unknown_cost")
     explore_timeout_s: float = from_core(ExploreParams, "timeout_s")
+    explore_regrown_share: float = from_core(ExploreParams, "regrown_share")
     costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)
@@ -83,5 +108,6 @@ class CommanderConfig:
             MissionParams,
             self,
             planner=core_params(PlannerParams, self),
+            nav=core_params(NavParams, self),
             camera_forward_m=profile(self.robot).head_camera.pos[0],
         )

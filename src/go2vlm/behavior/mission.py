@@ -313,7 +313,7 @@ class Mission:
         postures, self._postures = tuple(self._postures), []
         self.planner_note = ""
         goal = self.ctx.goal
-        toward = None
+        toward, navigated = None, False
         if goal is None or not self.active:
             vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
@@ -324,11 +324,14 @@ class Mission:
             self.planner_note = cmd.note
             if cmd.state != "aligning":
                 self.ctx.align_since = None
-            vx, wz, publish, toward = cmd.vx, cmd.wz, True, cmd.toward
+            vx, wz, publish, toward, navigated = cmd.vx, cmd.wz, True, cmd.toward, cmd.navigated
         p = self.params
-        vx = min(max(vx, 0.0), p.max_linear) if math.isfinite(vx) else 0.0
+        back = p.nav.back_up_speed if navigated else 0.0  # only the navigator's back-up recovery reverses
+        vx = min(max(vx, -back), p.max_linear) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
-        if goal is not None and self.active and p.avoid_obstacles:
+        if navigated:
+            self.escape.reset()  # the navigator owns its recoveries
+        elif goal is not None and self.active and p.avoid_obstacles:
             vx, wz = self._unstick(vx, wz, now, toward)
         else:
             self.escape.reset()

@@ -14,8 +14,9 @@ import numpy as np
 
 from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.goals import Goal
+from go2vlm.behavior.navigate import Navigator, NavStep
 from go2vlm.behavior.planner import Steer
-from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import Sighting
 from go2vlm.behavior.strategies.avoid import Avoider
@@ -75,6 +76,7 @@ class Command:
     note: str = ""  # what the local planner did ("" = nothing)
     basis: str = ""  # what the motion is based on when not the tracker's confirmation: "memory"
     toward: float | None = None  # rad (+ left): the way on it heads for (a route's waypoint), to back towards
+    navigated: bool = False  # the navigator's (behavior/navigate/): it owns its recoveries, and may back up
 
     @classmethod
     def still(cls, state: str, reason: str) -> Command:
@@ -122,6 +124,7 @@ class Context:
     costmap: Costmap | None = None  # the map's newest inflated costmap (/map/costmap), for the global planner
     route: Route | None = None  # the global route being walked (explore, or a remembered place out of sight): /plan
     coverage: Coverage = field(default_factory=Coverage)  # where the camera has looked during this goal
+    navigator: Navigator = field(default_factory=Navigator)  # the one way to a place (behavior/navigate/)
     poses: PoseHistory = field(  # the odometry poses, on the mission's clock: where an answered frame was taken
         default_factory=lambda: PoseHistory(horizon_s=POSES_KEPT_S, max_extrapolation_s=VIEW_POSE_S)
     )
@@ -145,6 +148,7 @@ class Context:
         self.goal_xy = None
         self.align_since = None
         self.route = None
+        self.navigator.reset()
         self.avoider.reset()
         self.look.forget()
         self.coverage.reset()
@@ -170,6 +174,17 @@ class Context:
         p = self.params
         follow = self.goal is not None and self.goal.kind == "follow"
         return p.approach(p.follow_distance_m if follow else p.stop_distance_m)
+
+    def navigate(self, goal: tuple[float, float], tolerance: float, now: float, planner: GlobalParams) -> NavStep:
+        """The navigator's step towards `goal` (odometry frame; `tolerance` m counts as there), planning
+        with `planner` on the newest costmap, within the mission's speed limits; `route` is its route."""
+        nav, p = self.navigator, self.params
+        nav.params, nav.planner = p.nav, planner
+        pose = self.fresh_pose(now)
+        out = nav.step(goal, tolerance, self.costmap, None if pose is None else (pose.x, pose.y, pose.yaw),
+                       self.fresh_scan(now), now, max_linear=p.max_linear, max_angular=p.max_angular)  # fmt: skip
+        self.route = nav.route
+        return out
 
     # -- observations --------------------------------------------------------------------------
     def fresh_pose(self, now: float) -> Pose | None:

@@ -6,7 +6,8 @@ turn-and-look is exhausted (Mission.searches).
 
     ex = Explorer(ExploreParams())
     ex.set_map(costmap)                 # each new /map/costmap (behavior/planner/global_path.Costmap)
-    step = ex.step(x, y, yaw, now)      # walk (a bearing and distance to the next waypoint) | look | wait | done
+    step = ex.step(x, y, yaw, now)      # walk (to step.goal: the navigator's job) | look | wait | done
+    ex.arrived()                        # the navigator is there: look
     ex.looked(now)                      # the host's look-around at the frontier is over
 
 Rules
@@ -16,14 +17,15 @@ Rules
   `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
   (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
   nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
-- Walk the route's waypoints (behavior/planner/route.Route): replan when the map makes the
-  route blocked, when the robot strays from it, or as the map grows. A frontier the lidar has seen
-  past on the way is still walked to and looked from (the lidar reaches 10 m, the camera's answers
-  less: the look is what finds the object); one whose goal is no place to stand on the new map, a
-  route that cannot be planned, or no progress of `stuck_m` along it within `stuck_s`, gives that
-  frontier up.
-- Within `arrive_m` of the goal: `look` (the host turns and looks), then `looked()`: that place is
-  visited, and the next frontier is chosen.
+- Walk there: the chosen frontier's goal is handed to the navigator (behavior/navigate/: it follows
+  the plan made to choose it, replans, checks progress and runs its recoveries). A frontier the
+  lidar has seen past on the way is still walked to and looked from (the lidar reaches 10 m, the
+  camera's answers less: the look is what finds the object); one whose goal is no place to stand on
+  the new map, or that the navigator gives up on (`failed`: no route, or no progress after every
+  recovery), is given up. A frontier given up comes back once the map round it has changed (more
+  than `regrown_share` more cells known within `visited_radius_m`), or when no other is reachable.
+- Within `arrive_m` of the goal (or the navigator arrived): `look` (the host turns and looks), then
+  `looked()`: that place is visited, and the next frontier is chosen.
 - `done` (the goal ends not_found, with the reason) when no frontier is left, or none is reachable,
   or `timeout_s` after the goal began (an open world has frontiers without end).
   `wait` (hold still) without a map or a pose; after `map_timeout_s` without any map: done.
@@ -37,11 +39,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from go2vlm.behavior.control import search_command
-from go2vlm.behavior.planner.global_path import Costmap, plan_path
-from go2vlm.behavior.planner.route import Route
+from go2vlm.behavior.planner.global_path import Costmap, Plan, plan_path
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
-from go2vlm.behavior.strategies.route import DEFAULT_VIEW, follow_waypoint
+from go2vlm.behavior.strategies.route import DEFAULT_VIEW
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.world.coverage import Coverage
@@ -56,17 +57,13 @@ __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explo
 LOOK_SLACK = 3.0
 LOOK_STALL_S = 4.0
 LOOK_STALL_RAD = 0.2
-HEADWAY_S = 1.5  # x stuck_s: walking, never more than 2 x stuck_m from where it stood this long: give up
 
 
 @dataclass(frozen=True)
 class ExploreStep:
     action: str  # walk | look | wait | done
     reason: str
-    bearing: float = 0.0  # walk: rad from the robot's heading to the next waypoint (+ left)
-    distance: float = 0.0  # walk: m to it
-    remaining: float = 0.0  # walk: m left along the route
-    last_leg: bool = False  # walk: the next waypoint is the frontier's goal
+    goal: tuple[float, float] = (0.0, 0.0)  # walk: the frontier's goal, for the navigator
 
 
 class Explorer:
@@ -77,18 +74,16 @@ class Explorer:
         self.reset(0.0)
 
     def reset(self, now: float) -> None:
-        """A new search: forget the frontiers visited and the route (the map stays)."""
+        """A new search: forget the frontiers visited and given up (the map stays)."""
         self.t0 = now
         self.phase = "choose"  # choose | walk | look | done
         self.frontier: Frontier | None = None
         self.frontiers: list[Frontier] = []  # the newest map's, less the visited
-        self.route: Route | None = None
-        self.visited: list[tuple[float, float]] = []
+        self.plan: Plan | None = None  # the chosen frontier's plan, until the navigator takes it (`take_plan`)
+        self.visited: list[tuple[float, float]] = []  # places looked from
+        self.dropped: list[tuple[tuple[float, float], int]] = []  # given up: (goal, the map round it then)
         self.given_up = 0
         self.views = ViewScores()  # vlm: the model's scores of the ways it looked (world yaw)
-        self._progress = (math.inf, now)  # best remaining distance, and when it last improved
-        self._anchor = (math.nan, math.nan, now)  # where the robot last moved to (x, y, t), walking
-        self._walked = now  # the last step that was not a look
         self._frontier_stamp: float | None = None
         self.reason = ""
 
@@ -105,21 +100,38 @@ class Explorer:
             "unseen_left": sum(f.kind == "view" for f in self.frontiers),
             "visited": len(self.visited),
             "given_up": self.given_up,
-            "route_m": None if self.route is None else round(self.route.plan.length, 2),
             "views_scored": len(self.views.scores),  # vlm: the 30-degree ways a model's answer scored
         }
 
     # -- the search -----------------------------------------------------------------------------
+    def take_plan(self) -> Plan | None:
+        """The plan `_choose` made to the chosen frontier, once (the navigator follows it)."""
+        plan, self.plan = self.plan, None
+        return plan
+
+    def arrived(self) -> None:
+        """The navigator is at the chosen frontier: look around there."""
+        if self.phase == "walk":
+            self.phase = "look"
+
     def looked(self, now: float) -> None:
         """The look-around at the chosen frontier is over: that place is visited."""
         if self.phase == "look" and self.frontier is not None:
             self.visited.append(self.frontier.goal)
-        self.frontier, self.route, self.phase = None, None, "choose"
+        self.frontier, self.plan, self.phase = None, None, "choose"
         self._frontier_stamp = None  # what the look saw changes the unseen regions
+
+    def _known_round(self, cm: Costmap, xy: tuple[float, float]) -> int:
+        """How many cells within `visited_radius_m` of `xy` the map knows (free or not)."""
+        r = max(1, int(math.ceil(self.params.visited_radius_m / cm.resolution)))
+        row, col = cm.cell(*xy)
+        win = cm.data[max(0, row - r) : row + r + 1, max(0, col - r) : col + r + 1]
+        return int((win >= 0).sum())
 
     def _skip(self, f: Frontier) -> bool:
         r = self.params.visited_radius_m
-        return any(math.hypot(f.goal[0] - vx, f.goal[1] - vy) < r for vx, vy in self.visited)
+        return any(math.hypot(f.goal[0] - gx, f.goal[1] - gy) < r
+                   for gx, gy in (*self.visited, *(g for g, _ in self.dropped)))  # fmt: skip
 
     def _refresh(self) -> None:
         cm = self.costmap
@@ -127,6 +139,9 @@ class Explorer:
             return
         self._frontier_stamp = cm.stamp if self.coverage is None or self.coverage.frames else None
         p = self.params
+        # A frontier given up comes back once the map round it has changed (a door seen open, a way found).
+        grown = 1.0 + p.regrown_share
+        self.dropped = [(g, n) for g, n in self.dropped if self._known_round(cm, g) <= n * grown]
         fp = FrontierParams(lethal=p.planner.lethal, min_size_m=p.min_frontier_m)
         standable = (cm.data >= 0) & (cm.data < p.planner.lethal)
         found = find_frontiers(cm.data, cm.resolution, cm.origin, fp, reachable=standable)
@@ -150,13 +165,15 @@ class Explorer:
             return math.inf, 0.0, 0.0
         return cov.unseen_visible(cm.data, cm.resolution, cm.origin, self.params.planner.lethal, x, y, yaw, view)
 
-    def _give_up(self, why: str) -> None:
+    def give_up(self, why: str) -> None:
+        """The chosen frontier cannot be reached now (the navigator's reason): choose another."""
         if self.frontier is not None:
-            self.visited.append(self.frontier.goal)
+            cm = self.costmap
+            self.dropped.append((self.frontier.goal, self._known_round(cm, self.frontier.goal) if cm else 0))
             self.frontiers = [f for f in self.frontiers if not self._skip(f)]
         self.given_up += 1
         self.reason = why
-        self.frontier, self.route, self.phase = None, None, "choose"
+        self.frontier, self.plan, self.phase = None, None, "choose"
 
     def _standable(self, cm: Costmap, xy: tuple[float, float]) -> bool:
         """Is there a cell within `arrive_m` of `xy` that the robot may stand on, on `cm`?"""
@@ -165,7 +182,7 @@ class Explorer:
         win = cm.data[max(0, row - r) : row + r + 1, max(0, col - r) : col + r + 1]
         return bool(((win >= 0) & (win < self.params.planner.lethal)).any())
 
-    def _choose(self, x: float, y: float, now: float) -> ExploreStep | None:
+    def _choose(self, x: float, y: float) -> ExploreStep | None:
         cm = self.costmap
         assert cm is not None
         p = self.params
@@ -194,27 +211,21 @@ class Explorer:
             plan = plan_path(cm, (x, y), [f.goal for f in self.frontiers], gp)
             cands = self.frontiers
         if not plan.ok:
+            if self.dropped:  # none reachable now: those given up may be, from here
+                self.dropped.clear()
+                self._frontier_stamp = None
+                return ExploreStep(
+                    "wait", f"no reachable frontier of those left: trying the given-up again ({plan.reason})"
+                )
             self.phase = "done"
             self.reason = f"no reachable frontier ({len(self.frontiers)} left): {plan.reason}"
             return ExploreStep("done", self.reason)
-        self.frontier = cands[plan.goal_index]
-        self.route = Route(plan, self.frontier.goal, now, cm.stamp, reach_m=p.waypoint_reach_m)
+        self.frontier, self.plan = cands[plan.goal_index], plan
         self.phase = "walk"
-        self._progress = (plan.length, now)
         return None
 
-    def _replan(self, x: float, y: float, now: float, why: str) -> bool:
-        """Plan anew to the chosen frontier; False (and the frontier given up) when it cannot be."""
-        cm, f = self.costmap, self.frontier
-        assert cm is not None and f is not None
-        plan = plan_path(cm, (x, y), [f.goal], self.params.global_params)
-        if not plan.ok:
-            self._give_up(f"frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) given up ({why}): {plan.reason}")
-            return False
-        self.route = Route(plan, f.goal, now, cm.stamp, reach_m=self.params.waypoint_reach_m)
-        return True
-
     def step(self, x: float | None, y: float | None, yaw: float | None, now: float) -> ExploreStep:
+        """What to do now: walk to `goal` (the navigator's job), look there, wait, or done."""
         p = self.params
         if self.phase == "done":
             return ExploreStep("done", self.reason)
@@ -232,58 +243,34 @@ class Explorer:
         if x is None or y is None or yaw is None or not all(math.isfinite(v) for v in (x, y, yaw)):
             return ExploreStep("wait", "no fresh pose: holding still")
         if self.phase == "look":
-            self._anchor = (x, y, now)
-            return ExploreStep("look", self._at())
-        ax, ay, at = self._anchor
-        if not math.hypot(x - ax, y - ay) <= 2 * p.stuck_m or now - self._walked > 1.0:
-            self._anchor = (x, y, now)  # it moved (nan: the first step), or something else drove it
-        elif now - at > HEADWAY_S * p.stuck_s and self.frontier is not None:
-            # Frontiers re-chosen as the map changes restart the progress check; this one does not.
-            self._anchor = (x, y, now)
-            self._give_up(f"no headway: within {2 * p.stuck_m:g} m of ({x:.1f}, {y:.1f}) for "
-                          f"{HEADWAY_S * p.stuck_s:g} s")  # fmt: skip
-        self._walked = now
+            return ExploreStep("look", self.where())
         self._refresh()
-        for _ in range(8):  # a few frontiers may be dropped in one step (gone, unplannable)
+        for _ in range(8):  # a few frontiers may be dropped in one step (gone, seen on the way)
             if self.phase == "choose":
-                done = self._choose(x, y, now)
+                done = self._choose(x, y)
                 if done is not None:
                     return done
-            assert self.route is not None and self.frontier is not None
-            f, route = self.frontier, self.route
+            f = self.frontier
+            assert f is not None
             if self.seen(f):  # the camera saw that region on the way: nothing to walk there for
                 self.visited.append(f.goal)
                 self.frontiers = [g for g in self.frontiers if not self._skip(g)]
-                self.frontier, self.route, self.phase = None, None, "choose"
+                self.frontier, self.plan, self.phase = None, None, "choose"
                 continue
-            if cm.stamp != route.map_stamp and not self._standable(cm, f.goal):
-                self._give_up(f"the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) is no place to stand on the new map")
+            if not self._standable(cm, f.goal):
+                self.give_up(f"the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) is no place to stand on the new map")
                 continue
-            why = route.needs_replan(cm, x, y, now, p.global_params)
-            if why and not self._replan(x, y, now, why):
-                continue
-            route = self.route
-            bearing, dist, remaining = route.target(x, y, yaw)
-            end = route.plan.waypoints[-1]  # the passable cell the plan reached, near the frontier's goal
-            to_goal = min(math.hypot(f.goal[0] - x, f.goal[1] - y), math.hypot(end[0] - x, end[1] - y))
-            if to_goal <= p.arrive_m:
+            if math.hypot(f.goal[0] - x, f.goal[1] - y) <= p.arrive_m:
                 self.phase = "look"
-                return ExploreStep("look", self._at())
-            best, since = self._progress
-            if remaining < best - p.stuck_m:
-                self._progress = (remaining, now)
-            elif now - since > p.stuck_s:
-                self._give_up(f"no progress towards the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) "
-                              f"in {p.stuck_s:g} s")  # fmt: skip
-                continue
+                return ExploreStep("look", self.where())
             reason = (
-                f"exploring: walking to the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}), "
-                f"{remaining:.1f} m along the route ({len(self.frontiers)} frontiers left)"
+                f"exploring: walking to the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) "
+                f"({len(self.frontiers)} frontiers left)"
             )
-            return ExploreStep("walk", reason, bearing, dist, remaining, route.done)
+            return ExploreStep("walk", reason, f.goal)
         return ExploreStep("wait", "exploring: choosing a frontier")
 
-    def _at(self) -> str:
+    def where(self) -> str:
         f = self.frontier
         where = "" if f is None else f" at ({f.goal[0]:.1f}, {f.goal[1]:.1f})"
         return f"exploring: looking around from the frontier{where} ({len(self.frontiers)} frontiers left)"
@@ -296,8 +283,8 @@ class Explorer:
 # -- the search strategy ------------------------------------------------------------------------
 class Explore:
     """The search that leaves the room: a SearchStrategy (strategies/base.py) over the Explorer,
-    asked once turn-and-look is exhausted. Walks to the chosen frontier along the global route
-    (route.follow_waypoint: the approach law and the local planner), looks around there
+    asked once turn-and-look is exhausted. Walks to the chosen frontier with the navigator
+    (behavior/navigate/), looks around there
     (search.TurnAndLook's stop and look with slow answers, else a continuous turn at
     `search_yaw_rate` the short way round to the free space in sight that the camera has not looked
     at; it ends when none is left, after a whole turn, or, held by the safety gate near a wall, when
@@ -343,15 +330,28 @@ class Explore:
         pose = ctx.fresh_pose(now)
         x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
         st = self.explorer.step(x, y, yaw, now)
-        ctx.route = self.explorer.route
+        if st.action == "walk":
+            plan = self.explorer.take_plan()
+            if plan is not None and ctx.costmap is not None:
+                ctx.navigator.follow(plan, st.goal, ctx.costmap, now)
+            nav = ctx.navigate(st.goal, self.params.arrive_m, now, self.params.global_params)
+            if nav.status == "arrived":
+                self.explorer.arrived()
+                st = ExploreStep("look", self.explorer.where())
+            elif nav.status == "failed":
+                g = st.goal
+                self.explorer.give_up(f"the frontier at ({g[0]:.1f}, {g[1]:.1f}) given up: {nav.reason}")
+                ctx.navigator.reset()
+                return Command.still("exploring", f"{st.reason}: given up: {nav.reason}")
+            else:
+                self.looking = False
+                return Command(nav.vx, nav.wz, "exploring", f"{st.reason}: {nav.reason}", note=nav.note,
+                               navigated=True)  # fmt: skip
         if st.action == "done":
             return Command.still("not_found", f"no {ctx.label} found: {st.reason}")
         if st.action == "wait":
             return Command.still("exploring", st.reason)
-        if st.action == "look":
-            return self._look(ctx, now, st.reason)
-        self.looking = False
-        return follow_waypoint(ctx, st.bearing, st.distance, st.remaining, now, "exploring", st.reason)
+        return self._look(ctx, now, st.reason)
 
     def _look(self, ctx: Context, now: float, reason: str) -> Command:
         """A whole turn where it stands, then the explorer is told (looked)."""

@@ -27,10 +27,11 @@ class ExploreParams:
                                 live=True)  # fmt: skip
     min_frontier_m: float = 0.5  # a shorter frontier is dropped
     arrive_m: float = 0.5  # this near the frontier's goal: look around
-    waypoint_reach_m: float = 0.4  # a waypoint this near is passed
     visited_radius_m: float = 1.0  # frontiers this near a visited or given-up place are skipped
-    stuck_m: float = 0.3  # at least this much progress along the route ...
-    stuck_s: float = 20.0  # ... within this long, else the frontier is given up
+    regrown_share: float = param(
+        0.2, help="explore: a frontier given up comes back once this share more of the map round it is known",
+        min=0.0, max=10.0, live=True,
+    )  # fmt: skip
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
     min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
     look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left in sight, in range
@@ -42,9 +43,8 @@ class ExploreParams:
     def __post_init__(self) -> None:
         if self.frontier_choice not in FRONTIER_CHOICES:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
-        for name in ("min_frontier_m", "arrive_m", "waypoint_reach_m", "visited_radius_m", "stuck_m",
-                     "stuck_s", "map_timeout_s", "timeout_s", "min_view_m2", "look_done_m2",
-                     "second_pass_m"):  # fmt: skip
+        for name in ("min_frontier_m", "arrive_m", "visited_radius_m", "regrown_share", "map_timeout_s",
+                     "timeout_s", "min_view_m2", "look_done_m2", "second_pass_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")

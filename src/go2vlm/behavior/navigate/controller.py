@@ -1,0 +1,155 @@
+"""The navigator's controller: regulated pure pursuit (Nav2's RPP idea) on a route's waypoints, with
+the footprint checked along the command's arc. Pure: a path, a pose and a scan in; a velocity out.
+
+- The robot is projected onto the path (never behind the segment it reached last), and the carrot is
+  the point `lookahead` further along it; the lookahead grows with speed (`lookahead_s` x speed,
+  within `lookahead_min_m`..`lookahead_max_m`).
+- A carrot more than `rotate_to_heading_deg` off the heading: turn in place towards it first (a
+  doorway is walked into square-on, not cut at a slant).
+- Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
+  (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
+  `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
+  but never below `min_speed`.
+- The arc for `horizon_s` ahead must keep the clearance that its speed needs
+  (`NavParams.clearance`: a few centimetres at a creep, more at speed); if it does not, the same arc
+  is tried at half and a quarter of the speed, then the command is `blocked` (zero): the progress
+  checker and the recoveries take it from there. Where the footprint is already nearer than that
+  (inside a doorway), an arc that brings it no nearer passes.
+
+The safety gate's collision guard still has the last word on every command.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from go2vlm.behavior.navigate.params import NavParams
+from go2vlm.geometry.footprint import rect_distance
+from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+
+__all__ = ["Drive", "Rect", "arc_clearance", "project", "pursue"]
+
+ARC_SAMPLES = 12  # poses checked along a command's arc
+
+
+@dataclass(frozen=True)
+class Rect:
+    """The robot's rectangle (half sizes, m) about its base centre."""
+
+    half_length: float = FOOTPRINT_LENGTH / 2
+    half_width: float = FOOTPRINT_WIDTH / 2
+
+    @property
+    def corner(self) -> float:
+        return math.hypot(self.half_length, self.half_width)
+
+
+@dataclass(frozen=True)
+class Drive:
+    vx: float
+    wz: float
+    mode: str  # track | rotate | blocked
+    note: str  # what regulated or held it ("" = nothing)
+    index: int  # the path segment the robot is on
+    remaining: float  # m along the path to its end
+
+
+def project(path: np.ndarray, x: float, y: float, start: int = 0) -> tuple[int, np.ndarray, float]:
+    """The segment (from `start` on) nearest (x, y), the nearest point on it, and the metres left
+    along the path from there."""
+    a, b = path[start:-1], path[start + 1 :]
+    if len(a) == 0:
+        return max(0, len(path) - 2), path[-1], 0.0
+    ab = b - a
+    L2 = np.maximum((ab**2).sum(axis=1), 1e-12)
+    t = np.clip(((np.array((x, y)) - a) * ab).sum(axis=1) / L2, 0.0, 1.0)
+    near = a + t[:, None] * ab
+    i = int(np.argmin(np.hypot(near[:, 0] - x, near[:, 1] - y)))
+    seg = np.sqrt(L2)
+    rest = float(seg[i] * (1.0 - t[i]) + seg[i + 1 :].sum())
+    return start + i, near[i], rest
+
+
+def _carrot(path: np.ndarray, index: int, point: np.ndarray, lookahead: float) -> np.ndarray:
+    """The point `lookahead` m further along the path than `point` (on segment `index`), or its end."""
+    left, at = lookahead, point
+    for j in range(index + 1, len(path)):
+        step = float(np.hypot(*(path[j] - at)))
+        if step >= left:
+            return at + (path[j] - at) * (left / max(step, 1e-12))
+        left -= step
+        at = path[j]
+    return path[-1]
+
+
+def arc_clearance(scan: np.ndarray, vx: float, wz: float, duration: float, fp: Rect) -> float:
+    """The least clearance (m) of the footprint to the scan points (base frame) along the arc that
+    (vx, wz) drives for `duration`, its start included."""
+    if len(scan) == 0:
+        return math.inf
+    reach = abs(vx) * duration + fp.corner + 1.0
+    pts = scan[np.hypot(scan[:, 0], scan[:, 1]) <= reach]
+    if len(pts) == 0:
+        return math.inf
+    best = math.inf
+    for t in np.linspace(0.0, duration, ARC_SAMPLES):
+        th = wz * t
+        if abs(wz) > 1e-6:
+            px, py = vx / wz * math.sin(th), vx / wz * (1.0 - math.cos(th))
+        else:
+            px, py = vx * t, 0.0
+        c, s = math.cos(th), math.sin(th)
+        dx, dy = pts[:, 0] - px, pts[:, 1] - py
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        best = min(best, float(rect_distance(lx, ly, fp.half_length, fp.half_width).min()))
+    return best
+
+
+def pursue(
+    path: np.ndarray, pose: tuple[float, float, float], scan: np.ndarray | None, speed: float, p: NavParams,
+    max_linear: float, max_angular: float, start: int = 0, fp: Rect = Rect(),
+) -> Drive:  # fmt: skip
+    """The command that follows `path` ((M, 2) world waypoints) from `pose` (x, y, yaw); `speed` the
+    robot's speed now (m/s, for the lookahead); `scan` obstacle points in the base frame (None: no
+    fresh scan, no checks here: the guard's blind cap holds it)."""
+    x, y, yaw = pose
+    index, point, remaining = project(path, x, y, start)
+    lookahead = min(max(p.lookahead_s * abs(speed), p.lookahead_min_m), p.lookahead_max_m)
+    cx, cy = _carrot(path, index, point, lookahead) - (x, y)
+    c, s = math.cos(yaw), math.sin(yaw)
+    lx, ly = c * cx + s * cy, -s * cx + c * cy
+    alpha = math.atan2(ly, lx)
+    pts = scan if scan is not None else np.zeros((0, 2))
+    now_clear = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
+    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
+        wz = math.copysign(min(max(p.rotate_gain * abs(alpha), p.min_turn_rate), max_angular), alpha)
+        need = min(p.clearance(0.0), now_clear)
+        if arc_clearance(pts, 0.0, wz, p.horizon_s, fp) >= need - 1e-3:
+            return Drive(0.0, wz, "rotate", "turning to the route", index, remaining)
+        return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
+    d2 = lx * lx + ly * ly
+    kappa = 2.0 * ly / max(d2, 1e-9)
+    v, notes = max_linear, []
+    if abs(kappa) > 1e-9 and 1.0 / abs(kappa) < p.min_radius_m:
+        v *= (1.0 / abs(kappa)) / p.min_radius_m
+        notes.append("curve")
+    if now_clear < p.slow_near_m:
+        v *= max(now_clear, 0.0) / p.slow_near_m
+        notes.append("near an obstacle")
+    if v > p.approach_gain * remaining:
+        v = p.approach_gain * remaining
+        notes.append("arriving")
+    v = min(max(v, p.min_speed), max_linear)
+    wz = v * kappa
+    if abs(wz) > max_angular:  # keep the arc: slow down rather than turn wider
+        v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+    for scale in (1.0, 0.5, 0.25):
+        need = min(p.clearance(v * scale), now_clear)
+        if arc_clearance(pts, v * scale, wz * scale, p.horizon_s, fp) >= need - 1e-3:
+            if scale < 1.0:
+                notes.append("clearance")
+            return Drive(v * scale, wz * scale, "track", ", ".join(notes), index, remaining)
+    return Drive(0.0, 0.0, "blocked", "the route's arc does not keep its clearance", index, remaining)

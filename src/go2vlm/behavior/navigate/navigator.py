@@ -1,0 +1,149 @@
+"""The navigator: the one way from "be near (x, y)" to a velocity. Pure, timestamp-driven; the only
+caller of the global planner in behavior/ for the places it is handed.
+
+    nav = Navigator(NavParams(), GlobalParams())
+    step = nav.step((x, y), tolerance, costmap, (px, py, yaw), scan_points, now,
+                    max_linear=0.4, max_angular=0.8)
+    step.vx, step.wz, step.status  # moving | arrived | recovering | failed | waiting
+
+It owns, as Nav2 keeps them apart:
+- the route (behavior/planner/route.Route over planner/global_path.plan_path): planned for a new
+  goal (one that moved more than `goal_moved_m`: a remembered place that shifts by centimetres with
+  each answer keeps its route), replanned when the newest map blocks it, when the robot strays
+  from it, or as the map grows;
+- the controller (navigate/controller.py: regulated pure pursuit, footprint-checked);
+- one progress checker (navigate/progress.py: `progress_m` within `progress_s`);
+- the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
+  on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
+`arrived`: within `tolerance` of the goal, or within `arrive_m` of the route's end (the passable cell
+the plan reached next to it). `failed` also when no route can be planned (the planner's reason).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from go2vlm.behavior.navigate.controller import Rect, pursue
+from go2vlm.behavior.navigate.params import NavParams
+from go2vlm.behavior.navigate.progress import Progress
+from go2vlm.behavior.navigate.recovery import Recoveries
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, plan_path
+from go2vlm.behavior.planner.route import Route
+
+__all__ = ["NavStep", "Navigator"]
+
+
+@dataclass(frozen=True)
+class NavStep:
+    vx: float
+    wz: float
+    status: str  # moving | arrived | recovering | failed | waiting
+    reason: str
+    note: str = ""  # what regulated or held the controller ("" = nothing)
+
+
+class Navigator:
+    def __init__(self, params: NavParams | None = None, planner: GlobalParams | None = None,
+                 footprint: Rect | None = None) -> None:  # fmt: skip
+        self.params = params or NavParams()
+        self.planner = planner or GlobalParams()
+        self.footprint = footprint or Rect()
+        self.counters: Counter[str] = Counter()  # plans, failures: the commander's status
+        self.recoveries = Recoveries()
+        self.progress = Progress()
+        self.goal: tuple[float, float] | None = None
+        self.route: Route | None = None
+        self._index = 0
+        self._speed = 0.0
+
+    def reset(self) -> None:
+        """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
+        self.goal, self.route, self._index, self._speed = None, None, 0, 0.0
+        self.progress.reset()
+        self.recoveries.reset()
+
+    def follow(self, plan: Plan, goal: tuple[float, float], cm: Costmap, now: float) -> None:
+        """Take `plan` (made by the caller to choose its goal, e.g. the nearest frontier) as the route to `goal`."""
+        self.reset()
+        self.goal = goal
+        self.route = Route(plan, goal, now, cm.stamp)
+        self.counters["plans"] += 1
+
+    def step(
+        self, goal: tuple[float, float], tolerance: float, cm: Costmap | None, pose: tuple[float, float, float] | None,
+        scan: np.ndarray | None, now: float, *, max_linear: float, max_angular: float,
+    ) -> NavStep:  # fmt: skip
+        p = self.params
+        if cm is None or pose is None:
+            self._speed = 0.0
+            return NavStep(0.0, 0.0, "waiting", "no map" if cm is None else "no fresh pose")
+        if self.goal is None or math.hypot(goal[0] - self.goal[0], goal[1] - self.goal[1]) > p.goal_moved_m:
+            self.reset()
+        self.goal = goal
+        x, y, yaw = pose
+        end = self.route.plan.waypoints[-1] if self.route is not None else None
+        if math.hypot(goal[0] - x, goal[1] - y) <= tolerance or (
+            end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m
+        ):
+            self._speed = 0.0
+            return NavStep(0.0, 0.0, "arrived", "there")
+        if self.recoveries.active is not None:
+            cmd = self.recoveries.step(pose, scan, now, p, max_angular, self.footprint)
+            if cmd is not None:
+                self._speed = abs(cmd[0])
+                return NavStep(cmd[0], cmd[1], "recovering", f"recovering: {self.recoveries.active}")
+            self.progress.reset()
+        if self.progress.moved(x, y, now, p.progress_m):
+            self.recoveries.reset()
+        if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
+            tol = max(self.planner.goal_tolerance_m, tolerance)
+            plan = plan_path(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol))
+            self.counters["plans"] += 1
+            if not plan.ok:
+                self.counters["plan_failures"] += 1
+                self.route = None
+                return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
+            self.route, self._index = Route(plan, goal, now, cm.stamp), 0
+        if self.progress.stalled(now, p.progress_s):
+            toward = self._toward(pose)
+            name = self.recoveries.begin(pose, now, toward)
+            if name is None:
+                self.counters["failures"] += 1
+                tried = self.recoveries.tried()
+                self.reset()
+                return NavStep(0.0, 0.0, "failed", f"no progress of {p.progress_m:g} m in {p.progress_s:g} s "
+                               f"after every recovery ({tried})")  # fmt: skip
+            self.counters[f"recovery_{name}"] += 1
+            if name == "replan":
+                self.route = None
+                self.recoveries.active = None
+                return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
+            return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
+        d = pursue(self.route.plan.waypoints, pose, scan, self._speed, p, max_linear, max_angular, self._index,
+                   self.footprint)  # fmt: skip
+        self._index, self._speed = d.index, d.vx
+        self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
+        reason = f"{d.remaining:.1f} m along the route"
+        return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)
+
+    def _toward(self, pose: tuple[float, float, float]) -> float:
+        """The route's way from the robot's heading (rad, + left); 0 without a route."""
+        if self.route is None:
+            return 0.0
+        w = self.route.plan.waypoints
+        tx, ty = w[min(self._index + 1, len(w) - 1)]
+        a = math.atan2(ty - pose[1], tx - pose[0]) - pose[2]
+        return (a + math.pi) % (2 * math.pi) - math.pi
+
+    def status(self) -> dict[str, object]:
+        return {
+            "goal": None if self.goal is None else [round(v, 2) for v in self.goal],
+            "route_m": None if self.route is None else round(self.route.plan.length, 2),
+            "recovering": self.recoveries.active,
+            "recoveries": dict(self.recoveries.counts),
+            **{k: v for k, v in self.counters.items()},
+        }

@@ -1,0 +1,91 @@
+"""The navigator's settings (behavior/navigate/): every threshold the route, the controller, the
+progress checker and the recoveries keep, declared once with `param` (help, bounds, live) and
+documented in docs/navigation.md#the-navigator. The commander takes them over with `from_core`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from go2vlm.declare import param
+
+__all__ = ["RECOVERIES", "NavParams"]
+
+# The recoveries, in the order they are tried after the progress checker says "stalled".
+RECOVERIES = ("replan", "spin", "back_up", "wait")
+
+
+@dataclass(frozen=True)
+class NavParams:
+    # -- the route ---------------------------------------------------------------------------
+    goal_moved_m: float = param(
+        0.5, help="navigate: a goal that moves less than this (m) keeps its route", min=0.0, max=5.0, live=True
+    )
+    arrive_m: float = param(0.25, help="navigate: this near the route's end (m) is there", min=0.05, max=2.0, live=True)
+    # -- the controller (regulated pure pursuit) -----------------------------------------------
+    lookahead_s: float = param(
+        1.5, help="navigate: lookahead = this x speed (s), within the two bounds below", min=0.1, max=5.0, live=True
+    )
+    lookahead_min_m: float = param(0.5, help="navigate: shortest lookahead (m)", min=0.1, max=3.0, live=True)
+    lookahead_max_m: float = param(1.5, help="navigate: longest lookahead (m)", min=0.2, max=5.0, live=True)
+    rotate_to_heading_deg: float = param(
+        45.0, help="navigate: the lookahead point this far off the heading (deg): turn in place first",
+        min=5.0, max=180.0, live=True,
+    )  # fmt: skip
+    rotate_gain: float = param(
+        1.5, help="navigate: turn rate (rad/s) per rad of heading error when turning in place", min=0.1, max=10.0,
+        live=True,
+    )  # fmt: skip
+    min_turn_rate: float = param(
+        0.25, help="navigate: slowest turn in place (rad/s): the gait turns no slower", min=0.0, max=1.0, live=True
+    )
+    min_radius_m: float = param(
+        0.9, help="navigate: curves tighter than this radius (m) slow in proportion", min=0.0, max=5.0, live=True
+    )
+    slow_near_m: float = param(
+        0.6, help="navigate: an obstacle nearer the footprint than this (m) slows in proportion", min=0.0,
+        max=3.0, live=True,
+    )  # fmt: skip
+    approach_gain: float = param(
+        0.8, help="navigate: within reach of the end, speed <= this x the metres left (1/s)", min=0.1, max=5.0,
+        live=True,
+    )  # fmt: skip
+    min_speed: float = param(
+        0.08, help="navigate: slowest walk (m/s) the regulations leave", min=0.0, max=0.5, live=True
+    )
+    horizon_s: float = param(
+        1.0, help="navigate: the command's arc this long ahead must keep the clearance (s)", min=0.1, max=5.0,
+        live=True,
+    )  # fmt: skip
+    clearance_m: float = param(
+        0.05, help="navigate: footprint clearance kept at a creep (m); more at speed (clearance_per_mps)",
+        min=0.0, max=1.0, live=True,
+    )  # fmt: skip
+    clearance_per_mps: float = param(
+        0.25, help="navigate: clearance added per m/s of speed (s)", min=0.0, max=2.0, live=True
+    )
+    # -- progress and recoveries ---------------------------------------------------------------
+    progress_m: float = param(0.3, help="navigate: moving this far (m) ...", min=0.05, max=3.0, live=True)
+    progress_s: float = param(
+        10.0, help="navigate: ... within this long (s) is progress; else a recovery", min=1.0, max=120.0, live=True
+    )
+    spin_deg: float = param(90.0, help="navigate: the spin recovery's turn (deg)", min=10.0, max=360.0, live=True)
+    back_up_m: float = param(0.3, help="navigate: the back-up recovery's distance (m)", min=0.05, max=2.0, live=True)
+    back_up_speed: float = param(0.15, help="navigate: the back-up recovery's speed (m/s)", min=0.05, max=0.5,
+                                 live=True)  # fmt: skip
+    wait_s: float = param(2.0, help="navigate: the wait recovery's pause (s)", min=0.0, max=30.0, live=True)
+    recovery_s: float = param(
+        8.0, help="navigate: a recovery that has not finished in this long (s) is over", min=1.0, max=60.0, live=True
+    )
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"navigate {f.name} must be a finite number >= 0, got {v}")
+        if self.lookahead_min_m > self.lookahead_max_m:
+            raise ValueError("navigate: need lookahead_min_m <= lookahead_max_m")
+
+    def clearance(self, speed: float) -> float:
+        """The footprint clearance (m) a command at `speed` (m/s) keeps along its arc."""
+        return self.clearance_m + self.clearance_per_mps * abs(speed)

@@ -1,0 +1,158 @@
+"""The navigator (behavior/navigate/): a kinematic Go2 (it moves exactly as commanded) in a toy house
+of two rooms joined by a door 0.8 m clear, with a scan of the walls round it. It crosses the door
+square-on and arrives; stalled, it tries each recovery in order and then says `failed`; a goal that
+moves a few centimetres keeps its route."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from go2vlm.behavior.navigate import Navigator, NavParams
+from go2vlm.behavior.navigate.controller import Rect, arc_clearance, pursue
+from go2vlm.behavior.navigate.params import RECOVERIES
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
+
+RES = 0.05
+ORIGIN = (-6.0, -3.5)
+DOOR = 0.8  # m clear
+FP = Rect()
+
+
+def house(door: float = DOOR) -> np.ndarray:
+    """Walls (True) of two 6 x 7 m rooms with a wall at x = 0 (0.1 m thick) and a door |y| < door / 2."""
+    g = np.zeros((140, 240), bool)
+    g[:2, :] = g[-2:, :] = True
+    g[:, :2] = g[:, -2:] = True
+    g[:, 119:121] = True
+    half = int(round(door / 2 / RES))
+    g[70 - half : 70 + half, 119:121] = False
+    return g
+
+
+def costmap(walls: np.ndarray, stamp: float = 0.0) -> Costmap:
+    """Inscribed radius (0.155 m + 3 cm) lethal, a cost band out to the circumscribed one and beyond."""
+    d = ndimage.distance_transform_edt(~walls) * RES
+    cost = np.clip((0.8 - d) / 0.6 * 98, 0, 98).astype(np.int8)
+    cost[d <= 0.185] = 99
+    cost[walls] = 100
+    return Costmap(cost, RES, ORIGIN, stamp)
+
+
+def wall_points(walls: np.ndarray) -> np.ndarray:
+    r, c = np.nonzero(walls)
+    return np.column_stack((ORIGIN[0] + (c + 0.5) * RES, ORIGIN[1] + (r + 0.5) * RES))
+
+
+def scan_at(pts: np.ndarray, x: float, y: float, yaw: float, reach: float = 4.0) -> np.ndarray:
+    near = pts[np.hypot(pts[:, 0] - x, pts[:, 1] - y) < reach]
+    dx, dy = near[:, 0] - x, near[:, 1] - y
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.column_stack((c * dx + s * dy, -s * dx + c * dy))
+
+
+def drive(nav: Navigator, goal: tuple[float, float], start: tuple[float, float, float], walls: np.ndarray,
+          steps: int = 1500, dt: float = 0.1) -> tuple[str, list[tuple[float, float, float]], float]:  # fmt: skip
+    cm, pts = costmap(walls), wall_points(walls)
+    x, y, yaw = start
+    poses, least = [start], math.inf
+    for k in range(steps):
+        scan = scan_at(pts, x, y, yaw)
+        least = min(least, arc_clearance(scan, 0.0, 0.0, 0.0, FP))
+        out = nav.step(goal, 0.3, cm, (x, y, yaw), scan, k * dt, max_linear=0.5, max_angular=0.8)
+        if out.status in ("arrived", "failed"):
+            return out.status, poses, least
+        yaw += out.wz * dt
+        x, y = x + out.vx * math.cos(yaw) * dt, y + out.vx * math.sin(yaw) * dt
+        poses.append((x, y, yaw))
+    return "timeout", poses, least
+
+
+@pytest.mark.parametrize("door", [0.8, 0.9, 1.2])
+def test_through_a_narrow_door_square_on_and_arrives(door: float) -> None:
+    nav = Navigator(NavParams(), GlobalParams())
+    status, poses, least = drive(nav, (-3.0, 2.0), (3.0, -2.0, math.pi / 2), house(door))
+    assert status == "arrived", (status, poses[-1], nav.status())
+    assert least > 0.0  # the footprint never touched a wall
+    inside = [yaw for x, y, yaw in poses if abs(x) < FP.half_length / 2]
+    assert inside, "never crossed the wall"
+    heading = [abs(math.remainder(yaw - math.pi, 2 * math.pi)) for yaw in inside]
+    assert max(heading) < math.radians(25), [round(math.degrees(h)) for h in heading]  # square-on
+
+
+def test_a_stalled_robot_tries_each_recovery_in_order_then_fails() -> None:
+    walls = house()
+    nav = Navigator(NavParams(progress_s=2.0, wait_s=1.0, recovery_s=3.0), GlobalParams())
+    cm, pts = costmap(walls), wall_points(walls)
+    pose = (3.0, -2.0, 0.0)  # it never moves, whatever it is told
+    seen: list[str] = []
+    for k in range(400):
+        out = nav.step((-3.0, 2.0), 0.3, cm, pose, scan_at(pts, *pose), k * 0.1, max_linear=0.5, max_angular=0.8)
+        if out.status == "recovering" and (not seen or seen[-1] != out.reason):
+            seen.append(out.reason)
+        if out.status == "failed":
+            break
+    assert out.status == "failed" and "after every recovery" in out.reason, out
+    assert dict(nav.recoveries.counts) == {name: 1 for name in RECOVERIES}
+    assert seen == [f"recovering: {name}" for name in RECOVERIES if name != "replan"]
+
+
+def test_a_goal_that_shifts_by_centimetres_keeps_its_route() -> None:
+    walls = house()
+    nav = Navigator(NavParams(), GlobalParams())
+    cm = costmap(walls)
+    pose = (3.0, -2.0, math.pi)
+    for k in range(20):
+        goal = (-3.0 + 0.02 * (k % 3), 2.0 - 0.03 * (k % 2))
+        nav.step(goal, 0.3, cm, pose, None, k * 0.1, max_linear=0.5, max_angular=0.8)
+    assert nav.counters["plans"] == 1
+    nav.step((-3.0, -2.0), 0.3, cm, pose, None, 2.1, max_linear=0.5, max_angular=0.8)
+    assert nav.counters["plans"] == 2  # a goal moved metres: a new route
+
+
+def test_an_unreachable_place_fails_with_the_planners_reason() -> None:
+    walls = house()
+    walls[:, 119:121] = True  # the door shut
+    nav = Navigator()
+    out = nav.step((-3.0, 2.0), 0.3, costmap(walls), (3.0, -2.0, 0.0), None, 0.0, max_linear=0.5, max_angular=0.8)
+    assert out.status == "failed" and out.reason.startswith("no route"), out
+
+
+def test_the_controller_turns_in_place_to_a_route_behind_and_is_blocked_by_what_its_arc_meets() -> None:
+    p = NavParams()
+    path = np.array([[0.0, 0.0], [-3.0, 0.0]])
+    d = pursue(path, (0.0, 0.0, 0.0), None, 0.0, p, 0.5, 0.8)
+    assert d.mode == "rotate" and d.vx == 0.0 and d.wz != 0.0
+    ahead = np.array([[0.0, 0.0], [3.0, 0.0]])
+    wall = np.array([[0.45, y] for y in np.linspace(-0.5, 0.5, 21)])  # 0.1 m before the footprint's front
+    d = pursue(ahead, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8)
+    assert d.mode == "track" and 0.0 < d.vx < 0.1  # a creep keeps only a few centimetres
+    d = pursue(ahead, (0.0, 0.0, 0.0), wall - (0.07, 0.0), 0.0, p, 0.5, 0.8)
+    assert d.mode == "blocked" and d.vx == 0.0  # within them already: no nearer
+    d = pursue(ahead, (0.0, 0.0, 0.0), None, 0.0, p, 0.5, 0.8)
+    assert d.mode == "track" and d.vx > 0.3 and abs(d.wz) < 1e-6
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.floats(-3, 3), st.floats(-3, 3), st.floats(-math.pi, math.pi), st.floats(0, 1.0),
+    st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2)), max_size=30),
+    st.floats(0.05, 1.0), st.floats(0.1, 1.5),
+)  # fmt: skip
+def test_the_controller_stays_within_its_limits_and_never_drives_into_its_clearance(
+    gx: float, gy: float, yaw: float, speed: float, obstacles: list[tuple[float, float]], vmax: float, wmax: float
+) -> None:
+    p = NavParams()
+    path = np.array([[0.0, 0.0], [gx, gy], [gx + 1.0, gy]])
+    scan = np.array(obstacles).reshape(-1, 2)
+    d = pursue(path, (0.0, 0.0, yaw), scan, speed, p, vmax, wmax)
+    assert 0.0 <= d.vx <= vmax + 1e-9 and abs(d.wz) <= wmax + 1e-9
+    if d.vx > 0.0 or d.wz != 0.0:
+        here = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
+        need = min(p.clearance(d.vx), here)
+        assert arc_clearance(scan, d.vx, d.wz, p.horizon_s, FP) >= need - 1e-3
