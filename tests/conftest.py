@@ -8,6 +8,7 @@
 - State the nodes keep across restarts (the safety gate's e-stop latch, under XDG_STATE_HOME) goes
   to a temporary folder: one for the session, and one of its own for every test, so a test that ends
   with a gate latched never latches the next test's gate, and nothing lands in the user's home.
+- Property tests (hypothesis) have no per-example deadline: timing is for benchmarks/, not tests.
 """
 
 from __future__ import annotations
@@ -34,6 +35,11 @@ from busutil import Procs, claim_free_domain  # noqa: E402
 os.environ["ROS_DOMAIN_ID"] = str(claim_free_domain())
 
 import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
+
+# No property test has a time limit: a busy machine is not a failure (speed targets live in benchmarks/).
+settings.register_profile("go2vlm", deadline=None)
+settings.load_profile("go2vlm")
 
 
 @pytest.fixture(autouse=True)

@@ -57,6 +57,7 @@ def commander_status(
         "remembered": _remembered(m, now),
         "explore": explore,
         "plan": plan_status(route),
+        "navigate": m.ctx.navigator.status(),
         "memory": None if m.memory is None else {
             "objects": len(m.memory),
             "answer_latency_s": None if m.answer_latency is None else round(m.answer_latency, 3),
