@@ -1,8 +1,9 @@
-"""The headway watch of a go to (behavior/strategies/headway.py): a robot that keeps moving never
-stalls; one held within HEADWAY_M of a spot for HEADWAY_S walks the global route to the target's
-place, through the doorway, until it is ROUTE_OUT_M out, and the watch then starts afresh; a pause in
-the go to starts it afresh too. Through the tracked approach: the dining table seen through a
-doorway from beside its jamb (rooms 45) is walked to along the route once the approach stalls."""
+"""The headway watch of a tracked go to (behavior/strategies/headway.py) over the navigator: a robot
+that keeps moving never stalls; one held near a spot for the navigator's progress window hands the
+target's place to the navigator, whose route goes through the doorway, until it is `headway_out_m`
+out, and the watch then starts afresh; a pause in the go to starts it afresh too. Through the tracked
+approach: an object seen through a doorway from beside its jamb is walked to with the navigator once
+the approach stalls."""
 
 from __future__ import annotations
 
@@ -14,9 +15,12 @@ from test_strategy_route import ctx_at, two_rooms
 
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Context, Sighting
-from go2vlm.behavior.strategies.headway import GAP_S, HEADWAY_M, HEADWAY_S, ROUTE_OUT_M, Headway
+from go2vlm.behavior.strategies.headway import Headway
+from go2vlm.behavior.strategies.params import MissionParams
 
 DUCK = (-4.8, -2.6)  # in the left room; the door is at x = 0, |y| < 0.6
+P = MissionParams()
+WINDOW, RADIUS = P.nav.progress_s, P.nav.progress_m
 
 
 def crossings(ctx: Context) -> list[float]:
@@ -27,68 +31,61 @@ def crossings(ctx: Context) -> list[float]:
             if a[0] * b[0] < 0]  # fmt: skip
 
 
-@settings(max_examples=100, deadline=None)
-@given(speed=st.floats(HEADWAY_M / HEADWAY_S * 1.1, 0.6), heading=st.floats(-math.pi, math.pi),
-       dt=st.floats(0.05, 0.5))  # fmt: skip
+@settings(max_examples=100)
+@given(speed=st.floats(RADIUS / WINDOW * 1.5, 0.6), heading=st.floats(-math.pi, math.pi), dt=st.floats(0.05, 0.5))
 def test_a_robot_that_moves_never_stalls(speed: float, heading: float, dt: float) -> None:
     h, cm = Headway(), two_rooms()
-    for i in range(int(3 * HEADWAY_S / dt)):
+    for i in range(int(3 * WINDOW / dt)):
         t = i * dt
         ctx = ctx_at(2.0 + speed * t * math.cos(heading), speed * t * math.sin(heading), 0.0, cm, now=t)
-        assert h.step(ctx, DUCK, 1.0, t) is None
+        assert h.walk(ctx, DUCK, 1.0, t, "duck") is None
         assert ctx.counters["stalled"] == 0
 
 
-def test_a_stalled_go_to_walks_the_route_through_the_door_then_watches_afresh() -> None:
+def test_a_stalled_go_to_walks_with_the_navigator_through_the_door_then_watches_afresh() -> None:
     h, cm, t = Headway(), two_rooms(), 0.0
-    while t < HEADWAY_S - 0.2:  # rocking within a few cm of (0.5, -1.0), beside the jamb
+    ctx = ctx_at(0.5, -1.0, 2.0, cm, now=t)
+    while True:  # rocking within a few cm of (0.5, -1.0), beside the jamb
         ctx = ctx_at(0.5 + 0.05 * math.sin(t), -1.0, 2.0, cm, now=t)
-        assert h.step(ctx, DUCK, 1.0, t) is None
-        t += 0.1
-    while True:
-        ctx = ctx_at(0.5, -1.0, 2.0, cm, now=t)
-        via = h.step(ctx, DUCK, 1.0, t)
-        if via is not None:
+        cmd = h.walk(ctx, DUCK, 1.0, t, "duck")
+        if cmd is not None:
             break
-        assert t < HEADWAY_S + 0.5
+        assert t < WINDOW + 0.5
         t += 0.1
-    assert ctx.counters["stalled"] == 1 and ctx.route is not None
+    assert t >= WINDOW - 0.2 and ctx.counters["stalled"] == 1 and cmd.navigated
     assert crossings(ctx) and all(abs(y) < 0.6 for y in crossings(ctx))  # through the door
-    bearing, dist, rest = via
-    assert dist > 0.0 and rest >= dist
-    # Still near the stall: the route goes on; out by ROUTE_OUT_M: the watch restarts there.
-    assert h.step(ctx_at(0.2, -0.5, 2.0, cm, now=t + 1), DUCK, 1.0, t + 1) is not None
-    out = ctx_at(0.5 - ROUTE_OUT_M - 0.1, -0.2, math.pi, cm, now=t + 2)
-    assert h.step(out, DUCK, 1.0, t + 2) is None
-    assert h.stalled is None and h.anchor is not None and h.anchor[2] == t + 2
+    # Still near the stall: the navigator goes on; out by headway_out_m: the watch restarts there.
+    assert h.walk(ctx_at(0.2, -0.5, 2.0, cm, now=t + 1), DUCK, 1.0, t + 1, "duck") is not None
+    out = ctx_at(0.5 - P.headway_out_m - 0.1, -0.2, math.pi, cm, now=t + 2)
+    assert h.walk(out, DUCK, 1.0, t + 2, "duck") is None and h.stalled is None
 
 
 def test_a_pause_in_the_go_to_starts_the_watch_afresh() -> None:
     h, cm = Headway(), two_rooms()
-    for i in range(int(HEADWAY_S * 10) - 5):
-        assert h.step(ctx_at(0.5, -1.0, 2.0, cm, now=i / 10), DUCK, 1.0, i / 10) is None
-    t = HEADWAY_S + GAP_S + 1.0  # a search or a look in between
-    for i in range(int(HEADWAY_S * 10) - 5):
-        assert h.step(ctx_at(0.5, -1.0, 2.0, cm, now=t + i / 10), DUCK, 1.0, t + i / 10) is None
+    for i in range(int(WINDOW * 10) - 5):
+        assert h.walk(ctx_at(0.5, -1.0, 2.0, cm, now=i / 10), DUCK, 1.0, i / 10, "duck") is None
+    t = WINDOW + 2 * P.lost_timeout_s + 1.0  # a search or a look in between
+    for i in range(int(WINDOW * 10) - 5):
+        assert h.walk(ctx_at(0.5, -1.0, 2.0, cm, now=t + i / 10), DUCK, 1.0, t + i / 10, "duck") is None
 
 
 def test_no_route_leaves_the_approach_as_it_was() -> None:
     h, cm, t = Headway(), two_rooms(door=False), 0.0
     ctx = ctx_at(0.5, -1.0, 2.0, cm, now=t)
-    while t < 2.5 * HEADWAY_S:
+    while t < 2.5 * WINDOW:
         ctx.pose = ctx_at(0.5, -1.0, 2.0, cm, now=t).pose
-        assert h.step(ctx, DUCK, 1.0, t) is None
+        assert h.walk(ctx, DUCK, 1.0, t, "duck") is None
         t += 0.1
-    assert ctx.counters["stalled"] == 2 and ctx.route is None  # it stalled, found no route, watched again
+    assert ctx.counters["stalled"] == 2  # it stalled, the navigator found no route, it watched again
 
 
-def test_the_tracked_approach_takes_the_route_once_it_stalls() -> None:
+def test_the_tracked_approach_walks_with_the_navigator_once_it_stalls() -> None:
     """The duck in view through the door, ranged 1.2 m by the jamb in front of it; the robot held
-    where it stands: first the local planner's way, then the route through the door."""
+    where it stands: first the local planner's way, then the navigator's route through the door."""
     a, cm = Approach(), two_rooms()
     states: list[str] = []
     t, ctx = 0.0, ctx_at(0.5, -1.0, 2.6, cm, now=0.0)
-    while t < HEADWAY_S + 2.0:
+    while t < WINDOW + 2.0:
         ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=t).pose
         s = Sighting(t, "duck", "tracking", 0.1, 1.2, "bottom", -0.1)
         ctx.sighting = s
@@ -98,6 +95,6 @@ def test_the_tracked_approach_takes_the_route_once_it_stalls() -> None:
         assert cmd is not None and cmd.state != "reached"
         states.append(cmd.reason)
         t += 0.1
-    assert not any("no headway" in r for r in states[: int(HEADWAY_S * 10) - 2])
-    assert "no headway, along the route" in states[-1] and ctx.route is not None
+    assert not any("no headway" in r for r in states[: int(WINDOW * 10) - 2])
+    assert "no headway, with the navigator" in states[-1] and ctx.route is not None
     assert crossings(ctx) and all(abs(y) < 0.6 for y in crossings(ctx))

@@ -47,6 +47,7 @@ class CommanderConfig:
     scan_timeout_s: float = from_core(MissionParams, "scan_timeout_s")
     planner_margin_m: float = from_core(PlannerParams, "margin")
     detour_memory_s: float = from_core(MissionParams, "detour_memory_s")
+    headway_out_m: float = from_core(MissionParams, "headway_out_m")
     use_memory: bool = from_core(MissionParams, "use_memory")
     objects_topic: str = param(OBJECTS.name, help="vision_msgs/Detection3DArray: the object memory")
     memory_min_confidence: float = from_core(MissionParams, "memory_min_confidence")

@@ -21,6 +21,10 @@ class NavParams:
     goal_moved_m: float = param(
         0.5, help="navigate: a goal that moves less than this (m) keeps its route", min=0.0, max=5.0, live=True
     )
+    unknown_cost: float = param(
+        20.0, help="navigate: to a remembered place, cost per unknown cell crossed (free: 1; known ways first)",
+        min=1.0, max=1000.0, live=True,
+    )  # fmt: skip
     arrive_m: float = param(0.25, help="navigate: this near the route's end (m) is there", min=0.05, max=2.0, live=True)
     # -- the controller (regulated pure pursuit) -----------------------------------------------
     lookahead_s: float = param(

@@ -4,7 +4,7 @@ after ALIGN_FOUND_S, the turn held by the gate in a doorway: `found` all the sam
 off), follow (keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
 (`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
 towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
-blocked; a free way turns back towards it. A go to without headway walks the global route to the
+blocked; a free way turns back towards it. A go to without headway walks with the navigator to the
 target's place for a while (strategies/headway.py): the memory's place for it, else its last
 confirmed one. The laws are behavior/control.py's. Pure."""
 

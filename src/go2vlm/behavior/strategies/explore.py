@@ -42,7 +42,6 @@ from go2vlm.behavior.control import search_command
 from go2vlm.behavior.planner.global_path import Costmap, Plan, plan_path
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
-from go2vlm.behavior.strategies.route import DEFAULT_VIEW
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.world.coverage import Coverage
@@ -50,6 +49,8 @@ from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_fron
 from go2vlm.world.poses import wrap_angle
 
 __all__ = ["FRONTIER_CHOICES", "Explore", "ExploreParams", "ExploreStep", "Explorer"]
+
+DEFAULT_VIEW = math.radians(73.0)  # the head camera's, until a tracker report has said
 
 # A continuous look not all round in LOOK_SLACK whole turns' time at search_yaw_rate, or gaining less
 # than LOOK_STALL_RAD in LOOK_STALL_S, is held by the gate (near a wall, in a corridor) and ends (rocking
@@ -106,7 +107,7 @@ class Explorer:
     # -- the search -----------------------------------------------------------------------------
     def take_plan(self) -> Plan | None:
         """The plan `_choose` made to the chosen frontier, once (the navigator follows it)."""
-        plan, self.plan = self.plan, None
+        self.plan, plan = None, self.plan
         return plan
 
     def arrived(self) -> None:
@@ -337,7 +338,6 @@ class Explore:
             nav = ctx.navigate(st.goal, self.params.arrive_m, now, self.params.global_params)
             if nav.status == "arrived":
                 self.explorer.arrived()
-                st = ExploreStep("look", self.explorer.where())
             elif nav.status == "failed":
                 g = st.goal
                 self.explorer.give_up(f"the frontier at ({g[0]:.1f}, {g[1]:.1f}) given up: {nav.reason}")
@@ -351,7 +351,7 @@ class Explore:
             return Command.still("not_found", f"no {ctx.label} found: {st.reason}")
         if st.action == "wait":
             return Command.still("exploring", st.reason)
-        return self._look(ctx, now, st.reason)
+        return self._look(ctx, now, st.reason if st.action == "look" else self.explorer.where())
 
     def _look(self, ctx: Context, now: float, reason: str) -> Command:
         """A whole turn where it stands, then the explorer is told (looked)."""

@@ -1,80 +1,64 @@
-"""Headway on a go to: the reactive approach (the local planner steering towards the target's bearing)
-can cycle where the global planner knows the way. A go to that keeps the robot within HEADWAY_M of
-one spot for HEADWAY_S walks the global route to the target's place instead (planned whether or not
-the straight way looks clear), until it is ROUTE_OUT_M from where it stalled, the route ends or
-cannot be planned, or ROUTE_FOR_S has passed; then the watch starts afresh. Seen through a doorway
-from beside its jamb, the dining table held the local planner swinging round the jamb for 150 s,
-0.3 m from the gap the route takes (rooms 45). Pure, timestamp-driven.
+"""Headway on a tracked go to: the reactive approach (the approach law, and the local planner steering
+towards the target's bearing) can cycle where the navigator knows the way, beside a doorway's jamb
+with the object in view through it. A tracked go to that makes no progress, by the navigator's own
+rule (navigate/progress.py: `nav_progress_m` within `nav_progress_s`), hands the target's place to the
+navigator (behavior/navigate/) until it is `headway_out_m` from where it stalled, the navigator is
+there or gives up, or `nav_progress_s` has passed; then the approach has its turn again and the watch
+starts afresh. A pause in the go to longer than 2 x `lost_timeout_s` (a search, a look) starts it
+afresh too. Pure, timestamp-driven.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
+from go2vlm.behavior.navigate.progress import Progress
+from go2vlm.behavior.planner.global_path import GlobalParams
 from go2vlm.behavior.strategies.base import Command, Context
-from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 
-__all__ = ["HEADWAY_M", "HEADWAY_S", "ROUTE_FOR_S", "ROUTE_OUT_M", "Headway"]
-
-HEADWAY_S = 10.0  # within HEADWAY_M of one spot this long, walking to a goal: stalled
-HEADWAY_M = 0.4
-ROUTE_OUT_M = 1.5  # the route taken on a stall is walked this far from where it stalled ...
-ROUTE_FOR_S = 20.0  # ... for at most this long
-GAP_S = 3.0  # no go-to step this long (a search, a look): the watch starts afresh
+__all__ = ["Headway"]
 
 
 class Headway:
-    """The stall watch of one go-to strategy, and its way out along the global route."""
+    """The stall watch of the tracked go to, and its way out with the navigator."""
 
     def __init__(self) -> None:
-        self.router = RouteTo()
-        self.anchor: tuple[float, float, float] | None = None  # x, y, since when within HEADWAY_M of it
+        self.progress = Progress()
         self.stalled: tuple[float, float, float] | None = None  # x, y, t of the stall being walked out of
         self.last = -math.inf  # the last step
 
     def reset(self) -> None:
-        self.anchor = self.stalled = None
-        self.router.reset()
+        self.progress.reset()
+        self.stalled = None
         self.last = -math.inf
-
-    def step(
-        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float
-    ) -> tuple[float, float, float] | None:
-        """(bearing, distance) to the next waypoint of the route out of a stall towards `target`, and
-        the metres left along it; None: headway is fine, or no route (the caller steers as before)."""
-        pose = ctx.fresh_pose(now)
-        if pose is None:
-            return None
-        if now - self.last > GAP_S:
-            self.reset()
-        self.last = now
-        if self.stalled is not None:
-            sx, sy, st = self.stalled
-            if math.hypot(pose.x - sx, pose.y - sy) < ROUTE_OUT_M and now - st < ROUTE_FOR_S:
-                via = self.router.next(ctx, target, reach_m, now, force=True)
-                if via is not None:
-                    ctx.route = self.router.route
-                    return via
-            self.stalled = None
-            self.router.reset()
-            self.anchor = (pose.x, pose.y, now)
-            return None
-        if self.anchor is None or math.hypot(pose.x - self.anchor[0], pose.y - self.anchor[1]) > HEADWAY_M:
-            self.anchor = (pose.x, pose.y, now)
-            return None
-        if now - self.anchor[2] < HEADWAY_S:
-            return None
-        self.stalled = (pose.x, pose.y, now)
-        ctx.counters["stalled"] += 1
-        return self.step(ctx, target, reach_m, now)
 
     def walk(
         self, ctx: Context, target: tuple[float, float], reach_m: float, now: float, why: str, basis: str = ""
     ) -> Command | None:
-        """`step`'s way out as a command along the route (`why` opens its reason); None: carry on as before."""
-        via = self.step(ctx, target, reach_m, now)
-        if via is None:
+        """The navigator's command towards `target` (its surface `reach_m` from its centre) while
+        walking out of a stall; None: headway is fine (the approach steers as before)."""
+        pose, p = ctx.fresh_pose(now), ctx.params
+        if pose is None or ctx.costmap is None:
             return None
-        b, d, rest = via
-        return follow_waypoint(ctx, b, d, rest, now, "approaching",
-                               f"{why}: no headway, along the route ({rest:.1f} m left)", basis=basis)  # fmt: skip
+        if now - self.last > 2 * p.lost_timeout_s:
+            self.reset()
+        self.last = now
+        if self.stalled is not None:
+            sx, sy, st = self.stalled
+            if math.hypot(pose.x - sx, pose.y - sy) < p.headway_out_m and now - st < p.nav.progress_s:
+                planner = replace(GlobalParams(), unknown_cost=p.nav.unknown_cost)
+                nav = ctx.navigate(target, reach_m, now, planner)
+                if nav.status in ("moving", "recovering", "waiting"):
+                    return Command(nav.vx, nav.wz, "approaching", f"{why}: no headway, with the navigator "
+                                   f"({nav.reason})", note=nav.note, basis=basis, navigated=True)  # fmt: skip
+            self.stalled = None
+            ctx.navigator.reset()
+            self.progress.reset()
+            return None
+        self.progress.moved(pose.x, pose.y, now, p.nav.progress_m)
+        if not self.progress.stalled(now, p.nav.progress_s):
+            return None
+        self.stalled = (pose.x, pose.y, now)
+        ctx.counters["stalled"] += 1
+        return self.walk(ctx, target, reach_m, now, why, basis)

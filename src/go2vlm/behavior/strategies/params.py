@@ -51,6 +51,10 @@ class MissionParams:
     detour_memory_s: float = param(
         8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
     )
+    headway_out_m: float = param(
+        1.5, help="go to: a tracked approach that stalls walks with the navigator this far (m) before it "
+        "approaches again", min=0.1, max=10.0, live=True,
+    )  # fmt: skip
     planner: PlannerParams = field(default_factory=PlannerParams)
     nav: NavParams = field(default_factory=NavParams)  # the navigator's (behavior/navigate/params.py)
     use_memory: bool = param(True, help="go to / look for remembered objects (objects_topic)", live=True)

@@ -4,16 +4,17 @@ view is. Pure, timestamp-driven.
 
 - The target is the most confident remembered object of the goal's label (at least
   `memory_min_confidence`, not given up: a given-up one counts again once it is seen again).
-- Go to turns to it, then approaches its remembered place with the local planner, but only once the
-  memory confirms it (at least `memory_confirm_confidence`); less sure, it holds still facing it and
-  looks. A place it cannot see straight on the map (a wall or unknown space on the straight line:
-  another room) is walked to along the global route (route.RouteTo), through the doorway. At its
-  remembered place it stops and looks: `reached` only when an answer about a frame taken there placed
-  it within reach (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A place with no route
-  on the map whose straight way stays blocked UNREACHABLE_S is given up (a misplaced memory). One in
-  sight that the local planner makes no headway to is walked to along the route (headway.py).
+- Go to walks to its remembered place, but only once the memory confirms it (at least
+  `memory_confirm_confidence`); less sure, it holds still facing it and looks. With a costmap the
+  place is handed to the navigator (behavior/navigate/: route, controller, progress, recoveries),
+  within reach of it (stop_distance_m + its radius + distance_tolerance_m); a place the navigator
+  gives up on (no route: a misplaced memory beyond a wall; or no progress after every recovery) is
+  given up (`remembered_unreachable`). Without a costmap: turn, then walk straight with the local
+  planner, the guard having the last word. At its remembered place it turns to face it, stops and
+  looks: `reached` only when an answer about a frame taken there placed it within reach
+  (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
-  one out of sight on the map is first walked towards along the global route until it is in sight
+  one out of sight on the map is first walked towards with the navigator until it is in sight
   (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
 - `confirm_looks` answered looks without it: that object is given up and the search goes on.
 """
@@ -21,23 +22,20 @@ view is. Pure, timestamp-driven.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
+from go2vlm.behavior.navigate import line_of_sight
+from go2vlm.behavior.planner.global_path import GlobalParams
 from go2vlm.behavior.strategies.base import Command, Context
-from go2vlm.behavior.strategies.headway import Headway
-from go2vlm.behavior.strategies.route import RouteTo, follow_waypoint
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
 
-__all__ = ["SEEN_LATELY_S", "UNREACHABLE_S", "GoToRemembered", "relative"]
+__all__ = ["SEEN_LATELY_S", "GoToRemembered", "relative"]
 
 SEEN_LATELY_S = 5.0  # look for: the tracker confirmed it this recently: it is in sight, whatever the map says
-# go to: no route on the map and the straight way blocked this long: given up (`remembered_unreachable`);
-# a teddy bear placed 0.15 m beyond the outer wall by bad ranges held the robot at that wall for 100 s,
-# 1.2 m from the bear, which a look round would have seen (rooms 14)
-UNREACHABLE_S = 15.0
 
 
 def relative(ctx: Context, o: Remembered, now: float) -> tuple[float, float] | None:
@@ -68,16 +66,10 @@ class GoToRemembered:
     def __init__(self) -> None:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
-        self.router = RouteTo()
-        self.headway = Headway()
-        self.unreachable_since: float | None = None  # go to: no route, the straight way blocked, since
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
-        self.router.reset()
-        self.headway.reset()
-        self.unreachable_since = None
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -100,7 +92,6 @@ class GoToRemembered:
     def give_up(self, ctx: Context, o: Remembered, counter: str) -> None:
         """Go no more to `o` (unless it is seen again): the next pick, or the search, takes over."""
         self.given_up[o.id] = o.last_seen
-        self.unreachable_since = None
         ctx.counters[counter] += 1
         if ctx.target_obj is o:
             ctx.target_obj = None
@@ -137,41 +128,27 @@ class GoToRemembered:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
-        if goal.kind == "look_for" and not seen_lately:  # out of sight on the map (another room): walk to where it is
-            via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
-            ctx.route = self.router.route
-            if via is not None:
-                ctx.look.forget()
-                b, d, rest = via
-                reason = f"walking to where {where} can be seen, {rest:.1f} m along the route (memory)"
-                return follow_waypoint(ctx, b, d, rest, now, "aligning", reason, basis="memory")
+        reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
+        if goal.kind == "look_for" and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
+            # out of sight on the map (another room): walk to where it is until it is in sight
+            planner = self._planner(ctx)
+            if not line_of_sight(ctx.costmap, (ctx.pose.x, ctx.pose.y), (o.x, o.y), planner, reach):
+                out = self._walk(ctx, o, reach, now, "aligning", f"walking to where {where} can be seen")
+                if out is not None or ctx.target_obj is None:
+                    return out
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
-            # Walk: the approach turns before it walks, the planner steers round what is in the way.
             ctx.look.forget()
             self.failed_looks = 0
-            via = self.router.next(ctx, (o.x, o.y), ap.stop_distance + o.radius, now)
-            ctx.route = self.router.route
-            if via is not None:  # out of sight on the map: along the global route
-                b, d, rest = via
-                reason = f"{where}, {rest:.1f} m along the route (memory, confidence {o.confidence:.2f})"
-                return follow_waypoint(ctx, b, d, rest, now, "approaching", reason, basis="memory")
-            out = self.headway.walk(ctx, (o.x, o.y), ap.stop_distance + o.radius, now, where, basis="memory")
-            if out is not None:  # in sight, and no headway: along the global route all the same
-                return out
-            st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
-            if st is None or not st.blocked or not self.router.reason:
-                self.unreachable_since = None
-            elif self.unreachable_since is None:
-                self.unreachable_since = now
-            elif now - self.unreachable_since >= UNREACHABLE_S:
-                self.give_up(ctx, o, "remembered_unreachable")
-                return None
-            if st is not None and st.blocked:
-                return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
-            reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f})"
-            if self.router.reason:  # out of sight and no route on the map: straight, the guard has the last word
-                reason += f"; no route on the map ({self.router.reason})"
-            return Command(vx, wz, "approaching", reason, basis="memory")
+            if ctx.costmap is not None:
+                out = self._walk(ctx, o, reach, now, "approaching", f"{where} (memory, confidence {o.confidence:.2f})")
+                if out is not None or ctx.target_obj is None:
+                    return out
+            else:  # no map: turn, then walk straight; the planner steers round what the scan shows
+                st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
+                if st is not None and st.blocked:
+                    return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
+                reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); no map"
+                return Command(vx, wz, "approaching", reason, basis="memory")
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
@@ -186,3 +163,19 @@ class GoToRemembered:
             ctx.look.forget()  # no answer at all: look again (the search's timeout still runs)
         why = "confirming it is there" if at_place or goal.kind == "look_for" else "looking again before walking"
         return Command.still(state, f"holding still facing {where} ({surface:.2f} m): {why}")
+
+    @staticmethod
+    def _planner(ctx: Context) -> GlobalParams:
+        return replace(GlobalParams(), unknown_cost=ctx.params.nav.unknown_cost)
+
+    def _walk(self, ctx: Context, o: Remembered, reach: float, now: float, state: str, why: str) -> Command | None:
+        """The navigator's step to `o`'s place; None: it is there (the caller faces it and looks), or it
+        gave the place up (`o` given up, `ctx.target_obj` None: the search goes on)."""
+        nav = ctx.navigate((o.x, o.y), reach, now, self._planner(ctx))
+        if nav.status == "arrived":
+            return None
+        if nav.status == "failed":
+            self.give_up(ctx, o, "remembered_unreachable")
+            ctx.navigator.reset()
+            return None
+        return Command(nav.vx, nav.wz, state, f"{why}: {nav.reason}", note=nav.note, basis="memory", navigated=True)
