@@ -11,11 +11,11 @@ import numpy as np
 from scipy import ndimage
 
 from go2vlm.behavior.goals import parse_goal
+from go2vlm.behavior.navigate import line_of_sight
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.behavior.strategies.base import Context, Pose
 from go2vlm.behavior.strategies.params import MissionParams
 from go2vlm.behavior.strategies.remembered import GoToRemembered
-from go2vlm.behavior.navigate import line_of_sight
 from go2vlm.world.objects_msg import Remembered
 
 RES = 0.05

@@ -51,7 +51,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
                                   given_up, views_scored), plan (length_m, waypoints, reason), navigate
-                                  (goal, route_m, recovering, recoveries, plans, failures); on change, each status_period_s
+                                  (goal, route_m, recovering, recoveries, plans, failures); on change
+                                  and each status_period_s
 
 Goals and states
   follow    waiting -> tracking (keeps follow_distance_m) | lost | searching   never ends by itself
@@ -109,8 +110,8 @@ decision_hold_s, turns, the zero burst) is in the node's clock: sim time with us
 Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
 At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
 decision limits, avoid_obstacles, planner_margin_m, detour_memory_s, the memory settings, nav_*
-(docs/navigation.md#the-navigator); goal (use /goal), robot (its head camera's mount), frontier_choice,
-the topics, scan_timeout_s and the rates are read-only.
+(docs/navigation.md#the-navigator); goal, robot, frontier_choice, the topics, scan_timeout_s and the
+rates are read-only.
 """
 
 from __future__ import annotations
