@@ -42,9 +42,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   control_rate_hz; zeros for 0.5 s after a goal ends, then quiet;
                                   lowest priority in the safety gate (/teleop > /follower > /behavior)
               /go2/command        std_msgs/String       "sit" / "stand" (the Go2 driver / sim acts)
-              /plan               nav_msgs/Path, latched: the global route it walks (exploring to a
-                                  frontier, or to a remembered object out of sight), frame odom, on
-                                  every replan; an empty path when the route ends
+              /plan               nav_msgs/Path, latched: the navigator's route (to a frontier, or a
+                                  remembered place), frame odom, on every replan; empty when it ends
               /commander/status   std_msgs/String       latched JSON: goal, kind, target, state, reason,
                                   seen, x, distance_m, range_method, tracker, cmd, decision, counters,
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
