@@ -2,9 +2,18 @@
 DDS); the commander hands the next waypoint to its approach and its local planner, and the safety
 gate and its collision guard keep the last word.
 
-The costmap is a ROS-convention grid (nav_msgs/OccupancyGrid's data): int8, rows = y, cols = x;
--1 unknown, 0 free, 1..98 the inflation's cost gradient, >= `lethal` (99, the footprint's inscribed
+The costmap is a ROS-convention grid (nav_msgs/OccupancyGrid's data, the codes of world/occupancy.py):
+int8, rows = y, cols = x; -1 unknown, 0 free, 1..98 the inflation's cost gradient (90..98, from
+CIRCUMSCRIBED: the footprint fits at some headings only), >= `lethal` (99, the footprint's inscribed
 radius, and 100, an obstacle) never entered. `origin` is the world (x, y) of cell (0, 0)'s corner.
+
+The footprint, by heading: where the path crosses the band between the inscribed and the
+circumscribed radius (a doorway, a gap between furniture), the robot's rectangle, with the clearance
+kept at a creep (geometry/footprint.py `Clearance`), is checked at the heading the path gives it there
+(the robot walks along its path) against the obstacle cells. A path whose rectangle would touch has
+the cells where it does closed and is searched again (at most `footprint_replans` times): what is left
+is the way the footprint fits, which through a doorway is square-on. Waypoints keep the check: a
+shortcut through the band is taken only where the rectangle fits along it.
 
 Search: scikit-image's `graph.MCP_Geometric` (Dijkstra, 8-connected, each step costing its length
 times the mean of the two cells' costs: geometric, so a diagonal costs sqrt(2)). Chosen by
@@ -15,9 +24,11 @@ costs to *every* goal cell, so the nearest of many frontiers (by path cost), or 
 cell round an object, comes from one search that stops at the first goal reached; A* needs one
 search per goal. And its costs are Euclidean (pyastar2d's diagonal costs as much as a straight
 step: its paths measure ~9 % longer). A full replan across the largest world (the apartment,
-303 x 223 cells) takes 15 ms. A grid of more than `max_cells` cells is coarsened by the smallest
-whole factor that fits, each coarse cell as costly as its costliest fine cell (conservative: a
-coarse cell is lethal when any of its fine cells is): the 60 m cap plans at 15 cm in ~80 ms.
+303 x 223 cells) takes 15 ms. A grid of more than `max_cells` cells is first planned coarse, by the
+smallest whole factor that fits, each coarse cell as cheap as its cheapest fine cell (a coarse cell
+is passable when any of its fine cells is, so a doorway narrower than a coarse cell is never closed
+by it), then again at full resolution within a corridor of coarse cells round that path (and on the
+whole grid when the corridor holds no way): the plan is always the fine grid's.
 
 Unknown space (`unknown_cost`): the cost per cell of crossing an unknown cell; `math.inf` never
 crosses one. Exploration crosses unknown at a small cost (a frontier's goal is at the edge of the
@@ -39,10 +50,14 @@ Replanning: `Route` (planner/route.py).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from go2vlm.geometry.footprint import Clearance, rect_distance
+from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.world.occupancy import CIRCUMSCRIBED, INSCRIBED, LETHAL, UNKNOWN
 
 __all__ = [
     "Costmap",
@@ -50,12 +65,11 @@ __all__ = [
     "Plan",
     "cell_costs",
     "chain_cost",
+    "footprint_fits",
     "line_cells",
     "passable",
     "plan_path",
 ]
-
-UNKNOWN = -1
 
 
 @dataclass(frozen=True)
@@ -97,19 +111,24 @@ class Costmap:
 
 @dataclass(frozen=True)
 class GlobalParams:
-    lethal: int = 99  # a cell this costly or more is never entered (99 inscribed, 100 an obstacle)
+    lethal: int = INSCRIBED  # a cell this costly or more is never entered (99 inscribed, 100 an obstacle)
     cost_scale: float = 10.0  # a cell of cost v (0..98) costs 1 + cost_scale * v / 100 per cell crossed
     unknown_cost: float = math.inf  # per unknown cell crossed; inf: never
-    max_cells: int = 160_000  # larger grids are coarsened to fit (a full replan within 50 ms)
+    max_cells: int = 160_000  # larger grids are planned coarse first, then at full resolution round that path
     goal_tolerance_m: float = 0.6  # any passable cell this near the goal is the goal
     escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
     off_path_m: float = 0.8  # the robot this far from the route: replan
     replan_period_s: float = 2.0  # a new costmap replans at most this often (a blocked route at once)
+    half_length: float = FOOTPRINT_LENGTH / 2  # the footprint checked in the band (m)
+    half_width: float = FOOTPRINT_WIDTH / 2
+    clearance_m: float = Clearance().creep  # kept round it there: the clearance at a creep
+    footprint_replans: int = 8  # searches again with the cells where the footprint touched closed
 
     def __post_init__(self) -> None:
         if not 1 <= self.lethal <= 100:
             raise ValueError(f"lethal must be within 1..100, got {self.lethal}")
-        for name in ("cost_scale", "goal_tolerance_m", "escape_m", "off_path_m", "replan_period_s"):
+        for name in ("cost_scale", "goal_tolerance_m", "escape_m", "off_path_m", "replan_period_s", "half_length",
+                     "half_width", "clearance_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v}")
@@ -117,6 +136,8 @@ class GlobalParams:
             raise ValueError(f"unknown_cost must be >= 1 (or inf: never cross), got {self.unknown_cost}")
         if self.max_cells < 100:
             raise ValueError(f"max_cells must be at least 100, got {self.max_cells}")
+        if not 0 <= self.footprint_replans <= 100:
+            raise ValueError(f"footprint_replans must be within 0..100, got {self.footprint_replans}")
 
 
 @dataclass(frozen=True)
@@ -134,23 +155,55 @@ class Plan:
 
 def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
     """float64 cost of entering each cell (inf: never), on the grid coarsened by `k`: each k x k
-    block as costly as its costliest cell (unknown counted where any is; the edge padded lethal)."""
+    block as cheap as its cheapest known cell (unknown where all are; the edge padded unknown). A
+    coarse plan is a guide, not a path: it never closes a gap a fine cell leaves open."""
     d = cm.data
-    unknown = d == UNKNOWN
     if k > 1:
         h, w = d.shape
         hh, ww = -(-h // k) * k, -(-w // k) * k
-        pad = np.full((hh, ww), 100, np.int8)
+        pad = np.full((hh, ww), UNKNOWN, np.int8)
         pad[:h, :w] = d
-        blocks = pad.reshape(hh // k, k, ww // k, k)
-        d = blocks.max(axis=3).max(axis=1)  # int8 reductions: -1 (unknown) loses to any known value
-        unknown = blocks.min(axis=3).min(axis=1) == UNKNOWN
+        known = np.where(pad == UNKNOWN, np.int8(127), pad)
+        d = known.reshape(hh // k, k, ww // k, k).min(axis=3).min(axis=1)
+        d[d == 127] = UNKNOWN
+    unknown = d == UNKNOWN
     v = d.astype(np.int16)
     c = 1.0 + p.cost_scale * np.clip(v, 0, 100) / 100.0
-    c[unknown] = np.maximum(c[unknown], p.unknown_cost) if k > 1 else p.unknown_cost
+    c[unknown] = p.unknown_cost
     c[v >= p.lethal] = np.inf
     c[v < UNKNOWN] = np.inf  # not a ROS occupancy value: never entered
     return c
+
+
+def footprint_fits(cm: Costmap, cells: np.ndarray, headings: np.ndarray, p: GlobalParams) -> np.ndarray:
+    """bool per (row, col) of `cells`: does the footprint's rectangle centred on the cell, at the
+    heading (rad, world), keep `clearance_m` from every obstacle cell (LETHAL, by its centre)?"""
+    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
+    if len(cells) == 0:
+        return np.zeros(0, bool)
+    res = cm.resolution
+    reach = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / res))
+    dr, dc = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    dr, dc = dr.reshape(-1), dc.reshape(-1)
+    rows, cols = cells[:, :1] + dr[None], cells[:, 1:] + dc[None]
+    h, w = cm.shape
+    inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+    obstacle = np.zeros(rows.shape, bool)
+    obstacle[inside] = cm.data[rows[inside], cols[inside]] == LETHAL
+    th = np.asarray(headings, dtype=float).reshape(-1, 1)
+    cs, sn = np.cos(th), np.sin(th)
+    x, y = dc[None] * res, dr[None] * res
+    d = rect_distance(cs * x + sn * y, -sn * x + cs * y, p.half_length, p.half_width)
+    return np.asarray(~(obstacle & (d < p.clearance_m)).any(axis=1))
+
+
+def _path_headings(cells: np.ndarray, span: int = 2) -> np.ndarray:
+    """The heading (rad, world) of a dense cell path at each of its cells: along the path, over
+    `span` cells either side (a single 8-connected step is 45 degrees coarse)."""
+    n = len(cells)
+    i = np.arange(n)
+    a, b = cells[np.maximum(i - span, 0)], cells[np.minimum(i + span, n - 1)]
+    return np.arctan2(b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]).astype(float)
 
 
 def passable(cm: Costmap, cells: np.ndarray, p: GlobalParams) -> np.ndarray:
@@ -219,9 +272,10 @@ def _goal_cells(c: np.ndarray, rc: tuple[int, int], radius: int) -> np.ndarray:
     return ok[np.hypot(ok[:, 0] - rc[0], ok[:, 1] - rc[1]) <= radius + 1e-9]
 
 
-def prune(c: np.ndarray, cells: np.ndarray) -> list[int]:
+def prune(c: np.ndarray, cells: np.ndarray, fits: Callable[[np.ndarray, float], bool] | None = None) -> list[int]:
     """Indices into `cells` (a dense path on cost grid `c`) kept as waypoints: line-of-sight pruning
-    that never crosses a cell costlier than the stretch it replaces. From each waypoint the next is
+    that never crosses a cell costlier than the stretch it replaces, and (`fits`) only where the
+    footprint fits along the line at its heading. From each waypoint the next is
     found by galloping then bisecting over the path (each candidate line checked): O(log n) checks
     a leg, not one a cell; a leg may stop short of the farthest visible cell, never go past a
     blocked one."""
@@ -232,7 +286,10 @@ def prune(c: np.ndarray, cells: np.ndarray) -> list[int]:
 
     def clear(i: int, j: int) -> bool:
         line = line_cells(tuple(cells[i]), tuple(cells[j]))
-        return bool((c[line[:, 0], line[:, 1]] <= v[i : j + 1].max()).all())
+        if not (c[line[:, 0], line[:, 1]] <= v[i : j + 1].max()).all():
+            return False
+        heading = math.atan2(cells[j][0] - cells[i][0], cells[j][1] - cells[i][1])
+        return fits is None or fits(line, heading)
 
     keep = [0]
     i = 0
@@ -260,36 +317,66 @@ def plan_path(
     p: GlobalParams,
 ) -> Plan:
     """The cheapest path from world point `start` to the nearest (by path cost) of `goals` (one
-    point, or several: frontiers), or a refusal with its reason (`ok` False)."""
+    point, or several: frontiers) along which the footprint fits, or a refusal with its reason (`ok`
+    False)."""
     goal_list = list(goals)
     if not goal_list:
         return Plan(False, "no goal to plan to")
     if not all(math.isfinite(v) for v in start) or not all(math.isfinite(v) for g in goal_list for v in g):
         return Plan(False, "start or goal is not a finite point")
     k = stride_for(cm.shape, p.max_cells)
-    c = cell_costs(cm, p, k)
+    c = cell_costs(cm, p)
+    if k > 1:  # a coarse guide first, then the fine grid round it
+        guide = _search(cm, cell_costs(cm, p, k), k, start, goal_list, p)
+        if isinstance(guide, Plan):
+            return replace(guide, stride=k)
+        near = np.zeros((-(-cm.shape[0] // k), -(-cm.shape[1] // k)), bool)
+        near[guide.dense[:, 0], guide.dense[:, 1]] = True
+        near = _dilate(near)
+        corridor = np.repeat(np.repeat(near, k, axis=0), k, axis=1)[: cm.shape[0], : cm.shape[1]]
+        plan = _fitting(cm, np.where(corridor, c, np.inf), start, goal_list, p)
+        if plan.ok:
+            return replace(plan, stride=k)
+    return _fitting(cm, c, start, goal_list, p)
+
+
+@dataclass
+class _Found:
+    dense: np.ndarray  # (N, 2) cells from the start cell to the goal cell
+    start: tuple[int, int]  # the robot's cell
+    escaped: bool  # the search began at a passable cell near it
+    goal: tuple[int, int]
+    cost: float
+    goal_index: int
+
+
+def _search(
+    cm: Costmap,
+    c: np.ndarray,
+    k: int,
+    start: tuple[float, float],
+    goal_list: list[tuple[float, float]],
+    p: GlobalParams,
+) -> _Found | Plan:
+    """One search on cost grid `c` (the costmap coarsened by `k`): the cell path, or a refusal."""
     res = cm.resolution * k
     cm_k = Costmap(np.zeros((1, 1), np.int8), res, cm.origin)
-
-    def to_cell(xy: tuple[float, float]) -> tuple[int, int]:
-        return cm_k.cell(*xy)
-
-    s = to_cell(start)
+    s = cm_k.cell(*start)
     if not (0 <= s[0] < c.shape[0] and 0 <= s[1] < c.shape[1]):
-        return Plan(False, f"the robot at ({start[0]:.2f}, {start[1]:.2f}) is outside the map", stride=k)
+        return Plan(False, f"the robot at ({start[0]:.2f}, {start[1]:.2f}) is outside the map")
     s_from = s
     if not np.isfinite(c[s]):
         radius = int(round(p.escape_m / res))
         esc = _nearest_passable(c, s, radius) if radius > 0 else None
         if esc is None:
-            return Plan(False, f"boxed in: no passable cell within {p.escape_m:g} m of the robot", stride=k)
+            return Plan(False, f"boxed in: no passable cell within {p.escape_m:g} m of the robot")
         s_from = esc
     radius = max(0, int(round(p.goal_tolerance_m / res)))
     ends: list[tuple[int, int]] = []
     owner: list[int] = []
     outside = 0
     for gi, g in enumerate(goal_list):
-        gc = to_cell(g)
+        gc = cm_k.cell(*g)
         if not (-radius <= gc[0] < c.shape[0] + radius and -radius <= gc[1] < c.shape[1] + radius):
             outside += 1
             continue
@@ -298,10 +385,8 @@ def plan_path(
         owner += [gi] * len(cells)
     if not ends:
         if outside == len(goal_list):
-            return Plan(False, "the goal is outside the map", stride=k)
-        return Plan(
-            False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it", stride=k
-        )
+            return Plan(False, "the goal is outside the map")
+        return Plan(False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it")
     from skimage.graph import MCP_Geometric  # the nav extra; imported here so a commander without a map needs none
 
     mcp = MCP_Geometric(c, fully_connected=True)
@@ -311,28 +396,73 @@ def plan_path(
     best = int(np.argmin(end_costs))
     if not np.isfinite(end_costs[best]):
         how = "obstacles and unknown space" if math.isinf(p.unknown_cost) else "obstacles"
-        return Plan(False, f"unreachable: {how} cut the goal off from the robot", stride=k)
+        return Plan(False, f"unreachable: {how} cut the goal off from the robot")
     e = (int(end_arr[best, 0]), int(end_arr[best, 1]))
     dense = np.array(mcp.traceback(e), dtype=int).reshape(-1, 2)
     if s_from != s:
         dense = np.vstack((np.array([s]), dense))
-    keep = prune(c if s_from == s else _with_start(c, s), dense)
-    pts = cm_k.world(dense[keep, 0], dense[keep, 1])
+    return _Found(dense, s, s_from != s, e, float(end_costs[best]) * res, owner[best])
+
+
+def _fitting(
+    cm: Costmap, c: np.ndarray, start: tuple[float, float], goal_list: list[tuple[float, float]], p: GlobalParams
+) -> Plan:
+    """The search at full resolution, again with the cells closed where the footprint at the path's
+    heading would touch (module docstring), and the path's waypoints."""
+    skip = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution))
+    closed = 0
+    for _ in range(p.footprint_replans + 1):
+        found = _search(cm, c, 1, start, goal_list, p)
+        if isinstance(found, Plan):
+            if closed:
+                return replace(found, reason=f"{found.reason} (the footprint fits nowhere else: {closed} cells closed)")
+            return found
+        dense = found.dense
+        v = cm.data[dense[:, 0], dense[:, 1]]
+        check = (v >= CIRCUMSCRIBED) & (v < p.lethal)
+        check[:skip] = False  # round the start the robot turns where it stands (the local planner's part)
+        idx = np.nonzero(check)[0]
+        bad = idx[~footprint_fits(cm, dense[idx], _path_headings(dense)[idx], p)]
+        if len(bad) == 0:
+            break
+        c = c.copy() if closed == 0 else c
+        c[dense[bad, 0], dense[bad, 1]] = np.inf
+        closed += len(bad)
+    else:
+        return Plan(False, f"no way the footprint fits through: {closed} cells closed and still touching")
+
+    def fits(line: np.ndarray, heading: float) -> bool:
+        lv = cm.data[line[:, 0], line[:, 1]]
+        band = (lv >= CIRCUMSCRIBED) & (lv < p.lethal)
+        return bool(footprint_fits(cm, line[band], np.full(int(band.sum()), heading), p).all())
+
+    keep = prune(_with_start(c, found.start) if found.escaped else c, dense, fits)
+    pts = cm.world(dense[keep, 0], dense[keep, 1])
     pts[0] = start
     length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T))) if len(pts) > 1 else 0.0
-    gxy = cm_k.world(np.array([e[0]]), np.array([e[1]]))[0]
-    fine = dense * k + k // 2
+    gxy = cm.world(np.array([found.goal[0]]), np.array([found.goal[1]]))[0]
     return Plan(
         True,
         f"{length:.1f} m in {len(pts) - 1} legs",
         waypoints=pts,
-        cost=float(end_costs[best]) * res,
+        cost=found.cost,
         length=length,
         goal=(float(gxy[0]), float(gxy[1])),
-        goal_index=owner[best],
-        stride=k,
-        cells=fine,
+        goal_index=found.goal_index,
+        stride=1,
+        cells=dense,
     )
+
+
+def _dilate(m: np.ndarray) -> np.ndarray:
+    """`m` grown by one cell (8-connected)."""
+    out = m.copy()
+    out[1:] |= m[:-1]
+    out[:-1] |= m[1:]
+    grown = out.copy()
+    grown[:, 1:] |= out[:, :-1]
+    grown[:, :-1] |= out[:, 1:]
+    return grown
 
 
 def _with_start(c: np.ndarray, s: tuple[int, int]) -> np.ndarray:
