@@ -117,3 +117,35 @@ def test_the_footprint_check_is_the_rectangle_at_its_heading() -> None:
     p = GlobalParams()
     assert footprint_fits(cm, cell, np.array([0.0]), p).all(), "square-on: 0.245 m each side"
     assert not footprint_fits(cm, cell, np.array([math.pi / 2]), p).any(), "along the wall: the body in the jambs"
+
+
+def three_by_three_rooms(door: float) -> Costmap:
+    """Nine 6 m rooms (walls 0.1 m) with a doorway `door` m clear in the middle of every inner wall."""
+    n, step, half = 362, 120, int(round(door / RES / 2))
+    g = np.full((n, n), FREE, np.int8)
+    g[0, :] = g[-1, :] = g[:, 0] = g[:, -1] = LETHAL
+    for k in range(step, n - 2, step):
+        g[k : k + 2, :] = LETHAL
+        g[:, k : k + 2] = LETHAL
+        for j in range(step // 2, n, step):
+            g[k : k + 2, j - half : j + half] = FREE
+            g[j - half : j + half, k : k + 2] = FREE
+    return Costmap(inflate(g, RES, CostmapParams.for_footprint(FOOTPRINT_LENGTH, FOOTPRINT_WIDTH)), RES, (0.0, 0.0))
+
+
+@pytest.mark.parametrize("door", [0.8, 0.9])
+def test_through_rooms_every_door_is_crossed_square_on(door: float) -> None:
+    cm = three_by_three_rooms(door)
+    p = GlobalParams()
+    plan = plan_path(cm, (2.0, 2.5), [(15.5, 16.0)], p)  # corner room to corner room: four doors
+    assert plan.ok, plan.reason
+    xy = cm.world(plan.cells[:, 0], plan.cells[:, 1])
+    walls = np.array([6.05, 12.05])
+    near = np.abs(xy[:, :, None] - walls[None, None, :]).min(axis=2) <= 0.3  # (N, 2): near a wall at x / at y
+    crossing = near[:, 0] ^ near[:, 1]
+    heads = np.degrees(np.arctan2(*np.diff(plan.cells[np.clip(np.arange(len(xy))[:, None] + [-2, 2], 0, len(xy) - 1)],
+                                          axis=1)[:, 0].T))  # fmt: skip
+    along_x = np.minimum(np.abs(heads), 180 - np.abs(heads))  # off the x axis
+    along_y = np.abs(90 - np.abs(heads))
+    assert (along_x[crossing & near[:, 0]] <= 10).all() and (along_y[crossing & near[:, 1]] <= 10).all()
+    assert crossing.sum() >= 4 * 8, "four doors crossed"

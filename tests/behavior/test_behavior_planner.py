@@ -57,7 +57,8 @@ def test_keeps_to_the_side_it_chose() -> None:
 
 
 def test_boxed_in_turns_in_place() -> None:
-    ring = np.array([[0.9 * math.cos(a), 0.9 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
+    # 0.75 m round: not even a creep's way (0.16 m each side) is min_free long (0.9 m is, at a creep)
+    ring = np.array([[0.75 * math.cos(a), 0.75 * math.sin(a)] for a in np.linspace(-math.pi, math.pi, 180)])
     s = steer(0.4, 0.0, 0.4, 0.0, 3.0, ring, P, max_angular=W)
     assert s.blocked and s.vx == 0.0 and "no free way" in s.note and abs(s.wz) >= W / 2
 
@@ -252,7 +253,8 @@ def _walk_under_guard(
         last = vx or last
         nyaw = yaw + wz * dt
         nx, ny = x + vx * dt * math.cos(nyaw), y + vx * dt * math.sin(nyaw)
-        if _clearance(world, nx, ny, nyaw) >= min(0.3, _clearance(world, x, y, yaw)) - 1e-9:  # the guard's rule
+        keep = P.clearance.at(abs(vx) + abs(wz) * math.hypot(P.half_length, P.half_width))  # the guard's rule
+        if _clearance(world, nx, ny, nyaw) >= min(keep, _clearance(world, x, y, yaw)) - 1e-9:
             x, y, yaw = nx, ny, nyaw
     assert _clearance(world, x, y, yaw) > 0.0
     return x, y, yaw, flips

@@ -348,6 +348,8 @@ class _Found:
     goal: tuple[int, int]
     cost: float
     goal_index: int
+    ends: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # every goal cell (row, col)
+    owners: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # ... and its goal's index
 
 
 def _search(
@@ -401,39 +403,36 @@ def _search(
     dense = np.array(mcp.traceback(e), dtype=int).reshape(-1, 2)
     if s_from != s:
         dense = np.vstack((np.array([s]), dense))
-    return _Found(dense, s, s_from != s, e, float(end_costs[best]) * res, owner[best])
+    return _Found(dense, s, s_from != s, e, float(end_costs[best]) * res, owner[best], end_arr, np.array(owner))
 
 
 def _fitting(
     cm: Costmap, c: np.ndarray, start: tuple[float, float], goal_list: list[tuple[float, float]], p: GlobalParams
 ) -> Plan:
-    """The search at full resolution, again with the cells closed where the footprint at the path's
-    heading would touch (module docstring), and the path's waypoints."""
+    """The search at full resolution; where its path's footprint touches in the band, the search by
+    heading instead (module docstring); and the path's waypoints."""
+    found = _search(cm, c, 1, start, goal_list, p)
+    if isinstance(found, Plan):
+        return found
     skip = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution))
-    closed = 0
-    for _ in range(p.footprint_replans + 1):
-        found = _search(cm, c, 1, start, goal_list, p)
-        if isinstance(found, Plan):
-            if closed:
-                return replace(found, reason=f"{found.reason} (the footprint fits nowhere else: {closed} cells closed)")
-            return found
+    dense = found.dense
+    v = cm.data[dense[:, 0], dense[:, 1]]
+    check = (v >= CIRCUMSCRIBED) & (v < p.lethal)
+    # round the start the robot turns where it stands (the local planner's part), and round the goal it
+    # stops short and turns to look (the approach's)
+    check[:skip] = check[-skip:] = False
+    idx = np.nonzero(check)[0]
+    if not footprint_fits(cm, dense[idx], _path_headings(dense)[idx], p).all():
+        by_heading = _by_heading(cm, c, found, p)
+        if by_heading is None:
+            return Plan(False, "unreachable: no way the footprint fits through (every way crosses a gap too narrow)")
+        found = by_heading
         dense = found.dense
-        v = cm.data[dense[:, 0], dense[:, 1]]
-        check = (v >= CIRCUMSCRIBED) & (v < p.lethal)
-        check[:skip] = False  # round the start the robot turns where it stands (the local planner's part)
-        idx = np.nonzero(check)[0]
-        bad = idx[~footprint_fits(cm, dense[idx], _path_headings(dense)[idx], p)]
-        if len(bad) == 0:
-            break
-        c = c.copy() if closed == 0 else c
-        c[dense[bad, 0], dense[bad, 1]] = np.inf
-        closed += len(bad)
-    else:
-        return Plan(False, f"no way the footprint fits through: {closed} cells closed and still touching")
 
     def fits(line: np.ndarray, heading: float) -> bool:
         lv = cm.data[line[:, 0], line[:, 1]]
         band = (lv >= CIRCUMSCRIBED) & (lv < p.lethal)
+        band[: min(skip, len(band))] &= found.start != (int(line[0, 0]), int(line[0, 1]))
         return bool(footprint_fits(cm, line[band], np.full(int(band.sum()), heading), p).all())
 
     keep = prune(_with_start(c, found.start) if found.escaped else c, dense, fits)
@@ -452,6 +451,125 @@ def _fitting(
         stride=1,
         cells=dense,
     )
+
+
+# The search by heading's moves: one step along each of four lines (0, 45, 90, 135 degrees, rows = y);
+# in the band a cell is entered and left along one line (the robot walks along its path and turns only
+# where the footprint's circumscribed disc fits).
+LINES = ((0, 1), (1, 1), (1, 0), (1, -1))
+
+
+def footprint_free(cm: Costmap, p: GlobalParams) -> np.ndarray:
+    """bool (4, rows, cols): does the footprint's rectangle (its half sizes plus `clearance_m`, corners
+    square), centred on the cell and along LINES[k], keep clear of every obstacle cell? Box sums over
+    an integral image, the diagonal lines on the grid turned 45 degrees: O(cells) for each line."""
+    obstacle = cm.data == LETHAL
+    h, w = obstacle.shape
+    a = (p.half_length + p.clearance_m) / cm.resolution  # along the heading, in cells
+    b = (p.half_width + p.clearance_m) / cm.resolution
+    out = np.zeros((4, h, w), bool)
+    rows, cols = np.indices((h, w))
+    for k, (dr, dc) in enumerate(LINES):
+        if dr == 0 or dc == 0:  # along cols (k 0) or rows (k 2)
+            img, r, q = obstacle, rows, cols
+            ha, hb = (b, a) if dr == 0 else (a, b)  # half extents along rows, along cols
+        else:  # u = row + col, v = row - col: a diagonal line is one of their axes
+            img = np.zeros((h + w - 1, h + w - 1), bool)
+            img[rows + cols, rows - cols + w - 1] = obstacle
+            r, q = rows + cols, rows - cols + w - 1
+            along, across = a * math.sqrt(2.0), b * math.sqrt(2.0)  # one step of u or v is res / sqrt 2
+            ha, hb = (along, across) if dc > 0 else (across, along)
+        out[k] = _box_count(img, r, q, int(math.floor(ha)), int(math.floor(hb))) == 0
+    return out
+
+
+def _box_count(img: np.ndarray, r: np.ndarray, q: np.ndarray, hr: int, hq: int) -> np.ndarray:
+    """How many True cells of `img` lie within +-hr rows and +-hq cols of each (r, q)."""
+    s = np.zeros((img.shape[0] + 1, img.shape[1] + 1), np.int32)
+    s[1:, 1:] = img.astype(np.int32).cumsum(0).cumsum(1)
+    r0, r1 = np.clip(r - hr, 0, img.shape[0]), np.clip(r + hr + 1, 0, img.shape[0])
+    q0, q1 = np.clip(q - hq, 0, img.shape[1]), np.clip(q + hq + 1, 0, img.shape[1])
+    return np.asarray(s[r1, q1] - s[r0, q1] - s[r1, q0] + s[r0, q0])
+
+
+def _by_heading(cm: Costmap, c: np.ndarray, found: _Found, p: GlobalParams) -> _Found | None:
+    """The cheapest path from the search's start to its goal cells over (cell, line) states: a cell
+    where the footprint's disc fits is one state (it may turn there); a cell of the band is one state
+    for each line along which the rectangle fits there, entered and left along that line only (a
+    doorway is crossed square-on). Dijkstra (scipy's csgraph) on that graph, over the box of the
+    cells that may be entered (a corridor round a coarse guide); None: no way."""
+    rows, cols = np.nonzero(np.isfinite(c))
+    pad = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution)) + 1
+    r0, c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
+    r1, c1 = min(c.shape[0], int(rows.max()) + pad + 1), min(c.shape[1], int(cols.max()) + pad + 1)
+    if (r0, c0, r1, c1) != (0, 0, *c.shape):
+        sub = Costmap(cm.data[r0:r1, c0:c1], cm.resolution, cm.origin)
+        off = np.array([r0, c0])
+        moved = _Found(found.dense - off, (found.start[0] - r0, found.start[1] - c0), found.escaped,
+                       (found.goal[0] - r0, found.goal[1] - c0), found.cost, found.goal_index, found.ends - off,
+                       found.owners)  # fmt: skip
+        inner = (moved.ends[:, 0] >= 0) & (moved.ends[:, 0] < r1 - r0) & (moved.ends[:, 1] >= 0)
+        inner &= moved.ends[:, 1] < c1 - c0
+        moved = replace(moved, ends=moved.ends[inner], owners=moved.owners[inner])
+        got = _by_heading(sub, c[r0:r1, c0:c1], moved, p)
+        if got is None:
+            return None
+        return replace(got, dense=got.dense + off, start=found.start, goal=(got.goal[0] + r0, got.goal[1] + c0),
+                       ends=found.ends, owners=found.owners)  # fmt: skip
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    h, w = c.shape
+    n = h * w
+    ok = np.isfinite(c)
+    band = ok & (cm.data >= CIRCUMSCRIBED) & (cm.data < p.lethal)
+    free = ok & ~band
+    fit = footprint_free(cm, p)
+    # a goal cell is where the path ends, at whatever line it arrives (the approach stops short of the
+    # goal, and turns where it stands); the robot's own cell too (it turns out of it first)
+    first = found.dense[1] if found.escaped else found.dense[0]
+    fit[:, found.ends[:, 0], found.ends[:, 1]] = True
+    fit[:, int(first[0]), int(first[1])] = True
+    fit &= band[None]
+    flat = np.arange(n).reshape(h, w)
+    src: list[np.ndarray] = []
+    dst: list[np.ndarray] = []
+    wgt: list[np.ndarray] = []
+    for k, (dr, dc) in enumerate(LINES):
+        for sr, sc in ((dr, dc), (-dr, -dc)):
+            ra, rb = slice(max(0, -sr), h - max(0, sr)), slice(max(0, sr), h + min(0, sr) or None)
+            ca, cb = slice(max(0, -sc), w - max(0, sc)), slice(max(0, sc), w + min(0, sc) or None)
+            fa, fb = free[ra, ca], free[rb, cb]
+            va, vb = fa | fit[k][ra, ca], fb | fit[k][rb, cb]
+            m = va & vb
+            ia = np.where(fa, flat[ra, ca], n * (1 + k) + flat[ra, ca])[m]
+            ib = np.where(fb, flat[rb, cb], n * (1 + k) + flat[rb, cb])[m]
+            src.append(ia)
+            dst.append(ib)
+            wgt.append(math.hypot(sr, sc) * 0.5 * (c[ra, ca][m] + c[rb, cb][m]))
+    graph = csr_matrix((np.concatenate(wgt), (np.concatenate(src), np.concatenate(dst))), shape=(5 * n, 5 * n))
+
+    def states(rc: tuple[int, int]) -> list[int]:
+        i = int(flat[rc])
+        if free[rc]:
+            return [i]
+        return [n * (1 + k) + i for k in range(4) if fit[k][rc]]
+
+    starts = states((int(first[0]), int(first[1])))
+    dist, pred, _ = dijkstra(graph, indices=starts, min_only=True, return_predecessors=True)
+    ends = [(s, i) for i, e in enumerate(found.ends) for s in states((int(e[0]), int(e[1])))]
+    if not ends or not np.isfinite(min(dist[s] for s, _ in ends)):
+        return None
+    node, which = min(ends, key=lambda e: dist[e[0]])
+    goal = (int(found.ends[which, 0]), int(found.ends[which, 1]))
+    cost = float(dist[node]) * cm.resolution
+    chain = [node]
+    while pred[chain[-1]] >= 0:
+        chain.append(int(pred[chain[-1]]))
+    cells = np.array([divmod(i % n, w) for i in reversed(chain)], dtype=int)
+    if found.escaped:
+        cells = np.vstack((np.array([found.start]), cells))
+    return _Found(cells, found.start, found.escaped, goal, cost, int(found.owners[which]), found.ends, found.owners)
 
 
 def _dilate(m: np.ndarray) -> np.ndarray:
