@@ -18,8 +18,8 @@ front could go that way before it comes within that clearance of a scan point. S
   is free at all.
   The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
   that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
-  With none free at the approach's speed, the same at a creep's clearance, no faster than a creep (a
-  gap the footprint fits through only slowly).
+  A way free only at a creep's clearance is taken no faster than a creep (a gap the footprint fits
+  through only slowly), before a shorter way at the approach's speed.
 - No free heading at all: turn in place (towards the freest one, or the side it keeps to), forward
   speed zero.
 
@@ -136,16 +136,16 @@ class Steer:
     wz: float
     heading: float  # rad, the chosen heading (robot frame, + left)
     blocked: bool  # the way to the goal is blocked: (vx, wz) is the planner's, not the approach's
-    note: str  # why, for the commander's status ("" when the approach's command passed)
+    note: str  # why, for the commander's status ("" when the approach's command passed as it was)
     way: bool = False  # blocked, and `heading` is a free way chosen (not a turn with none free, nor an escape)
 
 
 def corridor_free(points: np.ndarray, heading: float, p: PlannerParams, margin: float | None = None) -> float:
     """How far (m) the footprint's front can go along `heading` before it is within `margin` (default:
-    the clearance at a creep, `p.clearance.creep`) of a point."""
+    the clearance standing, `p.margin`) of a point."""
     if len(points) == 0:
         return math.inf
-    m = p.clearance.creep if margin is None else margin
+    m = p.margin if margin is None else margin
     c, s = math.cos(heading), math.sin(heading)
     along = points[:, 0] * c + points[:, 1] * s
     across = -points[:, 0] * s + points[:, 1] * c
@@ -206,7 +206,8 @@ def steer(
     if p.creep_mps < speed:  # a narrow gap, at a creep's clearance and speed
         tight = [(bearing + off, corridor_free(pts, bearing + off, p, rule.creep)) for off in heads]
         passes.append((tight, "through a gap", p.creep_mps))
-    tiers = [(ways, how, fast, want) for ways, how, fast in passes for want in (need, need / 2, p.min_free)]
+    # A long way at a creep before a short one at speed: a doorway before a stub beside it.
+    tiers = [(ways, how, fast, want) for want in (need, need / 2, p.min_free) for ways, how, fast in passes]
     # A shorter free way is still progress. Near the way kept, any free way comes first.
     kept = [(keep, t) for t in tiers] if keep is not None else []
     for k, (ways, how, fast, want) in kept + [(None, t) for t in tiers]:
