@@ -279,11 +279,12 @@ def test_sit_and_stand_are_posture_commands() -> None:
 
 def test_a_search_turn_beside_a_table_backs_away_first() -> None:
     """The gate's guard would hold a turn in place that sweeps the footprint into a table edge: the
-    mission backs away (turning the way it wanted to), then turns (planner/local.py unstick)."""
+    mission backs away (turning the way it wanted to), then turns (planner/local.py unstick). The
+    table stands 0.15 m ahead: the corners' sweep would come within a creep's clearance (0.16 m)."""
     m = Mission(MissionParams())
     m.set_goal("look for the blue cylinder", 0.0)
     ys = np.arange(-0.6, 0.6, 0.02)
-    table = np.column_stack([np.full_like(ys, 0.35 + 0.25), ys])
+    table = np.column_stack([np.full_like(ys, 0.35 + 0.15), ys])
     m.observe_pose(0.0, 0.0, 0.0, 0.1)
     m.observe_scan(table, 0.1)
     out = m.step(0.1)
@@ -299,8 +300,8 @@ def test_a_turn_sent_the_other_way_round_is_kept_for_half_a_turn() -> None:
     turning right though the search still asks left, until half a turn's time is up."""
     from go2vlm.behavior.planner.local import PlannerParams
 
-    pp = PlannerParams()
-    m = Mission(MissionParams())
+    pp = PlannerParams(margin=0.35, margin_per_speed_s=0.0)  # the 0.35 m this spot was measured with
+    m = Mission(MissionParams(planner=pp))
     m.set_goal("look for the blue cylinder", 0.0)
     tail = np.array([[-0.3, -0.465]])  # a left turn swings the tail into it
     posts = np.array([[-pp.half_length - 0.5, 0.0], [pp.half_length + 0.5, 0.0]])  # no 0.3 m ahead, nor behind

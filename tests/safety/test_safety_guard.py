@@ -150,7 +150,7 @@ def test_wall_ahead_slows_then_stops_at_the_margin() -> None:
     guard.scan(scan_of(at), 0.0)
     assert guard.limit(Velocity(0.5), 0.0, LIMITS).is_zero
     assert guard.limit(Velocity(-0.5), 0.0, LIMITS) == Velocity(-0.5)  # backing away is free
-    guard.scan(scan_of([(0.0, CFG.half_width + 0.2)]), 0.0)  # a post beside, inside the margin
+    guard.scan(scan_of([(0.0, CFG.half_width + CFG.margin / 2)]), 0.0)  # a post beside, inside the margin
     assert guard.limit(Velocity(0.5), 0.0, LIMITS) == Velocity(0.5)  # driving past it: never closer
     assert guard.limit(Velocity(0.0, 0.3), 0.0, LIMITS).is_zero  # towards it: no
 

@@ -28,7 +28,7 @@ from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.statefiles import state_dir
 from go2vlm.world.map_file import dumps, loads
 from go2vlm.world.map_msg import Grid, grid_of
-from go2vlm.world.occupancy import FREE, INSCRIBED, LETHAL, UNKNOWN, GridParams, OccupancyMap
+from go2vlm.world.occupancy import CIRCUMSCRIBED, FREE, INSCRIBED, LETHAL, UNKNOWN, GridParams, OccupancyMap
 from go2vlm.world.poses import Pose2D
 
 ROOM = (3.01, 2.02)  # half sizes of the room about the origin (m)
@@ -130,8 +130,8 @@ def test_scans_become_a_latched_map_and_costmap_and_bad_scans_a_reason() -> None
         assert set(np.unique(grid.cells)) <= {UNKNOWN, FREE, LETHAL}
         cost = lidar.last(lidar.costmaps)
         assert cost is not None and cost.cells.shape == grid.cells.shape and cost.origin == grid.origin
-        assert cost.cells[cost.cell_of(ROOM[0] - 0.1, 0.0)] == LETHAL  # inside the inscribed radius of the wall
-        assert cost.cells[cost.cell_of(ROOM[0] - 0.3, 0.0)] == INSCRIBED
+        assert cost.cells[cost.cell_of(ROOM[0] - 0.1, 0.0)] == INSCRIBED  # inside the inscribed radius of the wall
+        assert CIRCUMSCRIBED <= cost.cells[cost.cell_of(ROOM[0] - 0.35, 0.0)] < INSCRIBED  # the band: a cost
         assert cost.cells[cost.cell_of(0.0, 0.0)] == FREE
         st = lidar.last_status()
         assert st["cells"]["occupied"] > 100 and st["published"] >= 1 and st["cap_m"] == 60.0

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from maputil import BINS, INC, ROOM, room_scan, wall_distance
 
 from go2vlm.world.occupancy import (
+    CIRCUMSCRIBED,
     FREE,
     GAP_ANGLE,
     INSCRIBED,
@@ -196,12 +197,17 @@ def test_the_costmap_bands_follow_the_footprint() -> None:
     cost = inflate(values, 0.05, params)
     rows, cols = np.indices(values.shape)
     d = np.hypot(rows - 40, cols - 40) * 0.05
-    assert (cost[d <= params.inscribed_m] == LETHAL).all()
-    assert (cost[(d > params.inscribed_m) & (d <= params.circumscribed_m)] == INSCRIBED).all()
+    # Only the obstacle and the inscribed radius block; the band out to the circumscribed radius costs
+    # (CIRCUMSCRIBED..98: the planner checks the footprint's rectangle there, by heading).
+    assert cost[40, 40] == LETHAL and (cost[(d > 0) & (d <= params.inscribed_m)] == INSCRIBED).all()
+    ring = (d > params.inscribed_m) & (d <= params.circumscribed_m)
+    assert ((cost[ring] >= CIRCUMSCRIBED) & (cost[ring] < INSCRIBED)).all()
     falling = (d > params.circumscribed_m) & (d <= params.inflation_m)
-    assert ((cost[falling] >= 1) & (cost[falling] <= 98)).all()
+    assert ((cost[falling] >= 1) & (cost[falling] < CIRCUMSCRIBED)).all()
     order = np.argsort(d[falling])
     assert (np.diff(cost[falling][order].astype(int)) <= 0).all(), "the cost must fall with distance"
+    order = np.argsort(d[ring])
+    assert (np.diff(cost[ring][order].astype(int)) <= 0).all(), "... in the band too"
     assert (cost[(d > params.inflation_m) & (values == FREE)] == FREE).all()
     assert (cost[values == UNKNOWN] == UNKNOWN).all()
     assert (inflate(np.full((5, 5), UNKNOWN, np.int8), 0.05, params) == UNKNOWN).all()

@@ -5,6 +5,10 @@ object) and for drawing spawn poses that do not start inside an object. A robot 
 rectangle (`Footprint.rect`); an object is a circle (sphere, cylinder) or a rectangle (box).
 `rect_distance` is the same distance for many points at once, in the robot's frame: the safety
 gate's guard and the behaviour's local planner judge the footprint's clearance with it.
+
+`Clearance` is the one clearance rule: how far the footprint keeps from anything, by speed (a few
+centimetres at a creep, more at speed). The costmap's lethal radius and the global planner's footprint
+check (at a creep), the local planner's corridors and the collision guard's margin all read it.
 """
 
 from __future__ import annotations
@@ -14,7 +18,49 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Footprint", "clearance", "rect_distance", "surface_distance"]
+from go2vlm.declare import param
+
+__all__ = ["Clearance", "Footprint", "clearance", "rect_distance", "surface_distance"]
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """The gap (m) kept between the robot's footprint and any obstacle: `creep_m` standing or at a
+    creep, `per_speed_s` more per m/s of the fastest footprint point (about the distance it covers in
+    that time while tracking, sensing and leg sway add up). Non-decreasing in speed. With the
+    defaults a Go2 (0.31 m wide) crosses a 0.8 m doorway square-on at up to 0.36 m/s (0.245 m each
+    side), refuses a 0.5 m gap (0.095 m each side, less than `creep_m`), and keeps 0.3 m at 0.5 m/s."""
+
+    creep_m: float = param(
+        0.10, help="clearance: gap (m) the footprint keeps from any obstacle at a creep", min=0.0, max=1.5, live=True
+    )
+    per_speed_s: float = param(
+        0.4, help="clearance: gap added (m) per m/s of the footprint's fastest point", min=0.0, max=3.0, live=True
+    )
+    creep_mps: float = param(
+        0.15, help="clearance: a creep (m/s): how fast it passes where only the creep's gap is free", min=0.02, max=1.0
+    )
+
+    def __post_init__(self) -> None:
+        for name in ("creep_m", "per_speed_s", "creep_mps"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"clearance {name} must be a finite number >= 0, got {v}")
+
+    def at(self, speed: float) -> float:
+        """The gap (m) to keep at `speed` (m/s; its size: a negative speed is as fast backwards)."""
+        return self.creep_m + self.per_speed_s * abs(speed) if math.isfinite(speed) else math.inf
+
+    def speed_for(self, gap: float) -> float:
+        """The fastest speed (m/s) at which `gap` (m) is clearance enough: 0 below `creep_m`."""
+        if not gap >= self.creep_m:  # also NaN
+            return 0.0
+        return math.inf if self.per_speed_s == 0 else (gap - self.creep_m) / self.per_speed_s
+
+    @property
+    def creep(self) -> float:
+        """The gap (m) kept at a creep (`creep_mps`)."""
+        return self.at(self.creep_mps)
 
 
 @dataclass(frozen=True)

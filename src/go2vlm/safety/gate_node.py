@@ -59,7 +59,9 @@ and its reasons are on /safety/status "health".
 
 Collision guard (safety/guard.py, docs/safety.md#the-collision-guard; `guard: false` turns it off at
 start-up only): the output is scaled down, never up, so that the robot, braking at accel_linear and
-accel_angular after reaction_s, stops `margin` (0.3 m) short of every obstacle on the scan along the
+accel_angular after reaction_s, stops `margin` (0.1 m) + `margin_per_speed_s` (0.4 s) x the speed of
+its fastest footprint point short of every obstacle on the scan (the clearance rule the planners keep
+too: 0.3 m at 0.5 m/s, a few centimetres at a creep through a doorway) along the
 arc it is commanded (forward, sideways, turning: the footprint sweeps); with no scan, a scan older than
 scan_timeout_s (0.5 s) or a garbage one (NaN, -inf, no beams, another frame), no footprint point moves
 faster than blind_speed (0.2 m/s). A rejected scan is logged (rate-limited) and counted.
@@ -215,6 +217,7 @@ class SafetyGateConfig:
     guard: bool = param(True, help="the collision guard over scan_topic (false: no obstacle check, no blind cap)")
     scan_topic: str = param(SCAN.name, help="sensor_msgs/LaserScan in base_link for the collision guard")
     margin: float = from_core(GuardConfig, "margin")
+    margin_per_speed_s: float = from_core(GuardConfig, "margin_per_speed_s")
     blind_speed: float = from_core(GuardConfig, "blind_speed")
     scan_timeout_s: float = from_core(GuardConfig, "scan_timeout_s")
     reaction_s: float = from_core(GuardConfig, "reaction_s")

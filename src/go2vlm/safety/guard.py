@@ -1,7 +1,7 @@
 """The collision guard: the safety gate's last word on a command, from the range scan. Pure, driven by
 explicit timestamps, like SafetyCore (safety/mux.py), which applies it to every output.
 
-    guard = CollisionGuard(GuardConfig(margin=0.3))
+    guard = CollisionGuard(GuardConfig(margin=0.1, margin_per_speed_s=0.4))
     guard.scan(Scan("base_link", ranges, angle_min, angle_increment, range_min, range_max), now)
     out = guard.limit(Velocity(0.5, 0, 0), now, limits)   # the command, scaled down or as it is
 
@@ -9,13 +9,19 @@ Rules
 - Stopping, not steering: the guard only scales a command down, all components by one factor in
   [0, 1], so the robot keeps its direction (the arc of its twist) and only its speed drops. It never
   raises anything, whatever it is given.
+- The margin is the clearance rule (geometry/footprint.py `Clearance`), the one the planners keep:
+  `margin` at a creep, `margin_per_speed_s` more per m/s of the footprint's fastest point (linear
+  speed plus turn rate times the corner radius) at the scaled command. A creep keeps a few
+  centimetres, so a Go2 walks through a 0.8 m doorway square-on (0.245 m each side); at 0.5 m/s the
+  defaults keep 0.3 m.
 - With a fresh scan: the command passes at the largest scale s at which the robot can still stop
-  before any obstacle comes within `margin` of its footprint. The stopping path is the command's own
+  before any obstacle comes within the margin at s of its footprint. The stopping path is the command's own
   arc (forward, sideways, turning: the footprint rectangle sweeps as it turns): first `reaction_s` plus
   the scan's age at speed s*v (the robot moves before it hears the next command, and moved since the
   scan), then braking at the deceleration the gate's acceleration limits allow (linear and angular
   brake together, the slower sets the time). The path is checked every `step` (1 cm) of footprint
-  travel, with the margin widened by that step so that nothing is missed between checks.
+  travel, with the margin widened by that step so that nothing is missed between checks. The scale
+  is bisected (the stopping path grows and the margin widens with it: both only tighten as s grows).
 - With an obstacle already inside the margin (the robot was placed or pushed there), the rule is that
   the footprint's clearance never drops below what it is now: the robot can always back away, and
   move past a post beside it, never closer. (Along a wall inside the margin this may refuse more than
@@ -38,8 +44,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from go2vlm.declare import param
-from go2vlm.geometry.footprint import rect_distance
+from go2vlm.declare import from_core, param
+from go2vlm.geometry.footprint import Clearance, rect_distance
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, RobotProfile
 from go2vlm.safety.limits import ZERO, Limits, Velocity
@@ -53,7 +59,9 @@ TINY = 1e-3  # m/s, rad/s: a scaled command below this is a stop
 @dataclass(frozen=True)
 class GuardConfig:
     # Declared with `param`: the safety gate's parameters too (read-only).
-    margin: float = param(0.3, help="guard: stop this far (m) short of any obstacle", min=0.0, max=3.0)
+    # The clearance rule's (one rule: the planners keep it too); not live here: the gate reads it at start.
+    margin: float = from_core(Clearance, "creep_m", live=False)
+    margin_per_speed_s: float = from_core(Clearance, "per_speed_s", live=False)
     blind_speed: float = param(
         0.2, help="guard: fastest footprint point (m/s) without a fresh, valid scan", min=0.0, max=1.0
     )
@@ -78,7 +86,16 @@ class GuardConfig:
         )
 
     def __post_init__(self) -> None:
-        for name in ("margin", "blind_speed", "scan_timeout_s", "reaction_s", "half_length", "half_width", "step"):
+        for name in (
+            "margin",
+            "margin_per_speed_s",
+            "blind_speed",
+            "scan_timeout_s",
+            "reaction_s",
+            "half_length",
+            "half_width",
+            "step",
+        ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"guard {name} must be a finite number >= 0, got {v}")
@@ -88,6 +105,10 @@ class GuardConfig:
     @property
     def corner(self) -> float:
         return math.hypot(self.half_length, self.half_width)
+
+    @property
+    def clearance(self) -> Clearance:
+        return Clearance(creep_m=self.margin, per_speed_s=self.margin_per_speed_s)
 
 
 @dataclass(frozen=True)
@@ -196,8 +217,9 @@ class CollisionGuard:
         if s >= 1.0:
             self.state = GuardState("clear", "", 1.0, nearest, age)
             return v
+        kept = cfg.clearance.at(s * (math.hypot(v.vx, v.vy) + abs(v.wz) * cfg.corner))
         reason = (
-            f"obstacle {nearest:.2f} m from the footprint in the path: slowed to {s:.0%} to stop {cfg.margin:g} m short"
+            f"obstacle {nearest:.2f} m from the footprint in the path: slowed to {s:.0%} to stop {kept:.2f} m short"
             if nearest is not None
             else "obstacle in the path"
         )
@@ -219,7 +241,8 @@ class CollisionGuard:
         tr, c = stop_path(v, reaction, limits)
         p1 = tr + c  # twist time to stop from full speed
         speed = math.hypot(v.vx, v.vy) + abs(v.wz) * cfg.corner  # fastest footprint point
-        reach = p1 * speed + cfg.margin + cfg.corner + cfg.step
+        clear = cfg.clearance
+        reach = p1 * speed + clear.at(speed) + cfg.corner + cfg.step
         pts = self._points
         assert pts is not None
         pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
@@ -236,13 +259,20 @@ class CollisionGuard:
         cs, sn = np.cos(th)[:, None], np.sin(th)[:, None]
         lx, ly = cs * dx + sn * dy, -sn * dx + cs * dy
         d = rect_distance(lx, ly, cfg.half_length, cfg.half_width)
-        d0 = d[0]
-        thr = min(cfg.margin + step, float(d0.min()))  # inside the margin already: never closer than now
-        bad = (d < thr - 1e-9).any(axis=1)
-        nearest = float(d0.min())
-        if not bad.any():
-            return 1.0, nearest
-        k = int(np.argmax(bad))  # the first sample that breaks the margin (k >= 1: d0 >= thr)
-        p_ok = p[k - 1]
-        s = (-tr + math.sqrt(tr * tr + 4.0 * c * p_ok)) / (2.0 * c) if c > 0 else (p_ok / tr if tr > 0 else 0.0)
-        return min(max(s, 0.0), 1.0), nearest
+        now = float(d[0].min())
+        nearest_ahead = np.minimum.accumulate(d.min(axis=1))  # the nearest up to each sample
+
+        def keeps(scale: float) -> bool:
+            """Does the stopping path of `scale` * v keep the margin at that speed (or what it has now)?"""
+            # the samples on it, and the first one past its end (nothing is missed between two)
+            reached = min(int(np.searchsorted(p, tr * scale + c * scale * scale, side="left")) + 1, len(p))
+            thr = min(clear.at(scale * speed) + step, now)  # inside the margin already: never closer than now
+            return bool(nearest_ahead[max(reached - 1, 0)] >= thr - 1e-9)
+
+        if keeps(1.0):
+            return 1.0, now
+        lo, hi = 0.0, 1.0
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if keeps(mid) else (lo, mid)
+        return lo, now

@@ -15,10 +15,11 @@ Topics
                                 cell (0, 0)'s outer corner; header.stamp = the newest scan in it. When
                                 it changed, at most every publish_period_s
               /map/costmap      nav_msgs/OccupancyGrid, latched, the same cells inflated by the
-                                footprint (robot_profile): 100 lethal (occupied, or within the
-                                inscribed radius + padding_m), 99 within the circumscribed radius +
-                                padding_m (a collision at some headings), 98..1 falling out to
-                                inflation_m, 0 free, -1 unknown. With /map
+                                footprint (robot_profile), codes of world/occupancy.py: 100 an
+                                obstacle, 99 within the inscribed radius + padding_m (never entered),
+                                90..98 within the circumscribed radius + padding_m (a collision at
+                                some headings: a cost, the planner checks the footprint there),
+                                89..1 falling out to inflation_m, 0 free, -1 unknown. With /map
               /map/odom         nav_msgs/Odometry (reliable), only with scan_matching: every /odom
                                 sample corrected by the newest scan match, frame map_frame, child
                                 base_link, the twist as /odom's
@@ -42,7 +43,8 @@ Topics
 
 Parameters
   scan_topic (/scan), odom_topic (/odom), odom_frame ("odom"), map_frame ("map"), resolution_m
-  (0.05 m), max_size_m (60.0 m: the cap, a side), padding_m (0.05 m), inflation_m (0.8 m), history_s
+  (0.05 m), max_size_m (60.0 m: the cap, a side), padding_m (0.1 m: the clearance at a creep),
+  inflation_m (0.8 m), history_s
   (10.0 s of poses), pose_wait_s (0.5 s: a scan newer than the newest pose waits this long),
   scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), world ("": the place the map
   is of; a map file of another world is refused), map_file ("": a memory file whose map to load at
@@ -93,6 +95,7 @@ import numpy as np
 from go2vlm.bus import Node, param
 from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_FILE_SERVICE, MAP_ODOM, MAP_STATUS, ODOM, SCAN, TF
 from go2vlm.errors import ConfigError
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.geometry.rotations import quat_yaw, yaw_quat
 from go2vlm.msgs.base_state import transform_stamped
 from go2vlm.msgs.geometry_msgs import Quaternion
@@ -126,7 +129,10 @@ class MapConfig:
     map_frame: str = param("map", help="the map's frame with scan_matching (/map/odom's)")
     resolution_m: float = param(_GRID.resolution_m, help="cell size (m)", min=0.01, max=0.5)
     max_size_m: float = param(_GRID.max_size_m, help="the map's cap, a side (m)", min=4.0, max=200.0)
-    padding_m: float = param(0.05, help="added to the footprint's radii in the costmap (m)", min=0.0, max=1.0)
+    padding_m: float = param(
+        Clearance().creep_m, help="added to the footprint's radii in the costmap (m): the clearance at a creep",
+        min=0.0, max=1.0,
+    )  # fmt: skip
     inflation_m: float = param(0.8, help="the costmap's cost falls to 0 at this distance (m)", min=0.1, max=5.0)
     history_s: float = param(10.0, help="poses kept: the oldest scan placed (s)", min=1.0, max=600.0)
     pose_wait_s: float = param(0.5, help="a scan newer than the newest pose waits this long (s)", min=0.0, max=5.0)

@@ -37,11 +37,15 @@ Rules
   (ScanRefused("bad_geometry")). Nothing is written until the whole scan has been checked: a refused
   scan leaves the grid as it was.
 - `values()`: log-odds >= occupied_logodds -> 100, <= free_logodds -> 0, between (and never seen) -> -1.
-- `inflate`: 100 on an occupied cell and wherever the robot's centre puts its footprint on it whatever
-  its heading (within the inscribed radius), 99 where it may, by heading (within the circumscribed
-  radius), then a cost falling from 98 to 1 out to `inflation_m`; 0 free; -1 unknown, but within the
-  inscribed radius of an obstacle (lethal: nothing plans through it). The 99..1 bands are not
-  inflated into the unknown, whose edge is the frontier.
+- `inflate` (the costmap's cell codes, defined here once: UNKNOWN, FREE, CIRCUMSCRIBED, INSCRIBED,
+  LETHAL): LETHAL (100) on an occupied cell; INSCRIBED (99) wherever the robot's centre puts its
+  footprint within the creep's clearance (geometry/footprint.py `Clearance`) of one whatever its heading
+  (the inscribed radius + padding: never entered); CIRCUMSCRIBED..98 (90..98) where it may, by heading
+  (out to the circumscribed radius + padding: a cost, not a wall: the global planner checks the
+  footprint's rectangle there at the heading the path gives it, so a doorway is crossed square-on);
+  then a cost falling from 89 to 1 out to `inflation_m`; 0 free; -1 unknown, but within the inscribed
+  radius of an obstacle (never entered). The cost bands are not inflated into the unknown, whose edge
+  is the frontier.
 """
 
 from __future__ import annotations
@@ -51,9 +55,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.poses import Pose2D
 
 __all__ = [
+    "CIRCUMSCRIBED",
     "FREE",
     "INSCRIBED",
     "LETHAL",
@@ -68,7 +74,10 @@ __all__ = [
     "inflate",
 ]
 
-UNKNOWN, FREE, INSCRIBED, LETHAL = -1, 0, 99, 100
+# The costmap's cell codes (ROS OccupancyGrid values; `inflate`): unknown, free, the lowest code of the
+# band where the footprint fits at some headings only, within the inscribed radius (never entered), an
+# obstacle. Costs 1..CIRCUMSCRIBED-1 fall with the distance beyond the circumscribed radius.
+UNKNOWN, FREE, CIRCUMSCRIBED, INSCRIBED, LETHAL = -1, 0, 90, 99, 100
 
 
 @dataclass(frozen=True)
@@ -395,8 +404,11 @@ class CostmapParams:
             raise ValueError("need 0 < inscribed_m <= circumscribed_m <= inflation_m <= 5 m")
 
     @staticmethod
-    def for_footprint(length: float, width: float, padding_m: float = 0.05, inflation_m: float = 0.8) -> CostmapParams:
-        """A rectangle's inscribed and circumscribed circles, both `padding_m` wider."""
+    def for_footprint(
+        length: float, width: float, padding_m: float = Clearance().creep_m, inflation_m: float = 0.8
+    ) -> CostmapParams:
+        """A rectangle's inscribed and circumscribed circles, both `padding_m` wider (the clearance
+        kept at a creep)."""
         inscribed = min(length, width) / 2 + padding_m
         circumscribed = math.hypot(length / 2, width / 2) + padding_m
         return CostmapParams(inscribed, circumscribed, max(inflation_m, circumscribed))
@@ -434,6 +446,8 @@ def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_r
     cost = np.where(values == UNKNOWN, UNKNOWN, FREE).astype(np.int8)
     reach = int(math.ceil(params.inflation_m / resolution)) + 1
     span = max(params.inflation_m - params.circumscribed_m, 1e-9)
+    ring = max(params.circumscribed_m - params.inscribed_m, 1e-9)
+    top = INSCRIBED - CIRCUMSCRIBED - 1  # the band's codes above CIRCUMSCRIBED
     rows = values.shape[0]
     for r0 in range(0, rows, band_rows):
         lo, hi = max(0, r0 - reach), min(rows, r0 + band_rows + reach)
@@ -443,11 +457,14 @@ def inflate(values: np.ndarray, resolution: float, params: CostmapParams, band_r
         d = bounded_distance(occ, reach)[r0 - lo : r0 - lo + band_rows]  # in cells
         near = np.nonzero(d <= params.inflation_m / resolution)
         dn = d[near] * resolution
-        falling = np.minimum(1 + np.floor(97.0 * np.clip((params.inflation_m - dn) / span, 0.0, 1.0)), 98)
-        band = np.where(dn <= params.inscribed_m, LETHAL, np.where(dn <= params.circumscribed_m, INSCRIBED, falling))
+        out = CIRCUMSCRIBED - 2
+        falling = np.minimum(1 + np.floor(out * np.clip((params.inflation_m - dn) / span, 0.0, 1.0)), out + 1)
+        within = CIRCUMSCRIBED + np.floor(top * np.clip((params.circumscribed_m - dn) / ring, 0.0, 1.0))
+        band = np.where(dn <= params.inscribed_m, INSCRIBED, np.where(dn <= params.circumscribed_m, within, falling))
+        band[dn == 0] = LETHAL
         # Unknown cells stay unknown but within the inscribed radius (Nav2's inflate_unknown: false):
         # a band inflated into the unknown round every wall would read as known space, and its edge as a
         # frontier all round the house.
-        keep = (values[r0 + near[0], near[1]] != UNKNOWN) | (band == LETHAL)
+        keep = (values[r0 + near[0], near[1]] != UNKNOWN) | (band >= INSCRIBED)
         cost[r0 + near[0][keep], near[1][keep]] = band[keep].astype(np.int8)
     return cost

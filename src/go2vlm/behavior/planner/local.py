@@ -2,21 +2,24 @@
 its goal.
 
 Pure (no DDS), a vector-field-histogram idea cut to what the approach needs. Candidate headings lie
-around the goal's bearing, each a straight corridor as wide as the footprint plus `margin` each side;
-the free length of a corridor is how far the footprint's front could go that way before it comes
-within `margin` of a scan point. Scan points within `goal_radius` of the goal's own surface are the
-goal, not an obstacle.
+around the goal's bearing, each a straight corridor as wide as the footprint plus the clearance each
+side (geometry/footprint.py `Clearance`, the rule the global planner and the guard keep: `margin` at a
+creep, `margin_per_speed_s` more per m/s); the free length of a corridor is how far the footprint's
+front could go that way before it comes within that clearance of a scan point. Scan points within
+`goal_radius` of the goal's own surface are the goal, not an obstacle.
 
-- The corridor towards the goal is free for `lookahead` (or up to where the robot will stop): the
-  approach's own command passes unchanged (`blocked` False).
+- The corridor towards the goal is free for `lookahead` (or up to where the robot will stop) at the
+  clearance of the approach's speed: its own command passes unchanged (`blocked` False); free only at
+  the clearance of half that speed, or of a creep (`creep_mps`), it passes no faster than that speed
+  (a narrow doorway is walked through slowly, square-on, not steered away from).
 - Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
   the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn),
   and, before all of these, near the way chosen last time (`keep`, within KEEP_WINDOW) while one there
   is free at all.
   The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
   that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
-  With none free at `margin`, the same at the narrower `squeeze` (a gap the footprint fits through
-  with a little more than the guard's margin).
+  A way free only at a creep's clearance is taken no faster than a creep (a gap the footprint fits
+  through only slowly), before a shorter way at the approach's speed.
 - No free heading at all: turn in place (towards the freest one, or the side it keeps to), forward
   speed zero.
 
@@ -47,12 +50,12 @@ guard's way, it does not replace it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from go2vlm.declare import param
-from go2vlm.geometry.footprint import rect_distance
+from go2vlm.declare import from_core
+from go2vlm.geometry.footprint import Clearance, rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 __all__ = [
@@ -86,14 +89,11 @@ KEEP_WINDOW = math.radians(20.0)
 
 @dataclass(frozen=True)
 class PlannerParams:
-    # a little more than the guard's 0.3; the commander's planner_margin_m (behavior/commander_config.py)
-    margin: float = param(
-        0.35, help="local planner: free space each side of the footprint", min=0.1, max=1.5, live=True
-    )
-    # m: in a gap too narrow for `margin`, what a free way may keep instead (a little more than the guard's
-    # 0.3): the household kitchen's one way out, 1.06 m between a mug and the door's leaf, needs 1.01 m
-    # at 0.35, and the robot turned before it until the goal timed out (rooms 28)
-    squeeze: float = 0.32
+    # The clearance rule (geometry/footprint.py), the guard's too; the commander's planner_margin_m
+    # (behavior/commander_config.py) is `margin`, the clearance at a creep.
+    margin: float = from_core(Clearance, "creep_m")
+    margin_per_speed_s: float = from_core(Clearance, "per_speed_s")
+    creep_mps: float = from_core(Clearance, "creep_mps")
     lookahead: float = 1.2  # m of free corridor that counts as a free way
     max_offset: float = math.radians(100.0)  # how far from the goal's bearing it may head
     step: float = math.radians(5.0)
@@ -108,7 +108,8 @@ class PlannerParams:
     def __post_init__(self) -> None:
         names = (
             "margin",
-            "squeeze",
+            "margin_per_speed_s",
+            "creep_mps",
             "lookahead",
             "max_offset",
             "step",
@@ -124,6 +125,10 @@ class PlannerParams:
         if self.step <= 0 or self.turn_only <= 0:
             raise ValueError("planner step and turn_only must be positive")
 
+    @property
+    def clearance(self) -> Clearance:
+        return Clearance(creep_m=self.margin, per_speed_s=self.margin_per_speed_s, creep_mps=self.creep_mps)
+
 
 @dataclass(frozen=True)
 class Steer:
@@ -131,21 +136,23 @@ class Steer:
     wz: float
     heading: float  # rad, the chosen heading (robot frame, + left)
     blocked: bool  # the way to the goal is blocked: (vx, wz) is the planner's, not the approach's
-    note: str  # why, for the commander's status ("" when the approach's command passed)
+    note: str  # why, for the commander's status ("" when the approach's command passed as it was)
     way: bool = False  # blocked, and `heading` is a free way chosen (not a turn with none free, nor an escape)
 
 
-def corridor_free(points: np.ndarray, heading: float, p: PlannerParams) -> float:
-    """How far (m) the footprint's front can go along `heading` before it is within `margin` of a point."""
+def corridor_free(points: np.ndarray, heading: float, p: PlannerParams, margin: float | None = None) -> float:
+    """How far (m) the footprint's front can go along `heading` before it is within `margin` (default:
+    the clearance standing, `p.margin`) of a point."""
     if len(points) == 0:
         return math.inf
+    m = p.margin if margin is None else margin
     c, s = math.cos(heading), math.sin(heading)
     along = points[:, 0] * c + points[:, 1] * s
     across = -points[:, 0] * s + points[:, 1] * c
-    block = (np.abs(across) < p.half_width + p.margin) & (along > 0)
+    block = (np.abs(across) < p.half_width + m) & (along > 0)
     if not block.any():
         return math.inf
-    return max(0.0, float(along[block].min()) - p.half_length - p.margin)
+    return max(0.0, float(along[block].min()) - p.half_length - m)
 
 
 def steer(
@@ -169,7 +176,7 @@ def steer(
     `speed` (>= 0) is the forward speed the approach would like on a free way, `max_angular` its turn
     rate ceiling; `side` (-1, 0, +1) the side chosen last time; `keep` (rad from the goal's bearing)
     the way chosen last time: a way within KEEP_WINDOW of it that is free at all (min_free, at the
-    margin or the squeeze) comes before any other."""
+    clearance of its speed or of a creep) comes before any other."""
     if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
         return Steer(vx, wz, bearing, False, "")
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -178,8 +185,15 @@ def steer(
         pts = pts[np.hypot(pts[:, 0] - g[0], pts[:, 1] - g[1]) > p.goal_radius]
     far = goal_m if reach_m is None else reach_m
     need = p.lookahead if far is None or not math.isfinite(far) else max(0.0, min(p.lookahead, far))
-    if need <= 0.0 or corridor_free(pts, bearing, p) >= need:
+    rule = p.clearance
+    if need <= 0.0:
         return Steer(vx, wz, bearing, False, "")
+    # Straight on, slower where only a slower speed's clearance is free (one rule: the guard's).
+    for v in (speed, speed / 2.0, min(speed, p.creep_mps)):
+        if corridor_free(pts, bearing, p, rule.at(v)) >= need:
+            if v >= speed:
+                return Steer(vx, wz, bearing, False, "")
+            return Steer(min(vx, v), wz, bearing, False, f"slowed to {v:.2f} m/s: a narrow way")
     n = int(p.max_offset / p.step)
     offsets = [k * p.step for k in range(-n, n + 1)]
 
@@ -187,20 +201,21 @@ def steer(
         return abs(off) + (p.side_bias if side and off * side < 0 else 0.0)
 
     heads = sorted(offsets, key=cost)
-    free = [(bearing + off, corridor_free(pts, bearing + off, p)) for off in heads]
-    passes = [(free, "round an obstacle")]
-    if p.squeeze < p.margin:  # a narrow gap, at the squeeze's margin
-        tight = replace(p, margin=p.squeeze)
-        passes.append(([(bearing + off, corridor_free(pts, bearing + off, tight)) for off in heads], "through a gap"))
-    tiers = [(ways, how, want) for ways, how in passes for want in (need, need / 2, p.min_free)]
+    free = [(bearing + off, corridor_free(pts, bearing + off, p, rule.at(speed))) for off in heads]
+    passes = [(free, "round an obstacle", speed)]
+    if p.creep_mps < speed:  # a narrow gap, at a creep's clearance and speed
+        tight = [(bearing + off, corridor_free(pts, bearing + off, p, rule.creep)) for off in heads]
+        passes.append((tight, "through a gap", p.creep_mps))
+    # A long way at a creep before a short one at speed: a doorway before a stub beside it.
+    tiers = [(ways, how, fast, want) for want in (need, need / 2, p.min_free) for ways, how, fast in passes]
     # A shorter free way is still progress. Near the way kept, any free way comes first.
     kept = [(keep, t) for t in tiers] if keep is not None else []
-    for k, (ways, how, want) in kept + [(None, t) for t in tiers]:
+    for k, (ways, how, fast, want) in kept + [(None, t) for t in tiers]:
         ok = [(h, f) for h, f in ways if f >= want and (k is None or abs(_wrap(h - bearing - k)) <= KEEP_WINDOW)]
         if ok:
             h, f = _wrap(ok[0][0]), ok[0][1]
             turn = max(-max_angular, min(max_angular, p.kp * h))
-            fwd = speed * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
+            fwd = fast * max(0.0, 1.0 - abs(h) / p.turn_only) * min(1.0, f / need)
             note = f"steering {math.degrees(_wrap(h - bearing)):+.0f} deg {how}"
             return Steer(fwd, turn, h, True, note, way=True)
     # Boxed in within max_offset of the goal: turn in place (towards the side it keeps to), never
@@ -224,9 +239,10 @@ def _clearances(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray
 
 
 def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> bool:
-    """Does the footprint keep `margin` (or what it has now, if less) along the poses (the first is now)?"""
+    """Does the footprint keep a creep's clearance (or what it has now, if less) along the poses (the first
+    is now)? These moves are slow: the guard lets them through at the speed whose margin they keep."""
     d = _clearances(points, x, y, th, p)
-    return bool((d[1:] >= min(p.margin, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
+    return bool((d[1:] >= min(p.clearance.creep, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
 
 
 def unstick(
@@ -240,7 +256,7 @@ def unstick(
     if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or vx < 0.0 or (straight and vx <= TURN_ONLY_VX):
         return None
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    reach = math.hypot(p.half_length, p.half_width) + p.margin + BACK_CHECK_M + vx * ARC_CHECK_S
+    reach = math.hypot(p.half_length, p.half_width) + p.clearance.creep + BACK_CHECK_M + vx * ARC_CHECK_S
     pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
     if len(pts) == 0:
         return None
