@@ -17,6 +17,7 @@ from go2vlm.behavior.navigate import Navigator, NavParams
 from go2vlm.behavior.navigate.controller import Rect, arc_clearance, pursue
 from go2vlm.behavior.navigate.params import RECOVERIES
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
+from go2vlm.geometry.footprint import Clearance
 
 RES = 0.05
 ORIGIN = (-6.0, -3.5)
@@ -154,5 +155,5 @@ def test_the_controller_stays_within_its_limits_and_never_drives_into_its_cleara
     assert 0.0 <= d.vx <= vmax + 1e-9 and abs(d.wz) <= wmax + 1e-9
     if d.vx > 0.0 or d.wz != 0.0:
         here = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
-        need = min(p.clearance(d.vx), here)
+        need = min(FP.need(Clearance(), d.vx, d.wz), here)
         assert arc_clearance(scan, d.vx, d.wz, p.horizon_s, FP) >= need - 1e-3

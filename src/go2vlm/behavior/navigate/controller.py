@@ -10,8 +10,9 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
   but never below `min_speed`.
-- The arc for `horizon_s` ahead must keep the clearance that its speed needs
-  (`NavParams.clearance`: a few centimetres at a creep, more at speed); if it does not, the same arc
+- The arc for `horizon_s` ahead must keep the clearance that its speed needs (the one clearance rule
+  that the planners and the guard keep, geometry/footprint.py `Clearance`: a few centimetres at a
+  creep, more at speed, by the footprint's fastest point); if it does not, the same arc
   is tried at half and a quarter of the speed, then the command is `blocked` (zero): the progress
   checker and the recoveries take it from there. Where the footprint is already nearer than that
   (inside a doorway), an arc that brings it no nearer passes.
@@ -27,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from go2vlm.behavior.navigate.params import NavParams
-from go2vlm.geometry.footprint import rect_distance
+from go2vlm.geometry.footprint import Clearance, rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 __all__ = ["Drive", "Rect", "arc_clearance", "project", "pursue"]
@@ -45,6 +46,10 @@ class Rect:
     @property
     def corner(self) -> float:
         return math.hypot(self.half_length, self.half_width)
+
+    def need(self, rule: Clearance, vx: float, wz: float) -> float:
+        """The gap (m) a command (vx, wz) keeps: the rule at the footprint's fastest point."""
+        return rule.at(abs(vx) + abs(wz) * self.corner)
 
 
 @dataclass(frozen=True)
@@ -110,11 +115,12 @@ def arc_clearance(scan: np.ndarray, vx: float, wz: float, duration: float, fp: R
 
 def pursue(
     path: np.ndarray, pose: tuple[float, float, float], scan: np.ndarray | None, speed: float, p: NavParams,
-    max_linear: float, max_angular: float, start: int = 0, fp: Rect = Rect(),
+    max_linear: float, max_angular: float, start: int = 0, fp: Rect = Rect(), rule: Clearance | None = None,
 ) -> Drive:  # fmt: skip
     """The command that follows `path` ((M, 2) world waypoints) from `pose` (x, y, yaw); `speed` the
     robot's speed now (m/s, for the lookahead); `scan` obstacle points in the base frame (None: no
     fresh scan, no checks here: the guard's blind cap holds it)."""
+    rule = rule or Clearance()
     x, y, yaw = pose
     index, point, remaining = project(path, x, y, start)
     lookahead = min(max(p.lookahead_s * abs(speed), p.lookahead_min_m), p.lookahead_max_m)
@@ -126,7 +132,7 @@ def pursue(
     now_clear = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
     if abs(alpha) > math.radians(p.rotate_to_heading_deg):
         wz = math.copysign(min(max(p.rotate_gain * abs(alpha), p.min_turn_rate), max_angular), alpha)
-        need = min(p.clearance(0.0), now_clear)
+        need = min(fp.need(rule, 0.0, wz), now_clear)
         if arc_clearance(pts, 0.0, wz, p.horizon_s, fp) >= need - 1e-3:
             return Drive(0.0, wz, "rotate", "turning to the route", index, remaining)
         return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
@@ -147,7 +153,7 @@ def pursue(
     if abs(wz) > max_angular:  # keep the arc: slow down rather than turn wider
         v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
     for scale in (1.0, 0.5, 0.25):
-        need = min(p.clearance(v * scale), now_clear)
+        need = min(fp.need(rule, v * scale, wz * scale), now_clear)
         if arc_clearance(pts, v * scale, wz * scale, p.horizon_s, fp) >= need - 1e-3:
             if scale < 1.0:
                 notes.append("clearance")

@@ -35,6 +35,7 @@ from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.navigate.recovery import Recoveries
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable, plan_path
 from go2vlm.behavior.planner.route import Route
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.occupancy import LETHAL
 
 __all__ = ["NavStep", "Navigator", "line_of_sight"]
@@ -72,6 +73,7 @@ class Navigator:
         self.params = params or NavParams()
         self.planner = planner or GlobalParams()
         self.footprint = footprint or Rect()
+        self.clearance = Clearance()  # the planners' and the guard's rule (the host sets its own)
         self.counters: Counter[str] = Counter()  # plans, failures: the commander's status
         self.recoveries = Recoveries()
         self.progress = Progress()
@@ -112,7 +114,7 @@ class Navigator:
             self._speed = 0.0
             return NavStep(0.0, 0.0, "arrived", "there")
         if self.recoveries.active is not None:
-            cmd = self.recoveries.step(pose, scan, now, p, max_angular, self.footprint)
+            cmd = self.recoveries.step(pose, scan, now, p, max_angular, self.footprint, self.clearance)
             if cmd is not None:
                 self._speed = abs(cmd[0])
                 return NavStep(cmd[0], cmd[1], "recovering", f"recovering: {self.recoveries.active}")
@@ -144,7 +146,7 @@ class Navigator:
                 return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
             return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
         d = pursue(self.route.plan.waypoints, pose, scan, self._speed, p, max_linear, max_angular, self._index,
-                   self.footprint)  # fmt: skip
+                   self.footprint, self.clearance)  # fmt: skip
         self._index, self._speed = d.index, d.vx
         self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
         reason = f"{d.remaining:.1f} m along the route"

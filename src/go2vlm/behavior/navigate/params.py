@@ -61,13 +61,6 @@ class NavParams:
         1.0, help="navigate: the command's arc this long ahead must keep the clearance (s)", min=0.1, max=5.0,
         live=True,
     )  # fmt: skip
-    clearance_m: float = param(
-        0.05, help="navigate: footprint clearance kept at a creep (m); more at speed (clearance_per_mps)",
-        min=0.0, max=1.0, live=True,
-    )  # fmt: skip
-    clearance_per_mps: float = param(
-        0.25, help="navigate: clearance added per m/s of speed (s)", min=0.0, max=2.0, live=True
-    )
     # -- progress and recoveries ---------------------------------------------------------------
     progress_m: float = param(0.3, help="navigate: moving this far (m) ...", min=0.05, max=3.0, live=True)
     progress_s: float = param(
@@ -89,7 +82,3 @@ class NavParams:
                 raise ValueError(f"navigate {f.name} must be a finite number >= 0, got {v}")
         if self.lookahead_min_m > self.lookahead_max_m:
             raise ValueError("navigate: need lookahead_min_m <= lookahead_max_m")
-
-    def clearance(self, speed: float) -> float:
-        """The footprint clearance (m) a command at `speed` (m/s) keeps along its arc."""
-        return self.clearance_m + self.clearance_per_mps * abs(speed)

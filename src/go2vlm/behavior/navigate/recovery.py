@@ -21,6 +21,7 @@ import numpy as np
 
 from go2vlm.behavior.navigate.controller import Rect, arc_clearance
 from go2vlm.behavior.navigate.params import RECOVERIES, NavParams
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.poses import wrap_angle
 
 __all__ = ["Recoveries"]
@@ -61,7 +62,7 @@ class Recoveries:
 
     def step(
         self, pose: tuple[float, float, float], scan: np.ndarray | None, now: float, p: NavParams,
-        max_angular: float, fp: Rect,
+        max_angular: float, fp: Rect, rule: Clearance,
     ) -> tuple[float, float] | None:  # fmt: skip
         """The running recovery's command, or None: it is over (or there is none)."""
         name = self.active
@@ -70,7 +71,6 @@ class Recoveries:
             return None
         pts = scan if scan is not None else np.zeros((0, 2))
         here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
-        need = min(p.clearance(0.0), here) - 1e-3
         if name == "spin":
             self._turned += abs(wrap_angle(pose[2] - self._yaw))
             self._yaw = pose[2]
@@ -79,7 +79,7 @@ class Recoveries:
                 return None
             wz = math.copysign(max(p.min_turn_rate, 0.5 * max_angular), self._dir)
             for w in (wz, -wz):
-                if arc_clearance(pts, 0.0, w, p.horizon_s, fp) >= need:
+                if arc_clearance(pts, 0.0, w, p.horizon_s, fp) >= min(fp.need(rule, 0.0, w), here) - 1e-3:
                     self._dir = math.copysign(1.0, w)
                     return 0.0, w
             self.active = None
@@ -87,7 +87,8 @@ class Recoveries:
         if name == "back_up":
             gone = math.hypot(pose[0] - self._start[0], pose[1] - self._start[1])
             v = -p.back_up_speed
-            if gone >= p.back_up_m or arc_clearance(pts, v, 0.0, p.horizon_s, fp) < need:
+            room = arc_clearance(pts, v, 0.0, p.horizon_s, fp) >= min(fp.need(rule, v, 0.0), here) - 1e-3
+            if gone >= p.back_up_m or not room:
                 self.active = None
                 return None
             return v, 0.0

@@ -179,7 +179,7 @@ class Context:
         """The navigator's step towards `goal` (odometry frame; `tolerance` m counts as there), planning
         with `planner` on the newest costmap, within the mission's speed limits; `route` is its route."""
         nav, p = self.navigator, self.params
-        nav.params, nav.planner = p.nav, planner
+        nav.params, nav.planner, nav.clearance = p.nav, planner, p.planner.clearance
         pose = self.fresh_pose(now)
         out = nav.step(goal, tolerance, self.costmap, None if pose is None else (pose.x, pose.y, pose.yaw),
                        self.fresh_scan(now), now, max_linear=p.max_linear, max_angular=p.max_angular)  # fmt: skip
