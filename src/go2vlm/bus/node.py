@@ -6,7 +6,8 @@ bus/param_services.py) unless made with parameter_services=False (tools). A chan
 `param(..., live=True)` parameter is validated as at start-up, offered to `check_params` (which may
 refuse it), then `self.config` becomes the new Config object and `on_params_changed` rebuilds what
 the node derived from it, all on the executor thread. Services (`create_service`, bus/service.py)
-answer on the executor thread too, like subscription callbacks.
+answer on the executor thread too, like subscription callbacks, and always answer: a handler that
+raises gets its caller an error reply with the reason (`service_stats()` counts them).
 
 A subscription callback and the node's timers run on the node's own thread, one at a time, as in
 rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises
@@ -56,9 +57,11 @@ from go2vlm.bus.qos import QOS_DEFAULT, QOS_SERVICES, QosProfile
 from go2vlm.bus.service import Service, SrvType
 from go2vlm.bus.topics import CLOCK
 from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.rcl_interfaces import PARAMETER_SERVICES
 from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
 from go2vlm.msgs.std_msgs import Header
 
+_PARAMETER_SRVS: frozenset[object] = frozenset(PARAMETER_SERVICES.values())  # every node has these
 M = TypeVar("M")
 S = TypeVar("S", bound=Subscription[Any])
 
@@ -220,6 +223,13 @@ class Node:
         with self._lock:
             self.services.append(svc)
         return svc
+
+    def service_stats(self) -> dict[str, dict[str, Any]]:
+        """Per service of this node (parameter services aside): requests answered, error replies
+        (a handler that raised: bus/service.py), the last error. For the node's status."""
+        with self._lock:
+            services = [s for s in self.services if s.srv_type not in _PARAMETER_SRVS]
+        return {s.name: s.stats() for s in services}
 
     def create_timer(self, period_s: float, callback: Callable[[], None], *, wall: bool = False) -> Timer:
         """Call `callback` every `period_s` seconds of the node's clock (sim time with use_sim_time).
