@@ -82,8 +82,8 @@ def test_memory_file_escapes_fifos_and_bombs_are_refused(
 
 def test_map_file_escapes_are_refused(procs: Procs, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The map node's /map/map_file takes the memory file's name under the same rule: no escape writes or
-    reads outside the state directory, and a map-file symlink planted beside a memory file is replaced,
-    never written through."""
+    reads outside the memory files' folder, and a map-file symlink planted beside a memory file is
+    refused, never written through nor replaced."""
     home = tmp_path / "home"
     home.mkdir()
     bashrc = home / ".bashrc"
@@ -98,7 +98,8 @@ def test_map_file_escapes_are_refused(procs: Procs, tmp_path: Path, monkeypatch:
         assert client.wait_for_service(60), "no map node"
         before = sorted(str(x) for x in tmp_path.rglob("*"))
         for name, path in (("absolute", str(home / "x.json")), ("tilde", "~/.bashrc"),
-                           ("dotdot", "../../../home/.bashrc"), ("symlink", "out.json")):  # fmt: skip
+                           ("dotdot", "../../../home/.bashrc"),
+                           ("latch folder", str(folder.parent / "estop" / "sim-domain0.json"))):  # fmt: skip
             for command in ("save", "load", "check"):
                 rep, _ = _call(client, command, path, overwrite=True)
                 assert not rep.success and "refused" in rep.message, (name, command, rep)  # type: ignore[attr-defined]
@@ -108,7 +109,7 @@ def test_map_file_escapes_are_refused(procs: Procs, tmp_path: Path, monkeypatch:
         rep, _ = _call(client, "save", "planted")
         assert not rep.success and "overwrite=true" in rep.message, rep  # type: ignore[attr-defined]
         rep, _ = _call(client, "save", "planted", overwrite=True)
-        assert rep.success, rep  # type: ignore[attr-defined]
-        assert not (folder / "planted.map.npz").is_symlink()
+        assert not rep.success and "not a regular file" in rep.message, rep  # type: ignore[attr-defined]
+        assert (folder / "planted.map.npz").is_symlink()
     assert bashrc.read_text() == "# mine\n"
     assert p.poll() is None, "the map node died"

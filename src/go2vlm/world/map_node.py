@@ -466,6 +466,7 @@ class MapNode(Node):
             "published": self.counters.get("published", 0),
             "files": self.config.quota().usage(),
             "services": self.service_stats(),
+            "refused_inputs": self.input_refusals(),
         }
 
     def publish_status(self) -> None:

@@ -531,6 +531,7 @@ class ObjectMemoryNode(Node):
             "camera_info": self._cam is not None,
             "files": self.config.quota().usage(),
             "services": self.service_stats(),
+            "refused_inputs": self.input_refusals(),
             "counters": {**self.memory.counters, **self.counters},
         }
 
