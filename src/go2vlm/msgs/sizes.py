@@ -47,7 +47,7 @@ class SizeCaps:
         "many items", min=1, max=100_000_000,
     )  # fmt: skip
     max_msg_bytes: int = param(
-        256 * 2**20, help="a sample taken from the bus is at most this many bytes serialized (checked before it "
+        32 * 2**20, help="a sample taken from the bus is at most this many bytes serialized (checked before it "
         "is decoded)", min=1024, max=2**31,
     )  # fmt: skip
 
