@@ -24,12 +24,12 @@ from typing import Any
 
 from busutil import Procs, wait_for
 
-from go2vlm.bus import QOS_LATCHED, Node
+from go2vlm.bus import Node
 from go2vlm.bus.topics import COMMANDER_STATUS, MAP_COSTMAP
 from go2vlm.msgs.nav_msgs import MapMetaData, OccupancyGrid
 from go2vlm.msgs.std_msgs import Header, String
 
-COSTMAP = "/map/costmap"
+COSTMAP = MAP_COSTMAP.name
 
 
 class _Peer(Node):
@@ -39,7 +39,7 @@ class _Peer(Node):
         super().__init__(parameter_services=False)
         self.lock = threading.Lock()
         self.status: dict[str, Any] = {}
-        self.pub = self.create_publisher(OccupancyGrid, COSTMAP, QOS_LATCHED)
+        self.pub = MAP_COSTMAP.publisher(self)
         COMMANDER_STATUS.subscription(self, self._on_status)
 
     def _on_status(self, msg: String) -> None:
