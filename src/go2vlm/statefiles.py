@@ -46,7 +46,6 @@ import secrets
 import stat
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from go2vlm.errors import ConfigError
 
@@ -238,9 +237,11 @@ class Quota:
                 f"cap of {self.max_files} files, {self.max_bytes} bytes; delete some, or replace one with overwrite"
             )
 
-    def usage(self) -> dict[str, Any]:
+    def usage(self) -> dict[str, int | bool | str]:
         """For a status: the kind's files and bytes now, the caps, and whether one is reached."""
-        out: dict[str, Any] = {"files": 0, "bytes": 0, "max_files": self.max_files, "max_bytes": self.max_bytes}
+        out: dict[str, int | bool | str] = {
+            "files": 0, "bytes": 0, "max_files": self.max_files, "max_bytes": self.max_bytes,
+        }  # fmt: skip
         try:
             dfd = _open_folder(state_dir() / self.kind.folder, create=False)
         except FileNotFoundError:
@@ -248,10 +249,10 @@ class Quota:
         except (OSError, StateFileError) as exc:
             return {**out, "full": True, "error": " ".join(str(exc).split())[:200]}
         try:
-            out["files"], out["bytes"], _ = self._count(dfd)
+            files, total, _ = self._count(dfd)
         finally:
             os.close(dfd)
-        return {**out, "full": out["files"] >= self.max_files or out["bytes"] >= self.max_bytes}
+        return {**out, "files": files, "bytes": total, "full": files >= self.max_files or total >= self.max_bytes}
 
 
 def write_atomic(path: Path, data: bytes, *, overwrite: bool = False, quota: Quota | None = None) -> None:

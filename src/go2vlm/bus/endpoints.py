@@ -157,7 +157,7 @@ class Subscription(Generic[M]):
             if len(data) > self.caps.max_msg_bytes:  # before a byte of it is decoded
                 self._refuse(f"{len(data)} bytes, more than the {self.caps.max_msg_bytes} a sample may take")
                 continue
-            msg: Any = self._reader._topic.data_type.deserialize(data)  # as DataReader.take decodes
+            msg = self._reader._topic.data_type.deserialize(data)  # as DataReader.take decodes
             try:
                 check_size(msg, self.caps)
             except SizeError as exc:

@@ -231,19 +231,19 @@ class Node:
             self.services.append(svc)
         return svc
 
-    def input_refusals(self) -> dict[str, dict[str, Any]]:
+    def input_refusals(self) -> dict[str, dict[str, int | str]]:
         """Per topic where samples were dropped for their size (msgs/sizes.py): how many, and why the
         last one was. For the node's status."""
         with self._lock:
             subs = [s for s in self.subscriptions if s.refused]
-        out: dict[str, dict[str, Any]] = {}
+        counts: dict[str, int] = {}
+        last: dict[str, str] = {}
         for s in subs:  # one topic may have several subscriptions (QoS variants): their sum, the newest reason
-            seen = out.setdefault(s.topic, {"refused": 0, "last": ""})
-            seen["refused"] += s.refused
-            seen["last"] = s.last_refusal
-        return out
+            counts[s.topic] = counts.get(s.topic, 0) + s.refused
+            last[s.topic] = s.last_refusal
+        return {t: {"refused": n, "last": last[t]} for t, n in counts.items()}
 
-    def service_stats(self) -> dict[str, dict[str, Any]]:
+    def service_stats(self) -> dict[str, dict[str, int | str]]:
         """Per service of this node (parameter services aside): requests answered, error replies
         (a handler that raised: bus/service.py), the last error. For the node's status."""
         with self._lock:

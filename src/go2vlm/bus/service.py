@@ -292,7 +292,7 @@ class Service(Generic[Req, Resp]):
         self.node.log.throttled("error", 2.0, f"{reason} (answered with an error; {n} so far)", key=f"srv:{self.name}")
         return error_response(self.srv_type.Response, reason)
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> dict[str, int | str]:
         """What a status shows of this service: requests answered, error replies, the last error."""
         return {"answered": self.answered, "errors": self.errors, "last_error": self.last_error}
 

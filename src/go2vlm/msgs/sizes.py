@@ -21,9 +21,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 from go2vlm.declare import param
+from go2vlm.msgs.nav_msgs import OccupancyGrid, Path
+from go2vlm.msgs.sensor_msgs import Image, LaserScan, PointCloud2
+from go2vlm.msgs.tf2_msgs import TFMessage
+from go2vlm.msgs.vision_msgs import Detection2DArray, Detection3DArray
+from go2vlm.msgs.visualization_msgs import MarkerArray
 
 __all__ = ["SizeCaps", "SizeError", "check_size"]
 
@@ -52,7 +56,7 @@ class SizeCaps:
     )  # fmt: skip
 
 
-def _grid(msg: Any, caps: SizeCaps) -> None:
+def _grid(msg: OccupancyGrid, caps: SizeCaps) -> None:
     info = msg.info
     w, h = int(info.width), int(info.height)
     if w * h > caps.max_msg_cells:
@@ -68,7 +72,7 @@ def _grid(msg: Any, caps: SizeCaps) -> None:
         raise SizeError(f"a grid of {w} x {h} cells carries {len(msg.data)} values")
 
 
-def _image(msg: Any, caps: SizeCaps) -> None:
+def _image(msg: Image, caps: SizeCaps) -> None:
     w, h, step = int(msg.width), int(msg.height), int(msg.step)
     if w * h > caps.max_msg_cells:
         raise SizeError(f"an image of {w} x {h} pixels, more than the {caps.max_msg_cells} an image may hold")
@@ -76,7 +80,7 @@ def _image(msg: Any, caps: SizeCaps) -> None:
         raise SizeError(f"an image of {w} x {h} pixels, {step} bytes a row, carries {len(msg.data)} bytes")
 
 
-def _cloud(msg: Any, caps: SizeCaps) -> None:
+def _cloud(msg: PointCloud2, caps: SizeCaps) -> None:
     w, h, step, row = int(msg.width), int(msg.height), int(msg.point_step), int(msg.row_step)
     if w * h > caps.max_msg_points:
         raise SizeError(f"a cloud of {w} x {h} points, more than the {caps.max_msg_points} a cloud may hold")
@@ -88,7 +92,7 @@ def _cloud(msg: Any, caps: SizeCaps) -> None:
         )
 
 
-def _scan(msg: Any, caps: SizeCaps) -> None:
+def _scan(msg: LaserScan, caps: SizeCaps) -> None:
     n = len(msg.ranges)
     if n > caps.max_msg_points:
         raise SizeError(f"a scan of {n} ranges, more than the {caps.max_msg_points} a scan may hold")
@@ -96,36 +100,37 @@ def _scan(msg: Any, caps: SizeCaps) -> None:
         raise SizeError(f"a scan of {n} ranges carries {len(msg.intensities)} intensities")
 
 
-def _items(field: str) -> Callable[[Any, SizeCaps], None]:
-    def check(msg: Any, caps: SizeCaps) -> None:
-        n = len(getattr(msg, field))
-        if n > caps.max_msg_items:
-            raise SizeError(f"{n} {field}, more than the {caps.max_msg_items} an array may hold")
-        if field == "markers":  # each marker's own points and colours, too
-            for m in getattr(msg, field):
+def _items(field: str) -> Callable[[object, SizeCaps], None]:
+    def check(msg: object, caps: SizeCaps) -> None:
+        items = getattr(msg, field)
+        if len(items) > caps.max_msg_items:
+            raise SizeError(f"{len(items)} {field}, more than the {caps.max_msg_items} an array may hold")
+        if isinstance(msg, MarkerArray):  # each marker's own points and colours, too
+            for m in msg.markers:
                 if len(m.points) > caps.max_msg_points or len(m.colors) > caps.max_msg_points:
                     raise SizeError(f"a marker of {len(m.points)} points, more than {caps.max_msg_points}")
 
     return check
 
 
-# By ROS 2 type name (`__idl_typename__` without the dds_ part): what to check in each.
-_CHECKS: dict[str, Callable[[Any, SizeCaps], None]] = {
-    "nav_msgs::msg::OccupancyGrid_": _grid,
-    "sensor_msgs::msg::Image_": _image,
-    "sensor_msgs::msg::PointCloud2_": _cloud,
-    "sensor_msgs::msg::LaserScan_": _scan,
-    "vision_msgs::msg::Detection2DArray_": _items("detections"),
-    "vision_msgs::msg::Detection3DArray_": _items("detections"),
-    "visualization_msgs::msg::MarkerArray_": _items("markers"),
-    "nav_msgs::msg::Path_": _items("poses"),
-    "tf2_msgs::msg::TFMessage_": _items("transforms"),
+# By ROS 2 type name (`__idl_typename__`): what to check in each (a service's wire type or any class
+# of that name is the same message on the wire).
+_CHECKS: dict[str, Callable[..., None]] = {
+    OccupancyGrid.__idl_typename__: _grid,
+    Image.__idl_typename__: _image,
+    PointCloud2.__idl_typename__: _cloud,
+    LaserScan.__idl_typename__: _scan,
+    Detection2DArray.__idl_typename__: _items("detections"),
+    Detection3DArray.__idl_typename__: _items("detections"),
+    MarkerArray.__idl_typename__: _items("markers"),
+    Path.__idl_typename__: _items("poses"),
+    TFMessage.__idl_typename__: _items("transforms"),
 }
 
 
-def check_size(msg: Any, caps: SizeCaps) -> None:
+def check_size(msg: object, caps: SizeCaps) -> None:
     """SizeError when `msg` is larger than `caps` allow or its declared size and data disagree; a
     message type without a size passes."""
-    check = _CHECKS.get(str(getattr(type(msg), "__idl_typename__", "")).replace("dds_::", ""))
+    check = _CHECKS.get(str(getattr(type(msg), "__idl_typename__", "")))
     if check is not None:
         check(msg, caps)
