@@ -75,9 +75,9 @@ def _grid(msg: OccupancyGrid, caps: SizeCaps) -> None:
 def _image(msg: Image, caps: SizeCaps) -> None:
     w, h, step = int(msg.width), int(msg.height), int(msg.step)
     if w * h > caps.max_msg_cells:
-        raise SizeError(f"an image of {w} x {h} pixels, more than the {caps.max_msg_cells} an image may hold")
+        raise SizeError(f"an image of {w}x{h} pixels, more than the {caps.max_msg_cells} an image may hold")
     if step * h > len(msg.data) or (w and step < w):
-        raise SizeError(f"an image of {w} x {h} pixels, {step} bytes a row, carries {len(msg.data)} bytes")
+        raise SizeError(f"an image of {w}x{h} pixels, step {step}, carries {len(msg.data)} bytes of data")
 
 
 def _cloud(msg: PointCloud2, caps: SizeCaps) -> None:
