@@ -47,9 +47,10 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
+from go2vlm.declare import param
 from go2vlm.errors import ConfigError
 
-__all__ = ["FileKind", "Quota", "StateFileError", "read_bounded", "state_dir", "state_file", "write_atomic"]
+__all__ = ["FileCaps", "FileKind", "Quota", "StateFileError", "read_bounded", "state_dir", "state_file", "write_atomic"]
 
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9._-]{0,127}")
 _DIR_FLAGS = os.O_RDONLY | os.O_DIRECTORY | getattr(os, "O_CLOEXEC", 0)
@@ -253,6 +254,23 @@ class Quota:
         finally:
             os.close(dfd)
         return {**out, "files": files, "bytes": total, "full": files >= self.max_files or total >= self.max_bytes}
+
+
+@dataclass(frozen=True)
+class FileCaps:
+    """The caps on the state files a node writes (its kind's quota), as the node declares them
+    (`from_core(FileCaps, "max_files")`)."""
+
+    max_files: int = param(
+        64, help="state files of this node's kind kept at most: a save of a new one past it is refused", min=1,
+        max=100_000,
+    )  # fmt: skip
+    max_files_mib: float = param(
+        1024.0, help="those files' bytes together at most (MiB): a save past it is refused", min=1.0, max=1e6
+    )
+
+    def quota(self, kind: FileKind) -> Quota:
+        return Quota(kind, self.max_files, int(self.max_files_mib * 2**20))
 
 
 def write_atomic(path: Path, data: bytes, *, overwrite: bool = False, quota: Quota | None = None) -> None:

@@ -146,7 +146,7 @@ def test_the_latch_a_symlinked_folder_and_the_quota(procs: Procs, tmp_path: Path
     OBJECT_MEMORY_STATUS.subscription(probe, lambda m: statuses.append(json.loads(m.data)))
     probe.start()
     p = procs.start("run", "object_memory", "--param", "image_topic=", "--param", "scan_topic=",
-                    "--param", "max_memory_files=3", "--param", "max_memory_files_mib=1")  # fmt: skip
+                    "--param", "max_files=3", "--param", "max_files_mib=1")  # fmt: skip
     spent: dict[str, float] = {}
     try:
         with ServiceClient(MemoryFile, "/object_memory/memory_file") as client:

@@ -31,7 +31,7 @@ Topics
                                 home -> objects/home.map.npz; world/map_file.py). Map files only,
                                 opened by folder descriptor, never through a symlink. A save never
                                 replaces a file without overwrite; one that would take the map
-                                files past max_map_files or max_map_files_mib is refused (the
+                                files past max_files or max_files_mib is refused (the
                                 status's `files` says when a cap is reached). A load (and a check)
                                 reads and checks the whole file first: a file of another world,
                                 frame or resolution, larger than the cap, or corrupt is refused with
@@ -52,8 +52,8 @@ Parameters
   scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), world ("": the place the map
   is of; a map file of another world is refused), map_file ("": a memory file whose map to load at
   start; one that is corrupt, of another world, frame or resolution stops the node with one line,
-  exit 2; a missing one starts empty), save_on_exit (false), max_map_files (64), max_map_files_mib
-  (1024 MiB), publish_period_s (1.0 s), status_period_s (1.0 s).
+  exit 2; a missing one starts empty), save_on_exit (false), max_files (64), max_files_mib (1024
+  MiB), publish_period_s (1.0 s), status_period_s (1.0 s).
 
 Refused scans, counted on the status (refused.<reason>), never integrated: wrong_frame (not in
 base_link), no_stamp, bad_geometry, older_than_history, pose_gap, no_pose, newer_than_pose (no pose
@@ -95,7 +95,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import Node, param
+from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_FILE_SERVICE, MAP_ODOM, MAP_STATUS, ODOM, SCAN, TF
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.rotations import quat_yaw, yaw_quat
@@ -107,7 +107,7 @@ from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.robot_profile import go2 as spec
-from go2vlm.statefiles import Quota, StateFileError, read_bounded, write_atomic
+from go2vlm.statefiles import FileCaps, Quota, StateFileError, read_bounded, write_atomic
 from go2vlm.world.map_file import MAP_KIND, MAX_FILE_BYTES, MapFileError, dumps, loads, map_path
 from go2vlm.world.map_msg import grid_msg
 from go2vlm.world.occupancy import Beams, CostmapParams, GridParams, OccupancyMap, ScanRefused, inflate
@@ -143,13 +143,8 @@ class MapConfig:
     world: str = param("", help="the place this map is of; a map file of another world is refused")
     map_file: str = param("", help="the memory file whose map (NAME.map.npz beside it) to load at start ('' = none)")
     save_on_exit: bool = param(False, help="write map_file's map when the node stops")
-    max_map_files: int = param(
-        64, help="map files (objects/*.map.npz) kept at most: a save of a new one past it is refused", min=1,
-        max=100_000,
-    )  # fmt: skip
-    max_map_files_mib: float = param(
-        1024.0, help="map files' bytes together at most (MiB): a save past it is refused", min=1.0, max=1e6
-    )
+    max_files: int = from_core(FileCaps, "max_files")
+    max_files_mib: float = from_core(FileCaps, "max_files_mib")
     publish_period_s: float = param(1.0, help="/map and /map/costmap at most this often (s)", min=0.1, max=60.0)
     status_period_s: float = param(1.0, help="/map/status period besides on a new refusal", min=0.1, max=60.0)
 
@@ -166,7 +161,7 @@ class MapConfig:
         )
 
     def quota(self) -> Quota:
-        return Quota(MAP_KIND, self.max_map_files, int(self.max_map_files_mib * 2**20))
+        return core_params(FileCaps, self).quota(MAP_KIND)
 
 
 class MapNode(Node):

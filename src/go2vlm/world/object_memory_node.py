@@ -50,7 +50,7 @@ Topics
                                     (statefiles.py: memory files only, objects/*.json, opened by
                                     folder descriptor, never through a symlink); a save never
                                     replaces a file unless overwrite, and one that would take the
-                                    memory files past max_memory_files or max_memory_files_mib is
+                                    memory files past max_files or max_files_mib is
                                     refused (the status's `files` says when a cap is reached). A load
                                     is all or nothing (world/memory_file.py). Every request is
                                     answered, a failure with its reason (bus/service.py)
@@ -127,7 +127,7 @@ from go2vlm.perception.ranging import RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams
 from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, profile
 from go2vlm.robot_profile import go2 as spec
-from go2vlm.statefiles import Quota, StateFileError, read_bounded, state_file, write_atomic
+from go2vlm.statefiles import FileCaps, Quota, StateFileError, read_bounded, state_file, write_atomic
 from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
 from go2vlm.vocabulary.words import parse_label
 from go2vlm.world.labels import normalize_label
@@ -165,13 +165,8 @@ class ObjectMemoryConfig:
         "", help="a memory file to load at start: a name or a path under $XDG_STATE_HOME/go2vlm ('' = start empty)"
     )
     save_on_exit: bool = param(False, help="write memory_file when the node stops")
-    max_memory_files: int = param(
-        64, help="memory files (objects/*.json) kept at most: a save of a new one past it is refused", min=1,
-        max=100_000,
-    )  # fmt: skip
-    max_memory_files_mib: float = param(
-        256.0, help="memory files' bytes together at most (MiB): a save past it is refused", min=1.0, max=1e6
-    )
+    max_files: int = from_core(FileCaps, "max_files")
+    max_files_mib: float = from_core(FileCaps, "max_files_mib")
     history_s: float = param(30.0, help="poses, scans and frames kept: the oldest answer placed (s)", min=1.0,
                              max=600.0)  # fmt: skip
     pose_wait_s: float = param(1.0, help="an answer newer than the newest pose waits this long (s)", min=0.0,
@@ -204,7 +199,7 @@ class ObjectMemoryConfig:
         return CameraMount.of(profile(self.robot))
 
     def quota(self) -> Quota:
-        return Quota(STATE_KIND, self.max_memory_files, int(self.max_memory_files_mib * 2**20))
+        return core_params(FileCaps, self).quota(STATE_KIND)
 
 
 class ObjectMemoryNode(Node):
