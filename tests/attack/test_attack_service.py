@@ -8,8 +8,8 @@ the node keeps serving (bus/service.py: one place, for every service).
   exception left to the executor) fails it: no reply, `ServiceError: no reply ... within 10 s`.
 - A 300-character name to the object memory's /object_memory/memory_file (which raised ENAMETOOLONG
   in `state_file` on Python 3.10-3.12): refused with the reason. Checked against a broken build:
-  statefiles.py's name check removed, the open raises ENAMETOOLONG, and the reply is the service
-  layer's bare `error: ... OSError`, not the refusal this test asks for.
+  statefiles.py's name check removed: the open raises ENAMETOOLONG and the reply is a bare `cannot
+  write ...: File name too long`, not the refusal with its reason that this test asks for.
 """
 
 from __future__ import annotations
