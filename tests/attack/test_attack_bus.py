@@ -3,7 +3,10 @@ graph (`go2vlm launch mcp_sim --processes`), judged from the sim's ground truth 
 attack table). One graph for the module; the rows run in order and each ends with a still robot.
 
 - Concurrent goals: two agents' go_to calls arrive at once: exactly one is accepted, the other refused
-  with the reason (the busy check and the claim are one step).
+  with the reason (the busy check and the claim are one step). Then SIGTERM of the server: its
+  `close()` stops the goal (`stop requested`), before the 2 s lease could (checked against a broken
+  build: bridge_node.py's `close()` without its `stop`: the goal ends by its lease, and the test fails
+  on the reason).
 - A rogue /cmd_vel writer (2 m/s at 200 Hz) mid go to: the robot stops and takes nothing from it.
 - A second safety gate mid go to: both refuse to drive; the robot stops.
 """
@@ -98,6 +101,8 @@ def test_concurrent_goals_one_is_accepted(rig: Rig) -> None:
     assert all("busy" in r[2] or "being started" in r[2] for r in results if not r[1])
     rig.procs.stop(p, signal.SIGTERM, 20)  # it stops its goal on the way out
     assert wait_for(lambda: last_status(rig.probe).get("state") == "stopped", 30), last_status(rig.probe)
+    # Stopped by close()'s `stop`, not by the lease running out (which would stop it as well).
+    assert last_status(rig.probe).get("reason") == "stop requested", last_status(rig.probe)
 
 
 def test_a_rogue_cmd_vel_writer_mid_go_to_stops_the_robot(rig: Rig) -> None:

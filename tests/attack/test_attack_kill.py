@@ -6,6 +6,10 @@ ground truth.
 
 - The MCP server, mid `follow` and mid `go to`: the commander's goal lease runs out and the commander
   stops the goal itself; the robot is still within the deadman + 1 s (the assertion is that bound).
+- The agent quits a stdio server (stdin EOF) mid `follow`: the server's `close()` sends `stop` on its way
+  out, so the goal ends `stop requested`, not by its lease (whose 2 s would stop it too). Checked
+  against a broken build: bridge_node.py's `close()` without its `stop`: the goal ends `the goal's
+  lease ... expired`, and the test fails on the reason.
 - The commander: the gate times its input out; the robot stops.
 - The target_tracker: nothing confirms the target any more; the go to goes on, if at all, only on
   what the object memory remembered, comes to rest and touches nothing.
@@ -32,6 +36,7 @@ pytest.importorskip("mcp")
 
 pytestmark = pytest.mark.slow
 DEADMAN_S = 5.0
+STOP_REQUESTED = "stop requested"  # the commander's reason for a `stop` goal (behavior/mission.py)
 
 
 async def _call_when_a_gate_reports(client: object, tool: str) -> None:
@@ -83,6 +88,8 @@ def test_kill_9_the_mcp_server_mid_follow_and_mid_go_to(procs: Procs) -> None:
         # stdin EOF: the agent that started a stdio server quits; the server stops its goal on the way out.
         t_quit = anyio.run(_stdio_follow_then_quit, probe)
         assert wait_for(lambda: last_status(probe).get("state") == "stopped", DEADMAN_S + 30), last_status(probe)
+        # Stopped by close()'s `stop`, not by the lease running out (which would stop it as well).
+        assert last_status(probe).get("reason") == STOP_REQUESTED, last_status(probe)
         still = still_from(probe, t_quit)
         assert still is not None
         found["stdin EOF"] = {"still_s": still - t_quit}

@@ -224,7 +224,11 @@ NODE_CORES = {
     ),
     "safety": ("go2vlm.safety.limits:Limits", "go2vlm.safety.guard:GuardConfig", "go2vlm.safety.health:HealthPolicy"),
     "target_tracker": ("go2vlm.perception.tracking:TrackingParams",),
-    "object_memory": ("go2vlm.perception.tracking:TrackingParams", "go2vlm.world.memory:MemoryParams"),
+    "object_memory": (
+        "go2vlm.perception.tracking:TrackingParams",
+        "go2vlm.world.memory:MemoryParams",
+        "go2vlm.statefiles:FileCaps",
+    ),
 }
 
 

@@ -32,8 +32,9 @@ def test_a_late_vlm_answer_is_caught_up_and_bad_inputs_are_counted() -> None:
     with running(cam, tracker):
         assert wait_for(lambda: cam.dets.matched >= 1 and cam.img.matched >= 1 and len(cam.headers) > 12, 10)
         assert wait_for(lambda: _state(cam) == SEARCHING, 5)  # no answer yet: nothing reported
-        # Garbage first: a truncated image, a CameraInfo with fx = 0, a detection with a NaN box.
-        cam.img.publish(Image(height=480, width=640, encoding="bgr8", step=1920, data=b"\x00" * 100))
+        # Garbage first: an image of no known encoding (a truncated one never gets past the bus's size
+        # check: msgs/sizes.py), a CameraInfo with fx = 0, a detection with a NaN box.
+        cam.img.publish(Image(height=4, width=4, encoding="yuv_weird", step=12, data=b"\x00" * 48))
         cam.info.publish(CameraInfo(width=640, height=480, k=[0.0] * 9))
         h = cam.header_back(1)
         bad = det("blue cylinder", 0, 0, 10, 10, h)

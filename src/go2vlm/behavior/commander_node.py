@@ -28,7 +28,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   frame, and (header.stamp) the newest answer it has taken in
               /map/costmap        nav_msgs/OccupancyGrid, latched (`costmap_topic`): the map node's
                                   inflated costmap (world/map_node.py), frame odom: the global planner
-                                  and the frontiers (explore)
+                                  and the frontiers (explore); one over the bus's size caps (30000 x
+                                  30000 cells, no cells, a resolution not finite > 0: msgs/sizes.py)
+                                  is dropped before it is decoded or allocated, the last good one stays
               /vlm/way            std_msgs/String       frontier_choice vlm: answers about camera frames
                                   (perception/way.py); a whitelisted word's score is placed at the
                                   heading the robot had at the frame's stamp (behavior/view_scores.py),
@@ -50,8 +52,9 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
                                   given_up, views_scored), plan (length_m, waypoints, reason), navigate
-                                  (goal, route_m, recovering, recoveries, plans, failures); on change
-                                  and each status_period_s
+                                  (goal, route_m, recovering, recoveries, plans, failures),
+                                  refused_inputs (topic -> refused, last: inputs dropped for their
+                                  size, msgs/sizes.py); on change and each status_period_s
 
 Goals and states
   follow    waiting -> tracking (keeps follow_distance_m) | lost | searching   never ends by itself
@@ -382,8 +385,11 @@ class CommanderNode(Node):
     def status(self) -> dict[str, Any]:
         lease = None if self._lease is None else self._lease.status(time.monotonic())
         explore = self.explore.status() if self.config.explore else None
-        return commander_status(self.mission, self.clock.monotonic(), counters=self.counters, lease=lease,
-                                explore=explore, route=self._route)  # fmt: skip
+        out = commander_status(self.mission, self.clock.monotonic(), counters=self.counters, lease=lease,
+                               explore=explore, route=self._route)  # fmt: skip
+        if refused := self.input_refusals():  # inputs dropped for their size (msgs/sizes.py), with the reason
+            out["refused_inputs"] = refused
+        return out
 
     def publish_plan(self, route: Route | None) -> None:
         self.pub_plan.publish(route_path(route, self.clock.now(), self._odom_frame or "odom"))

@@ -3,6 +3,11 @@
 Made by `Node.create_publisher` / `create_subscription` / `create_raw_subscription`, and by
 services (bus/service.py), which pair one of each. They need only a participant, so this module
 does not know `Node`.
+
+Every sample a Subscription takes is checked for size (msgs/sizes.py) before its callback sees it:
+its serialized bytes against `max_msg_bytes` before it is decoded, then the size its fields declare
+(a grid's cells, an image's pixels, a cloud's points, an array's items) against the caps and its
+data. A refused sample is dropped; `refused` counts them and `last_refusal` says why.
 """
 
 from __future__ import annotations
@@ -15,12 +20,12 @@ from typing import Any, Generic, TypeVar
 from cyclonedds._clayer import ddspy_take, ddspy_write
 from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.domain import DomainParticipant
-from cyclonedds.internal import InvalidSample
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 
 from go2vlm.bus import domain
 from go2vlm.bus.qos import QosProfile
+from go2vlm.msgs.sizes import SizeCaps, SizeError, check_size
 
 M = TypeVar("M")
 
@@ -133,13 +138,39 @@ class Subscription(Generic[M]):
         self._reader = DataReader(participant, dds_topic, qos=qos.to_dds(user_data))
         self.condition = ReadCondition(self._reader, SampleState.Any | ViewState.Any | InstanceState.Any)
         self.count = 0
+        self.caps = SizeCaps()  # the node's (Node sets them)
+        self.refused = 0  # samples dropped for their size (msgs/sizes.py)
+        self.last_refusal = ""
         self._senders: dict[int, Endpoint] = {}  # publication handle -> writer (handles are never reused)
 
+    _MASK = SampleState.Any | ViewState.Any | InstanceState.Any
+
     def take(self) -> list[M]:
-        samples = self._reader.take(N=64)
-        out = [s for s in samples if not isinstance(s, InvalidSample)]
+        """Up to 64 samples, decoded, each within the size caps (the module docstring); the rest dropped."""
+        ret = ddspy_take(self._reader._ref, self._MASK, 64)
+        if isinstance(ret, int):
+            raise DDSException(ret, f"taking samples on {self.topic}")
+        out = []
+        for data, info in ret:
+            if not info.valid_data:
+                continue  # an instance's state change (a writer gone), no data
+            if len(data) > self.caps.max_msg_bytes:  # before a byte of it is decoded
+                self._refuse(f"{len(data)} bytes, more than the {self.caps.max_msg_bytes} a sample may take")
+                continue
+            msg = self._reader._topic.data_type.deserialize(data)  # as DataReader.take decodes
+            try:
+                check_size(msg, self.caps)
+            except SizeError as exc:
+                self._refuse(str(exc))
+                continue
+            msg.sample_info = info
+            out.append(msg)
         self.count += len(out)
         return out
+
+    def _refuse(self, why: str) -> None:
+        self.refused += 1
+        self.last_refusal = why
 
     def sender(self, msg: Any) -> Endpoint | None:
         """The writer of a message this subscription took (None once that writer is gone)."""
@@ -197,9 +228,7 @@ class RawSample:
 
 
 class RawSubscription(Subscription[RawSample]):
-    """Hands the callback `RawSample`s: no decoding, for tools that store or forward bytes."""
-
-    _MASK = SampleState.Any | ViewState.Any | InstanceState.Any
+    """Hands the callback `RawSample`s: no decoding (and no size check), for tools that store or forward bytes."""
 
     def take(self) -> list[RawSample]:
         ret = ddspy_take(self._reader._ref, self._MASK, 64)

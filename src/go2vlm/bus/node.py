@@ -6,7 +6,8 @@ bus/param_services.py) unless made with parameter_services=False (tools). A chan
 `param(..., live=True)` parameter is validated as at start-up, offered to `check_params` (which may
 refuse it), then `self.config` becomes the new Config object and `on_params_changed` rebuilds what
 the node derived from it, all on the executor thread. Services (`create_service`, bus/service.py)
-answer on the executor thread too, like subscription callbacks.
+answer on the executor thread too, like subscription callbacks, and always answer: a handler that
+raises gets its caller an error reply with the reason (`service_stats()` counts them).
 
 A subscription callback and the node's timers run on the node's own thread, one at a time, as in
 rclpy's single-threaded executor, so node code needs no locks of its own. A callback that raises
@@ -52,13 +53,17 @@ from go2vlm.bus.clock import Clock
 from go2vlm.bus.endpoints import Publisher, RawSample, RawSubscription, Subscription
 from go2vlm.bus.log import Logger
 from go2vlm.bus.param_services import ParameterServer
+from go2vlm.bus.params import core_params
 from go2vlm.bus.qos import QOS_DEFAULT, QOS_SERVICES, QosProfile
 from go2vlm.bus.service import Service, SrvType
 from go2vlm.bus.topics import CLOCK
 from go2vlm.msgs.builtin_interfaces import Time
+from go2vlm.msgs.rcl_interfaces import PARAMETER_SERVICES
 from go2vlm.msgs.rosgraph_msgs import Clock as ClockMsg
+from go2vlm.msgs.sizes import SizeCaps
 from go2vlm.msgs.std_msgs import Header
 
+_PARAMETER_SRVS: frozenset[object] = frozenset(PARAMETER_SERVICES.values())  # every node has these
 M = TypeVar("M")
 S = TypeVar("S", bound=Subscription[Any])
 
@@ -131,6 +136,10 @@ class Node:
         self.domain_id = domain.domain_id_from_env() if domain_id is None else domain_id
         self.participant = domain.participant(domain_id, interface)
         self.counters: dict[str, int] = {}
+        # Size caps on what the node takes from the bus (msgs/sizes.py): its Config's, where it takes
+        # them over (from_core(SizeCaps, ...)), the defaults otherwise.
+        self.size_caps = core_params(SizeCaps, self.config) if is_dataclass(self.config) else SizeCaps()
+        self._refused_seen: dict[int, int] = {}  # id(subscription) -> its refusals logged
         self.failure: BaseException | None = None  # set by fail(): the node cannot go on
         self.publishers: list[Publisher[Any]] = []
         self.subscriptions: list[Subscription[Any]] = []
@@ -184,6 +193,7 @@ class Node:
         return self._add_subscription(sub)
 
     def _add_subscription(self, sub: S) -> S:
+        sub.caps = self.size_caps
         with self._lock:
             self.subscriptions.append(sub)
             self._waitset.attach(sub.condition)
@@ -220,6 +230,25 @@ class Node:
         with self._lock:
             self.services.append(svc)
         return svc
+
+    def input_refusals(self) -> dict[str, dict[str, int | str]]:
+        """Per topic where samples were dropped for their size (msgs/sizes.py): how many, and why the
+        last one was. For the node's status."""
+        with self._lock:
+            subs = [s for s in self.subscriptions if s.refused]
+        counts: dict[str, int] = {}
+        last: dict[str, str] = {}
+        for s in subs:  # one topic may have several subscriptions (QoS variants): their sum, the newest reason
+            counts[s.topic] = counts.get(s.topic, 0) + s.refused
+            last[s.topic] = s.last_refusal
+        return {t: {"refused": n, "last": last[t]} for t, n in counts.items()}
+
+    def service_stats(self) -> dict[str, dict[str, int | str]]:
+        """Per service of this node (parameter services aside): requests answered, error replies
+        (a handler that raised: bus/service.py), the last error. For the node's status."""
+        with self._lock:
+            services = [s for s in self.services if s.srv_type not in _PARAMETER_SRVS]
+        return {s.name: s.stats() for s in services}
 
     def create_timer(self, period_s: float, callback: Callable[[], None], *, wall: bool = False) -> Timer:
         """Call `callback` every `period_s` seconds of the node's clock (sim time with use_sim_time).
@@ -320,6 +349,11 @@ class Node:
                 self.count("deserialize_errors")
                 self.log.throttled("error", 2.0, f"cannot decode a message on {sub.topic}: {exc}")
                 continue
+            if (new := sub.refused - self._refused_seen.get(id(sub), 0)) > 0:
+                self._refused_seen[id(sub)] = sub.refused
+                n = self.count("refused_size", new)
+                self.log.throttled("error", 2.0, f"dropped a sample on {sub.topic} ({n} so far): {sub.last_refusal}",
+                                   key=f"size:{sub.topic}")  # fmt: skip
             for msg in msgs:
                 if sub.with_sender:
                     self._call(sub.callback, msg, sub.topic, sub.sender(msg))

@@ -62,6 +62,7 @@ __all__ = [
     "ServiceError",
     "SrvType",
     "endpoint_id",
+    "error_response",
     "reply_topic",
     "request_topic",
     "unwrap",
@@ -107,6 +108,28 @@ class ServiceHost(Protocol):
 
 class ServiceError(RuntimeError):
     """A service that is not there, or a reply that did not come in time."""
+
+
+# The text fields an error reply carries its reason in, where a response has one (ours: `message`;
+# rcl_interfaces' results: `reason`).
+_REASON_FIELDS = ("message", "reason")
+MAX_REASON = 300
+
+
+def error_response(cls: type[Resp], reason: str) -> Resp:
+    """A response of type `cls` that says a request failed: every field at its default (False, 0,
+    empty), and `reason` in its text field (`message` or `reason`, at the top or one level down, as
+    in SetParametersAtomically's `result.reason`). A response without such a field goes back empty."""
+    resp = cls()
+    for f in dataclasses.fields(resp):  # type: ignore[arg-type]  # an IdlStruct is a dataclass
+        value = getattr(resp, f.name)
+        if f.name in _REASON_FIELDS and isinstance(value, str):
+            setattr(resp, f.name, reason)
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            for g in dataclasses.fields(value):
+                if g.name in _REASON_FIELDS and isinstance(getattr(value, g.name), str):
+                    setattr(value, g.name, reason)
+    return resp
 
 
 def request_topic(service: str) -> str:
@@ -201,7 +224,12 @@ class _Reply:
 
 class Service(Generic[Req, Resp]):
     """The server side of a service on a Node: `handler(request) -> response` runs on the node's
-    executor thread, like a subscription callback. Made by `Node.create_service`."""
+    executor thread, like a subscription callback. Made by `Node.create_service`.
+
+    Every request is answered: a handler that raises (or returns something that is not its
+    response) gets the caller an error reply (`error_response`: `success`/`found` false, the reason
+    in `message`) at once instead of a timeout; it is logged, counted on the node
+    (`service_errors`) and here (`errors`, `last_error`), and the node keeps serving."""
 
     def __init__(
         self,
@@ -218,6 +246,9 @@ class Service(Generic[Req, Resp]):
         self.id = endpoint_id(node.participant)
         user_data = f"serviceid={self.id};"
         self._pending: list[_Reply] = []
+        self.answered = 0  # requests answered, errors included
+        self.errors = 0  # of those, answered with an error reply because the handler failed
+        self.last_error = ""
         self.reply_pub: Publisher[Any] = Publisher(
             node.participant, wire_type(srv_type.Response), name, qos, dds_name=reply_topic(name), user_data=user_data
         )
@@ -238,10 +269,32 @@ class Service(Generic[Req, Resp]):
     def _on_request(self, sample: Any) -> None:
         guid, seq, request = unwrap(sample, self.srv_type.Request)
         writer = sample.sample_info.publication_handle
-        response = self.handler(request)  # an exception is the executor's to log and count
+        try:
+            response = self.handler(request)
+            if not isinstance(response, want := self.srv_type.Response):
+                raise TypeError(f"the handler returned {type(response).__name__}, not {want.__name__}")
+            sample = wrap(response, guid, seq)
+        except Exception as exc:  # the caller gets the reason now, not a timeout
+            sample = wrap(self._failed(exc), guid, seq)
+        self.answered += 1
         # Wall time: waiting for DDS discovery of the client's reply reader.
-        self._pending.append(_Reply(wrap(response, guid, seq), writer, time.monotonic() + REPLY_WAIT_S))
+        self._pending.append(_Reply(sample, writer, time.monotonic() + REPLY_WAIT_S))
         self.flush()
+
+    def _failed(self, exc: Exception) -> Resp:
+        """The error reply for a request whose handler raised `exc`; logged and counted."""
+        text = " ".join(str(exc).split())
+        reason = f"error: {self.name} failed: {type(exc).__name__}" + (f": {text}" if text else "")
+        reason = reason[:MAX_REASON]
+        self.errors += 1
+        self.last_error = reason
+        n = self.node.count("service_errors")
+        self.node.log.throttled("error", 2.0, f"{reason} (answered with an error; {n} so far)", key=f"srv:{self.name}")
+        return error_response(self.srv_type.Response, reason)
+
+    def stats(self) -> dict[str, int | str]:
+        """What a status shows of this service: requests answered, error replies, the last error."""
+        return {"answered": self.answered, "errors": self.errors, "last_error": self.last_error}
 
     def flush(self) -> bool:
         """Send the replies whose clients are ready; True while some still wait."""

@@ -225,10 +225,10 @@ def _check_local(text: str) -> None:
     """A file here that is no memory file is refused before the memory is asked (its world and frame
     are the running memory's to check)."""
     from go2vlm.statefiles import StateFileError, read_bounded, state_file
-    from go2vlm.world.memory_file import MAX_FILE_BYTES, MemoryFileError, loads
+    from go2vlm.world.memory_file import MAX_FILE_BYTES, STATE_KIND, MemoryFileError, loads
 
     try:
-        path = state_file(_wire_path(text), "objects")
+        path = state_file(_wire_path(text), STATE_KIND)
     except StateFileError:
         return  # the memory refuses it, with the reason
     if not path.exists():

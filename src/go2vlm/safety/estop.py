@@ -11,7 +11,9 @@ Rule (the same in the safety gate, the sim, the go2 driver and every tool):
 subscribes a node to both topics with every QoS, so any publisher matches and a latched e-stop
 reaches a node that starts late, keeps a latch in step and logs and counts each event the same way
 in every node. `LatchFile` keeps a latch across restarts (the gate's): written atomically on every
-change; a file that cannot be read counts as latched, because the stopped state is the default.
+change (statefiles.write_atomic: by folder descriptor, never through a symlink in the state
+directory); a file that cannot be read counts as latched, because the stopped state is the default.
+The latch's folder (`LATCH_KIND`, estop/) is the gate's alone: no service takes that kind.
 
 The latch belongs to the robot, not to a node name: one file per robot and DDS domain
 (`latch_path`), so every gate that commands that robot on that domain, whatever its `--name`, shares
@@ -21,8 +23,6 @@ it, and `go2vlm demo` / `go2vlm eval` can refuse to start on a latched robot (`f
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -31,7 +31,7 @@ from typing import Any
 
 from go2vlm.bus import QOS_ANY, QOS_DEFAULT, QOS_LATCHED, discovery_info
 from go2vlm.bus.topics import EMERGENCY_STOP, ESTOP_RELEASE
-from go2vlm.statefiles import state_dir
+from go2vlm.statefiles import FileKind, StateFileError, read_bounded, state_dir, write_atomic
 
 __all__ = [
     "ESTOP_TOPIC",
@@ -40,6 +40,7 @@ __all__ = [
     "RELEASE_TOPIC",
     "EstopInput",
     "EstopLatch",
+    "LATCH_KIND",
     "LatchFile",
     "LatchState",
     "check_token",
@@ -54,6 +55,8 @@ ESTOP_TOPIC = EMERGENCY_STOP.name
 RELEASE_TOPIC = ESTOP_RELEASE.name
 RELEASE_TOKEN = "RELEASE"
 RELEASE_COMMAND = "go2vlm estop --release"  # the deliberate release, as a person types it
+LATCH_KIND = FileKind("e-stop latch", "estop", ".json")
+MAX_LATCH_BYTES = 64 * 1024  # a latch state is one short JSON line
 
 
 def stamp_text(t: float) -> str:
@@ -131,7 +134,7 @@ def latch_path(robot: str, domain_id: int) -> Path:
     ~/.local/state)/go2vlm/estop/<robot>-domain<N>.json. One per robot and domain: every gate that
     commands that robot there shares it, whatever its node name; two robots never share one."""
     safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in robot) or "robot"
-    return state_dir() / "estop" / f"{safe}-domain{domain_id}.json"
+    return state_dir() / LATCH_KIND.folder / f"{safe}-domain{domain_id}{LATCH_KIND.suffix}"
 
 
 @dataclass(frozen=True)
@@ -174,10 +177,10 @@ class LatchFile:
     def read(self) -> LatchState | None:
         """The state in the file: None without a file; engaged when it cannot be read."""
         try:
-            text = self.path.read_text()
+            text = read_bounded(self.path, MAX_LATCH_BYTES)
         except FileNotFoundError:
             return None
-        except OSError as exc:
+        except (OSError, StateFileError) as exc:
             return LatchState(True, why=f"cannot read {self.path} ({exc})", where=str(self.path), unreadable=True)
         try:
             data = json.loads(text)
@@ -193,31 +196,17 @@ class LatchFile:
 
     def save(self, engaged: bool, node: str, *, since: float | None = None, why: str = "") -> None:
         """Write the state to a temporary file in the same folder, fsync it, rename it over the old
-        one: a crash leaves the old state or the new one, never half of either. Raises OSError."""
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        one: a crash leaves the old state or the new one, never half of either. Raises OSError
+        (StateFileError, one, where a symlink stands in the way)."""
         # Wall time: when the state was written (and latched), for the person reading the file.
         data: dict[str, Any] = {"engaged": engaged, "node": node, "time": stamp_text(time.time())}
         if engaged:
             data["since"] = stamp_text(since if since is not None else time.time())
             data["why"] = why
-        fd, tmp = tempfile.mkstemp(prefix=self.path.name + ".", dir=self.path.parent)
         try:
-            with os.fdopen(fd, "w") as f:
-                f.write(json.dumps(data) + "\n")
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        try:  # the rename itself survives a power cut once the folder is synced
-            dfd = os.open(self.path.parent, os.O_RDONLY)
-            try:
-                os.fsync(dfd)
-            finally:
-                os.close(dfd)
-        except OSError:
-            pass
+            write_atomic(self.path, (json.dumps(data) + "\n").encode(), overwrite=True)
+        except StateFileError as exc:
+            raise OSError(str(exc)) from None
 
 
 class EstopInput:

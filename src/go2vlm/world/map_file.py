@@ -12,7 +12,8 @@ A NumPy .npz (a zip, read with allow_pickle=False) of three arrays: `meta` (one 
 of a newer version, of another world or frame, of another resolution, larger than the cap the map
 holds, with its arrays not as `meta` says, or with a log-odds that is not finite or out of range is
 refused with one line saying why (MapFileError, a ConfigError), and nothing is replaced. Its members
-are checked for size before anything is decompressed.
+are checked for size before anything is decompressed. A map file is its own kind of state file
+(MAP_KIND: objects/*.map.npz, statefiles.py): the map writes nothing else.
 """
 
 from __future__ import annotations
@@ -28,16 +29,19 @@ from typing import Any
 import numpy as np
 
 from go2vlm.errors import ConfigError
-from go2vlm.statefiles import state_file
+from go2vlm.statefiles import FileKind, state_file
 from go2vlm.world.memory_file import STATE_KIND
 from go2vlm.world.occupancy import GridParams, OccupancyMap
 
-__all__ = ["FORMAT", "MAX_FILE_BYTES", "VERSION", "MapFileError", "dumps", "loads", "map_file_for", "map_path"]
+__all__ = [
+    "FORMAT", "MAP_KIND", "MAX_FILE_BYTES", "VERSION", "MapFileError", "dumps", "loads", "map_file_for", "map_path",
+]  # fmt: skip
 
 FORMAT = "go2vlm-occupancy-map"
 VERSION = 1
 MAX_FILE_BYTES = 64 * 1024 * 1024
 _MEMBERS = {"meta.npy", "offset.npy", "logodds.npy"}
+MAP_KIND = FileKind("map file", STATE_KIND.folder, ".map.npz")  # beside the memory files
 
 
 class MapFileError(ConfigError):

@@ -28,18 +28,23 @@ Topics
                                 show the map under the robot
   services    /map/map_file     go2vlm_msgs/srv/MemoryFile: save | load | check the map file beside a
                                 memory file (path = the memory file as the object memory takes it: a
-                                name, or a path under $XDG_STATE_HOME/go2vlm (statefiles.py); home ->
-                                objects/home.map.npz; a save never replaces a file without
-                                overwrite; world/map_file.py). A load (and a check) reads
-                                and checks the whole file first: a file of another world, frame or
-                                resolution, larger than the cap, or corrupt is refused with one line
-                                and the map stays as it was. `go2vlm objects --save/--load` calls it
-                                with the object memory's, all or nothing
+                                name, or a path in $XDG_STATE_HOME/go2vlm/objects (statefiles.py);
+                                home -> objects/home.map.npz; world/map_file.py). Map files only,
+                                opened by folder descriptor, never through a symlink. A save never
+                                replaces a file without overwrite; one that would take the map
+                                files past max_files or max_files_mib is refused (the
+                                status's `files` says when a cap is reached). A load (and a check)
+                                reads and checks the whole file first: a file of another world,
+                                frame or resolution, larger than the cap, or corrupt is refused with
+                                one line and the map stays as it was. `go2vlm objects --save/--load`
+                                calls it with the object memory's, all or nothing. Every request is
+                                answered, a failure with its reason (bus/service.py)
               /map/status       std_msgs/String, latched JSON: state (mapping | lost), frame, size,
                                 cells (occupied, free, unknown), scans (integrated, refused.<reason>,
                                 dropped beams and the last drop), matches, the correction, odometry
-                                jumps and resets, the last refusal; every status_period_s and on a new
-                                refusal
+                                jumps and resets, the last refusal, the map files (`files`: count,
+                                bytes, caps, full) and the service's error replies; every
+                                status_period_s and on a new refusal
 
 Parameters
   scan_topic (/scan), odom_topic (/odom), odom_frame ("odom"), map_frame ("map"), resolution_m
@@ -49,8 +54,8 @@ Parameters
   scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), world ("": the place the map
   is of; a map file of another world is refused), map_file ("": a memory file whose map to load at
   start; one that is corrupt, of another world, frame or resolution stops the node with one line,
-  exit 2; a missing one starts empty), save_on_exit (false), publish_period_s (1.0 s),
-  status_period_s (1.0 s).
+  exit 2; a missing one starts empty), save_on_exit (false), max_files (64), max_files_mib (1024
+  MiB), publish_period_s (1.0 s), status_period_s (1.0 s).
 
 Refused scans, counted on the status (refused.<reason>), never integrated: wrong_frame (not in
 base_link), no_stamp, bad_geometry, older_than_history, pose_gap, no_pose, newer_than_pose (no pose
@@ -92,7 +97,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.bus import Node, param
+from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_FILE_SERVICE, MAP_ODOM, MAP_STATUS, ODOM, SCAN, TF
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.footprint import Clearance
@@ -105,8 +110,8 @@ from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.tf2_msgs import TFMessage
 from go2vlm.robot_profile import go2 as spec
-from go2vlm.statefiles import StateFileError, read_bounded, write_atomic
-from go2vlm.world.map_file import MAX_FILE_BYTES, MapFileError, dumps, loads, map_path
+from go2vlm.statefiles import FileCaps, Quota, StateFileError, read_bounded, write_atomic
+from go2vlm.world.map_file import MAP_KIND, MAX_FILE_BYTES, MapFileError, dumps, loads, map_path
 from go2vlm.world.map_msg import grid_msg
 from go2vlm.world.occupancy import Beams, CostmapParams, GridParams, OccupancyMap, ScanRefused, inflate
 from go2vlm.world.poses import Pose2D, PoseHistory, PoseUnavailable, PoseWait, odometry_jump
@@ -144,6 +149,8 @@ class MapConfig:
     world: str = param("", help="the place this map is of; a map file of another world is refused")
     map_file: str = param("", help="the memory file whose map (NAME.map.npz beside it) to load at start ('' = none)")
     save_on_exit: bool = param(False, help="write map_file's map when the node stops")
+    max_files: int = from_core(FileCaps, "max_files")
+    max_files_mib: float = from_core(FileCaps, "max_files_mib")
     publish_period_s: float = param(1.0, help="/map and /map/costmap at most this often (s)", min=0.1, max=60.0)
     status_period_s: float = param(1.0, help="/map/status period besides on a new refusal", min=0.1, max=60.0)
 
@@ -158,6 +165,9 @@ class MapConfig:
         return CostmapParams.for_footprint(
             spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH, self.padding_m, self.inflation_m
         )
+
+    def quota(self) -> Quota:
+        return core_params(FileCaps, self).quota(MAP_KIND)
 
 
 class MapNode(Node):
@@ -368,6 +378,7 @@ class MapNode(Node):
             try:
                 n = self.save(path, overwrite=bool(req.overwrite))
             except StateFileError as exc:
+                self.publish_status()  # a cap reached shows there
                 return MemoryFile.Response(False, f"refused {path}: {exc}", 0)
             except OSError as exc:
                 return MemoryFile.Response(False, f"cannot write {path}: {exc.strerror or exc}", 0)
@@ -412,7 +423,8 @@ class MapNode(Node):
     def save(self, path: Path, overwrite: bool = False) -> int:
         """Write the map to `path` (fsync, then rename; an existing file only with `overwrite`); the
         number of occupied cells written."""
-        write_atomic(path, dumps(self.grid, self.config.world, self.frame, self.newest_scan), overwrite=overwrite)
+        data = dumps(self.grid, self.config.world, self.frame, self.newest_scan)
+        write_atomic(path, data, overwrite=overwrite, quota=self.config.quota())
         return self.grid.counts()["occupied"] if not self.grid.empty else 0
 
     def close(self) -> None:
@@ -453,6 +465,9 @@ class MapNode(Node):
             "newest_scan": round(self.newest_scan, 3),
             "poses_s": round((self.poses.newest or 0.0) - (self.poses.oldest or 0.0), 2),
             "published": self.counters.get("published", 0),
+            "files": self.config.quota().usage(),
+            "services": self.service_stats(),
+            "refused_inputs": self.input_refusals(),
         }
 
     def publish_status(self) -> None:

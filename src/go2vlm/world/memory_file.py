@@ -15,7 +15,7 @@ wrong type) is refused with one line saying why (MemoryFileError, a ConfigError:
 and nothing is loaded: every object is checked before the caller replaces anything. ObjectMemory.load
 clamps what it loads to what the memory allows (log-odds, the position's certainty). Where files may
 live, and how they are read and written (bounded, fsync then rename, never overwritten unasked):
-statefiles.py.
+statefiles.py (STATE_KIND: objects/*.json, nothing else).
 Positions are in `frame_id` (the odometry frame): a robot whose odometry starts again at its dock
 each run finds its things where it left them only if it starts at the same dock.
 """
@@ -29,6 +29,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from go2vlm.errors import ConfigError
+from go2vlm.statefiles import FileKind
 from go2vlm.world.labels import MAX_LABEL, normalize_label
 from go2vlm.world.memory import MemoryObject
 
@@ -37,7 +38,8 @@ __all__ = ["FORMAT", "STATE_KIND", "VERSION", "MemoryFileError", "dumps", "heade
 FORMAT = "go2vlm-object-memory"
 VERSION = 1
 MAX_FILE_BYTES = 16 * 1024 * 1024
-STATE_KIND = "objects"  # the memory files (and the maps beside them): $XDG_STATE_HOME/go2vlm/objects/
+# The memory files: $XDG_STATE_HOME/go2vlm/objects/*.json (the maps beside them are their own kind).
+STATE_KIND = FileKind("memory file", "objects", ".json")
 MAX_COORD_M = 1000.0  # an object farther from the odometry origin than this is no object in a home
 _ID_NUMBER = re.compile(r"_([0-9]{1,9})\Z")
 

@@ -38,15 +38,22 @@ Topics
                                     object (rviz2, Foxglove's 3D panel), at most every 0.5 s
               /object_memory/status std_msgs/String, latched JSON: world, frame, objects, answers, placed,
                                     refused.<reason> counts and the last refusal, answer latency p50/p95,
-                                    the pose history's span; every status_period_s and on a new refusal
+                                    the pose history's span, the memory files (`files`: count, bytes,
+                                    caps, full) and the services' error replies; every
+                                    status_period_s and on a new refusal
   services    /object_memory/where_is     go2vlm_msgs/srv/WhereIs: "where is X?" (a label; '' = all) ->
                                     found, one line for a person, the objects that fit (most confident
                                     first) as Detection3D
               /object_memory/memory_file  go2vlm_msgs/srv/MemoryFile: save | load a memory file on this
                                     node's machine: a name ("home" = $XDG_STATE_HOME/go2vlm/objects/
                                     home.json) or a path under $XDG_STATE_HOME/go2vlm/, nothing else
-                                    (statefiles.py); a save never replaces a file unless overwrite.
-                                    A load is all or nothing (world/memory_file.py)
+                                    (statefiles.py: memory files only, objects/*.json, opened by
+                                    folder descriptor, never through a symlink); a save never
+                                    replaces a file unless overwrite, and one that would take the
+                                    memory files past max_files or max_files_mib is
+                                    refused (the status's `files` says when a cap is reached). A load
+                                    is all or nothing (world/memory_file.py). Every request is
+                                    answered, a failure with its reason (bus/service.py)
 
 Refused answers and boxes, counted on the status (refused.<reason>), never placed: no_stamp (a zero
 stamp), no_camera_info, older_than_history (the pose history no longer reaches the stamp), pose_gap,
@@ -61,7 +68,7 @@ that; the colour grounder too): a remembered object of that label that the answe
 and did not loses confidence (answers about frames taken within 0.5 s after the query changed say
 nothing of it). all -- every answer lists everything visible (the sim's ground truth).
 
-Memory file: memory_file (a name or a path under the state directory, as for the service; loaded
+Memory file: memory_file (a name or a path in the memory files' folder, as for the service; loaded
 at start: a file that is corrupt, of another world or frame, or of a newer version stops the node
 with one line, exit 2; a missing one is started empty) and save_on_exit (replaces it).
 `go2vlm objects` lists the memory, asks where something is, and saves or loads it.
@@ -120,7 +127,7 @@ from go2vlm.perception.ranging import RangeEstimator, check_object_sizes
 from go2vlm.perception.tracking import TrackingParams
 from go2vlm.robot_profile import DEFAULT_ROBOT, PROFILES, profile
 from go2vlm.robot_profile import go2 as spec
-from go2vlm.statefiles import StateFileError, read_bounded, state_file, write_atomic
+from go2vlm.statefiles import FileCaps, Quota, StateFileError, read_bounded, state_file, write_atomic
 from go2vlm.vocabulary.pixels import color_in_box, label_color_mask
 from go2vlm.vocabulary.words import parse_label
 from go2vlm.world.labels import normalize_label
@@ -158,6 +165,8 @@ class ObjectMemoryConfig:
         "", help="a memory file to load at start: a name or a path under $XDG_STATE_HOME/go2vlm ('' = start empty)"
     )
     save_on_exit: bool = param(False, help="write memory_file when the node stops")
+    max_files: int = from_core(FileCaps, "max_files")
+    max_files_mib: float = from_core(FileCaps, "max_files_mib")
     history_s: float = param(30.0, help="poses, scans and frames kept: the oldest answer placed (s)", min=1.0,
                              max=600.0)  # fmt: skip
     pose_wait_s: float = param(1.0, help="an answer newer than the newest pose waits this long (s)", min=0.0,
@@ -188,6 +197,9 @@ class ObjectMemoryConfig:
 
     def mount(self) -> CameraMount:
         return CameraMount.of(profile(self.robot))
+
+    def quota(self) -> Quota:
+        return core_params(FileCaps, self).quota(STATE_KIND)
 
 
 class ObjectMemoryNode(Node):
@@ -448,6 +460,7 @@ class ObjectMemoryNode(Node):
             try:
                 n = self.save(path, overwrite=bool(req.overwrite))
             except StateFileError as exc:
+                self.publish_status()  # a cap reached shows there
                 return MemoryFile.Response(False, f"refused: {_one_line(exc)}", 0)
             except OSError as exc:
                 return MemoryFile.Response(False, f"cannot write {path}: {exc.strerror or exc}", 0)
@@ -489,7 +502,8 @@ class ObjectMemoryNode(Node):
         """Write the memory to `path` (already confined) atomically; the number of objects written."""
         cfg = self.config
         objs = self.memory.snapshot()
-        write_atomic(path, dumps(objs, cfg.world, cfg.world_frame, self.answered_through).encode(), overwrite=overwrite)
+        data = dumps(objs, cfg.world, cfg.world_frame, self.answered_through).encode()
+        write_atomic(path, data, overwrite=overwrite, quota=cfg.quota())
         return len(objs)
 
     def status(self) -> dict[str, Any]:
@@ -510,6 +524,9 @@ class ObjectMemoryNode(Node):
             },
             "poses_s": round((self.poses.newest or 0.0) - (self.poses.oldest or 0.0), 2),
             "camera_info": self._cam is not None,
+            "files": self.config.quota().usage(),
+            "services": self.service_stats(),
+            "refused_inputs": self.input_refusals(),
             "counters": {**self.memory.counters, **self.counters},
         }
 
