@@ -108,7 +108,9 @@ decision_hold_s, turns, the zero burst) is in the node's clock: sim time with us
 
 Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
 At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
-decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory settings; goal
+decision limits and avoid_obstacles, planner_margin_m, detour_memory_s and the memory settings; the
+ceilings (max_goal_s, max_go_to_m, max_linear, max_angular, max_turn_deg, explore_timeout_s) only go
+down (bound="max": a raise is refused, as the gate refuses raising its limits); goal
 (use /goal), robot (its head camera's mount, from the robot profile), frontier_choice, the topics,
 scan_timeout_s and the rates are read-only.
 """
