@@ -10,9 +10,12 @@ follower node is the follow article's standalone demo, not part of this graph.
 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter), or
-                                  JSON {"goal": text, "lease": {"id", "s"}}: a goal with a lease
-              /goal/lease         std_msgs/String       JSON {"id", "s"}: renews the running goal's lease
-                                  (behavior/lease.py); unrenewed for its s (wall time), the goal stops
+                                  JSON {"goal": text, "lease": {"key", "s"}}: a goal with a lease; the
+                                  running goal sent again as plain text keeps its lease
+              /goal/lease         std_msgs/String       JSON {"proof", "next", "s"}: renews the running
+                                  goal's lease, if proof hashes to its key (only the goal's sender
+                                  knows it; behavior/lease.py); unrenewed for its s (wall time), the
+                                  goal stops; any other renewal is counted (lease_not_ours)
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
                                   frame; only `tracking` reports for the goal's object count; their
                                   bearing_rad and hfov_rad (from the real CameraInfo) place it
@@ -50,7 +53,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
-                                  given_up, route_m, views_scored), plan (length_m, waypoints, reason);
+                                  given_up, route_m, views_scored), plan (length_m, waypoints, reason),
+                                  lease (left_s, renewals; never its key; null when none);
                                   on every change and every status_period_s
 
 Goals and states
@@ -230,7 +234,7 @@ class CommanderNode(Node):
             self.set_goal("")  # rejected, and nothing moves
             self.mission.reason = f"a bad goal message: {exc}"
             return self.publish_status()
-        self.set_goal(g.text, None if g.lease_id is None else Lease.grant(g.lease_id, g.lease_s, time.monotonic()))
+        self.set_goal(g.text, None if g.lease_key is None else Lease.grant(g.lease_key, g.lease_s, time.monotonic()))
 
     def on_lease(self, msg: String) -> None:
         try:
@@ -239,7 +243,9 @@ class CommanderNode(Node):
             ok = False
             self.log.throttled("error", 5.0, f"ignoring a bad {GOAL_LEASE.name}: {exc}", key="lease")
         if not ok:
-            self.count("lease_not_ours")
+            n = self.count("lease_not_ours")
+            self.log.throttled("warning", 5.0, f"refused a renewal that does not prove it comes from the goal's "
+                               f"sender ({n} so far)", key="lease_not_ours")  # fmt: skip
 
     def set_goal(self, text: str, lease: Lease | None = None) -> None:
         before = self.mission.goal
@@ -247,7 +253,10 @@ class CommanderNode(Node):
         m = self.mission
         if m.goal is not before:
             self._goal_t0 = self.clock.monotonic()
-        self._lease = lease
+            self._lease = lease
+        elif lease is not None:  # the running goal again, with a lease of its own: its sender's order now
+            self._lease = lease
+        # else: a plain re-send of the running goal (a UI repeating it) keeps its lease: it never weakens it
         if m.state == "rejected":
             self.log.throttled("warning", 1.0, f"goal rejected: {m.reason}", key="goal")
         elif m.goal is not None:
