@@ -1,5 +1,5 @@
 """Goal leases and goal bounds (behavior/lease.py): a lease lasts exactly as long as its sender renews
-it, never past MAX_LEASE_S from the newest renewal; anyone else's renewal (a stranger's, a replayed
+it, never past the goal's own lease seconds from the newest renewal; anyone else's renewal (a stranger's, a replayed
 one, one out of turn) changes nothing; a /goal
 message is a plain goal or a well-formed leased one, and anything else is refused with the reason."""
 
@@ -48,8 +48,8 @@ def test_a_lease_lasts_as_long_as_its_sender_renews_it(
         assert alive == (t < lease.until)
         if alive:
             assert lease.renew(parse_renewal(keys.renewal(renew_s)), t)
-            assert lease.until == t + renew_s
-    # Once renewals stop, it ends within the newest renewal's seconds, never later than MAX_LEASE_S.
+            assert lease.until == t + min(renew_s, lease_s)
+    # Once renewals stop, it ends within the newest renewal's seconds, never later than the goal's lease.
     assert lease.expired(t + MAX_LEASE_S) is not None
     assert "stopped renewing" in (lease.expired(lease.until) or "")
 
@@ -71,6 +71,19 @@ def test_only_the_goals_sender_renews_it(lease_s: float, before: int, replayed: 
         assert not lease.renew(parse_renewal(text), 0.05)
     assert lease.until == until and lease.renewals == n
     assert lease.renew(parse_renewal(seen[-1]), 0.05)  # its sender's, in turn
+
+
+@given(SECONDS)
+def test_a_copied_renewal_that_wins_the_race_is_worth_no_more_than_the_original(lease_s: float) -> None:
+    """A renewal copied off the bus, asking for 60 s and arriving before the original, takes the
+    original's place: the lease runs to the goal's seconds, and the sender's next renewal still works."""
+    keys = LeaseKeys()
+    lease = _grant(keys, lease_s, 0.0)
+    original = json.loads(keys.renewal(lease_s))
+    assert lease.renew(parse_renewal(json.dumps({**original, "s": MAX_LEASE_S})), 1.0)
+    assert lease.until == 1.0 + lease_s
+    assert not lease.renew(parse_renewal(json.dumps(original)), 1.01)  # the original: already spent
+    assert lease.renew(parse_renewal(keys.renewal(lease_s)), 1.02)
 
 
 @given(st.text(max_size=200).filter(lambda t: not t.lstrip().startswith("{")))

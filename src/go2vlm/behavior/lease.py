@@ -21,7 +21,8 @@ than that (docs/safety.md#what-the-bus-can-prove): anyone on it can still send a
     lease.renew(renewal, now)                # True when it proved it comes from the goal's sender
     lease.expired(now)                       # a reason to stop, or None
 
-A lease is at most MAX_LEASE_S: an owner cannot ask for a goal that outlives it by more. Plain text
+A lease is at most MAX_LEASE_S, and no renewal asks for more than the goal's lease: an owner cannot
+ask for a goal that outlives it by more. Plain text
 goals carry none (a person at a terminal, a launch file's goal); they keep the goal timeout and the
 go-to distance cap (`overdue`, `too_far`; `goal_end` puts them together), which bound every goal.
 Teleop and the e-stop have their own watchdogs (safety/). Timestamps are the caller's: the commander
@@ -146,19 +147,23 @@ class Lease:
 
     key: bytes = field(repr=False)  # the SHA-256 the next renewal's proof must hash to
     until: float
+    lease_s: float  # as granted with the goal: no renewal asks for more
     renewals: int = 0
 
     @classmethod
     def grant(cls, key: bytes, lease_s: float, now: float) -> Lease:
-        return cls(key, now + min(max(lease_s, MIN_LEASE_S), MAX_LEASE_S))
+        s = min(max(lease_s, MIN_LEASE_S), MAX_LEASE_S)
+        return cls(key, now + s, s)
 
     def renew(self, r: Renewal, now: float) -> bool:
-        """Extend the lease to now + r.lease_s (never past MAX_LEASE_S) if the renewal proves it comes
-        from the goal's sender: its proof hashes to the key; its next key is the one after."""
+        """Extend the lease to now + r.lease_s (never past the seconds granted with the goal) if the
+        renewal proves it comes from the goal's sender: its proof hashes to the key; its next key is the
+        one after. The cap makes a renewal copied off the bus and sent faster than the original worth
+        no more than the original."""
         if not hmac.compare_digest(_digest(r.proof), self.key):
             return False
         self.key = r.next_key
-        self.until = now + min(max(r.lease_s, MIN_LEASE_S), MAX_LEASE_S)
+        self.until = now + min(max(r.lease_s, MIN_LEASE_S), self.lease_s)
         self.renewals += 1
         return True
 
