@@ -65,6 +65,7 @@ def test_a_live_raise_of_the_goal_bounds_is_refused(procs: Procs) -> None:
         # the lowered bound, with that reason.
         out = _param("set", "commander", "max_goal_s", "3")
         assert out.returncode == 0, out.stderr
+        stopped_at.clear()
         t0 = time.monotonic()
         goal.publish(String(data="follow the red ball"))
         assert wait_for(lambda: status[-1].get("goal") == "follow the red ball", 10), status[-1:]
