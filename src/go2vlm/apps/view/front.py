@@ -175,8 +175,8 @@ class FrontDoor:
                 for text in hello_messages(self.hello_topic):
                     await inner.send(text)
                 await _pipe_both(client, inner)
-        except OSError as exc:
-            self._on_refused(f"the SDK's server did not answer: {exc}")
+        except Exception as exc:  # noqa: BLE001 - the SDK's port gone or refusing: this client ends, the door stays
+            self._on_refused(f"the SDK's server did not take the connection: {type(exc).__name__}: {exc}")
 
     def close(self) -> None:
         if self._stop is not None and self._loop.is_running():
