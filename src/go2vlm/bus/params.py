@@ -28,12 +28,15 @@ import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import yaml
 
 from go2vlm.declare import CORE, from_core, param
 from go2vlm.errors import ConfigError
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 __all__ = [
     "BASE_PARAMS",
@@ -195,7 +198,7 @@ def build_config(
     return cfg
 
 
-def loosened(old: Any, new: Any, names: Iterable[str]) -> list[str]:
+def loosened(old: DataclassInstance, new: DataclassInstance, names: Iterable[str]) -> list[str]:
     """The safety limits among `names` that `new` loosens against `old` ("max_goal_s 900 -> 3600"):
     a `bound="max"` parameter raised, a `bound="min"` one lowered. The one rule for limits at runtime:
     they only tighten while a node runs (bus/param_services.py refuses the change otherwise)."""

@@ -52,12 +52,12 @@ def add_publish_args(p: argparse.ArgumentParser, prefix: str) -> None:
     )  # fmt: skip
 
 
-def publish_params(args: argparse.Namespace, prefix: str = "") -> dict[str, Any]:
+def publish_params(args: argparse.Namespace, prefix: str = "") -> dict[str, bool | str | list[str]]:
     """The view's publishing parameters from add_publish_args' options ({} when publishing is off)."""
     attr = prefix.replace("-", "_")
     if not getattr(args, f"{attr}publish", False):
         return {}
-    params: dict[str, Any] = {"allow_client_publish": True}
+    params: dict[str, bool | str | list[str]] = {"allow_client_publish": True}
     if (token_file := getattr(args, f"{attr}token_file", None)) is not None:
         params["token_file"] = token_file
     if (origins := getattr(args, f"{attr}allow_origin", None)) is not None:
