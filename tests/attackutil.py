@@ -87,3 +87,26 @@ def min_clearance(probe: Probe, t0: float, world: str = "vision_test") -> float:
     shapes = world_footprints(world_model(world)[0])
     robot = [Footprint.rect(p[1], p[2], p[3], FOOTPRINT_LENGTH, FOOTPRINT_WIDTH) for p in probe.since(t0)[::10]]
     return min(clearance(r, s) for r in robot for s in shapes.values())
+
+
+async def walk_with_mcp(url: str, tool: str, probe: Probe, obj: str = "blue cylinder") -> str:
+    """An agent calls tool(obj) on the MCP server at url (once the server has heard the gate) and polls
+    status() until the robot walks; the goal's text as the commander took it."""
+    import anyio
+    from mcputil import data, http_client
+
+    async with http_client(url) as client:
+        for _ in range(120):
+            r = await client.call_tool(tool, {"object": obj})
+            if not (r.is_error and "no safety gate reports" in r.content[0].text):
+                data(r)
+                break
+            await anyio.sleep(0.25)
+        else:
+            raise AssertionError("the server never heard the gate")
+        for _ in range(400):
+            data(await client.call_tool("status", {}))
+            if moving(probe):
+                return str(last_status(probe).get("goal"))
+            await anyio.sleep(0.25)
+    raise AssertionError(f"{tool}: the robot never walked; commander {last_status(probe)}")

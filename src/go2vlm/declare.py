@@ -24,9 +24,12 @@ import dataclasses
 from collections.abc import Iterable
 from typing import Any
 
-__all__ = ["CORE", "from_core", "param"]
+__all__ = ["BOUNDS", "CORE", "from_core", "param"]
 
 CORE = "core"  # metadata key of a node parameter taken over from a core: (core class, its field name)
+# `bound=`: "max", a ceiling (a speed, a time, a distance) that may only go down while the node runs;
+# "min", a floor (a margin) that may only go up. bus/params.py `loosened` is the rule.
+BOUNDS = ("max", "min")
 
 
 def param(
@@ -37,6 +40,7 @@ def param(
     min: float | None = None,
     max: float | None = None,
     live: bool = False,
+    bound: str | None = None,
 ) -> Any:
     """Declare a parameter. A factory default (`list`, `dict`, `tuple` or a dataclass) makes a fresh
     value for every config; a dataclass-typed parameter is set from a mapping of its fields.
@@ -44,13 +48,19 @@ def param(
     `live=True`: the parameter may change while the node runs (`go2vlm param set`, `ros2 param set`),
     because the node reads it from `self.config` each time or rebuilds what it derives from it in
     `on_params_changed`. Every other parameter is read-only at runtime (DescribeParameters says so and
-    a change is refused): a value read once at start-up can never silently accept a new one."""
+    a change is refused): a value read once at start-up can never silently accept a new one.
+
+    `bound="max"` (or "min"): the parameter is a safety limit. While the node runs it may only tighten
+    (go down, or up for "min"); loosening it takes a restart, a deliberate act (bus/params.py)."""
+    if bound not in (None, *BOUNDS):
+        raise TypeError(f"bound={bound!r}: expected one of {BOUNDS} or None")
     meta = {
         "help": help,
         "choices": tuple(choices) if choices is not None else None,
         "min": min,
         "max": max,
         "live": live,
+        "bound": bound,
     }
     if default in (list, dict, tuple) or (isinstance(default, type) and dataclasses.is_dataclass(default)):
         return dataclasses.field(default_factory=default, metadata=meta)
@@ -70,7 +80,7 @@ def from_core(core: type, name: str, **changes: object) -> Any:
     f = fields[name]
     if not f.metadata.get("help"):
         raise TypeError(f"{core.__name__}.{name} is not declared with param(..., help=...)")
-    unknown = set(changes) - {"help", "choices", "min", "max", "live"}
+    unknown = set(changes) - {"help", "choices", "min", "max", "live", "bound"}
     if unknown:
         raise TypeError(f"from_core: unknown change(s) {sorted(unknown)}")
     meta = {**f.metadata, **changes, CORE: (core, name)}

@@ -13,9 +13,10 @@ from pathlib import Path
 from go2vlm.errors import ConfigError
 from go2vlm.statefiles import read_bounded
 
-__all__ = ["read_secret"]
+__all__ = ["MIN_TOKEN_CHARS", "read_secret"]
 
 MAX_SECRET_FILE_BYTES = 4096
+MIN_TOKEN_CHARS = 16  # a bearer token (the MCP server's, the Foxglove view's): e.g. `openssl rand -hex 16`
 
 
 def read_secret(env: str, file: str | None, what: str) -> str:

@@ -1,7 +1,8 @@
 """`go2vlm view` as a real process with a real WebSocket client speaking the Foxglove protocol
 (subprotocol foxglove.sdk.v1): it receives a JPEG camera image, the safety status and the detector's
-annotations; it advertises and publishes an e-stop that latches a real safety gate process; its
-/cmd_vel is refused."""
+annotations; with --publish and the token it advertises and publishes an e-stop that latches a real
+safety gate process; its /cmd_vel and its release of the e-stop are refused. (Who may connect at all:
+tests/attack/test_attack_view.py.)"""
 
 from __future__ import annotations
 
@@ -38,6 +39,7 @@ from go2vlm.msgs.vision_msgs import (
 )
 
 SUBPROTOCOL = "foxglove.sdk.v1"
+TOKEN = "view-test-token-0123456789"
 
 
 def server_port(proc: subprocess.Popen[str], timeout: float = 60) -> int:
@@ -110,11 +112,12 @@ def last_status(client: Client) -> dict[str, Any]:
 
 
 @pytest.fixture
-def pipeline(procs: Procs) -> tuple[int, subprocess.Popen[str]]:
+def pipeline(procs: Procs, monkeypatch: pytest.MonkeyPatch) -> tuple[int, subprocess.Popen[str]]:
     procs.start("run", "safety")
     procs.start("run", "test_pattern", "--param", "period_s=0.1")
     procs.start("run", "color_detector")
-    view = procs.start("view", "--port", "0")
+    monkeypatch.setenv("GO2VLM_VIEW_TOKEN", TOKEN)
+    view = procs.start("view", "--port", "0", "--publish")
     return server_port(view), view
 
 
@@ -129,7 +132,8 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
     vlm.create_subscription(String, "/mcp/confirm", lambda m: confirms.append(m.data))
 
     async def session() -> Client:
-        async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], max_size=None) as ws:
+        url = f"ws://127.0.0.1:{port}/?token={TOKEN}"
+        async with websockets.connect(url, subprotocols=[SUBPROTOCOL], max_size=None, proxy=None) as ws:
             c = Client(ws)
             wanted = (
                 "/camera/image_raw/compressed",
@@ -157,16 +161,20 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
             assert not missing, (missing, c.statuses)
             assert last_status(c)["estop"] is False
 
-            # publish: an e-stop (json) is let through, /cmd_vel (cdr) is refused
+            # publish: an e-stop (json) is let through, /cmd_vel (cdr) and the release are refused
             await c.advertise(1, "/emergency_stop", "json", "std_msgs/msg/Bool")
             await c.advertise(2, "/cmd_vel", "cdr", "geometry_msgs/msg/Twist")
+            await c.advertise(4, "/emergency_stop/release", "json", "std_msgs/msg/String")
             await c.publish(2, Twist(linear=Vector3(x=1.0)).serialize())
             await c.publish(1, b'{"data": true}')
             await c.advertise(3, "/mcp/confirm", "json", "std_msgs/msg/String")
             await c.publish(3, b'{"data": "yes 1"}')
             latched = await c.pump(lambda: bool(c.received["/safety/status"]) and last_status(c)["estop"], 30)
             assert latched, last_status(c)
+            await c.publish(4, b'{"data": "RELEASE"}')
             await c.pump(lambda: any("/cmd_vel" in s.get("message", "") for s in c.statuses), 10)
+            await c.pump(lambda: any("never releases" in s.get("message", "") for s in c.statuses), 10)
+            assert last_status(c)["estop"] is True
             return c
 
     with running(vlm):
@@ -194,6 +202,13 @@ def test_view_both_directions(procs: Procs, pipeline: tuple[int, subprocess.Pope
 def test_view_usage_errors() -> None:
     out = subprocess.run([*GO2VLM, "view", "--host", " "], capture_output=True, text=True, timeout=60, env=env())
     assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    # --publish without a token (or a short one): refused at start, with the reason, the token never shown.
+    for token in ("", "short"):
+        e = {**env(), "GO2VLM_VIEW_TOKEN": token}
+        out = subprocess.run([*GO2VLM, "view", "--port", "0", "--publish"], capture_output=True, text=True,
+                             timeout=60, env=e)  # fmt: skip
+        assert out.returncode == 2 and "needs a token of at least 16 characters" in out.stderr, out.stderr
+        assert "Traceback" not in out.stderr and (not token or token not in out.stderr)
 
 
 @pytest.mark.slow

@@ -18,6 +18,7 @@ import pytest
 from busutil import echo_json, wait_for
 from targetutil import Cam, det
 
+from go2vlm.behavior.lease import LeaseKeys
 from go2vlm.bus import QOS_DEFAULT, QOS_SENSOR, ParamError, running
 from go2vlm.geometry.scan import ScanSpec
 from go2vlm.launch.registry import make_node
@@ -175,28 +176,40 @@ def test_bad_parameters_are_clear_errors() -> None:
 
 
 def test_a_leased_goal_stops_when_its_owner_stops_renewing_it() -> None:
-    """behavior/lease.py in the commander: renewed, the goal runs; unrenewed, it stops by itself; a bad
-    goal message is rejected with the reason; a go to farther than max_go_to_m is refused."""
+    """behavior/lease.py in the commander: renewed by its sender, the goal runs; a plain re-send keeps
+    its lease; a stranger's renewal and a replayed one change nothing; unrenewed, it stops by itself;
+    the status shows what is left, never the key; a bad goal message is rejected with the reason; a go
+    to farther than max_go_to_m is refused."""
     commander = make_node("commander", params={"max_go_to_m": 5.0})
     fake = _FakeTracker()
     lease = fake.create_publisher(String, "/goal/lease", QOS_DEFAULT)
+    keys, stranger = LeaseKeys(), LeaseKeys()
     with running(fake, commander):
         assert wait_for(lambda: fake.goal.matched >= 1 and lease.matched >= 1 and fake.cstate(), 10)
-        fake.goal.publish(String(data=json.dumps({"goal": "look for the red ball", "lease": {"id": "t-1", "s": 1.0}})))
+        goal = json.dumps({"goal": "look for the red ball", "lease": {"key": keys.key, "s": 1.0}})
+        fake.goal.publish(String(data=goal))
         assert wait_for(lambda: fake.cstate().get("state") == "searching", 5), fake.cstate()
-        assert fake.cstate()["goal"] == "look for the red ball" and fake.cstate()["lease"]["id"] == "t-1"
+        st = fake.cstate()
+        assert st["goal"] == "look for the red ball" and set(st["lease"]) == {"left_s", "renewals"}, st
+        assert keys.key not in json.dumps(fake.cstate())
+        fake.goal.publish(String(data="look for the red ball"))  # a plain re-send: the lease stays
+        seen = ""
         for _ in range(20):  # 2 s of renewals (each for 1 s): still searching
-            lease.publish(String(data=json.dumps({"id": "t-1", "s": 1.0})))
-            lease.publish(String(data=json.dumps({"id": "someone-else", "s": 60.0})))  # not this goal's
+            seen = keys.renewal(1.0)
+            lease.publish(String(data=seen))
+            lease.publish(String(data=stranger.renewal(60.0)))  # not this goal's sender
             time.sleep(0.1)  # the renewal rate, not synchronisation
+        lease.publish(String(data=seen.replace('"s": 1.0', '"s": 60.0')))  # the last one seen, replayed
         assert fake.cstate()["state"] == "searching", fake.cstate()
+        assert wait_for(lambda: (fake.cstate().get("lease") or {}).get("renewals") == 20, 3), fake.cstate()
         assert wait_for(lambda: fake.cstate().get("state") == "stopped", 3), fake.cstate()  # renewals stopped
         st = fake.cstate()
-        assert "lease 't-1' expired" in st["reason"] and st["lease"] is None, st
+        assert "lease expired" in st["reason"] and st["lease"] is None, st
+        assert st["counters"]["lease_not_ours"] == 21, st["counters"]
         assert wait_for(lambda: fake.last_cmd() == (0.0, 0.0), 2)
-        fake.goal.publish(String(data='{"goal": "look for the red ball", "lease": {"id": "t 2", "s": 1e9}}'))
+        fake.goal.publish(String(data=json.dumps({"goal": "look for the red ball", "lease": {"key": "t 2", "s": 1.0}})))
         assert wait_for(lambda: fake.cstate().get("state") == "rejected", 5), fake.cstate()
-        assert "a bad goal message" in fake.cstate()["reason"]
+        assert "a bad goal message" in fake.cstate()["reason"] and "64 lower-case hex" in fake.cstate()["reason"]
         fake.goal.publish(String(data="go to the blue cylinder"))
         assert wait_for(lambda: fake.cstate().get("state") == "searching", 5), fake.cstate()
         fake.report("blue cylinder", 320.0, 20.0, 8.0)  # confirmed 8 m away: beyond the 5 m cap

@@ -373,7 +373,7 @@ def test_safety_gate_lowers_limits_live_and_refuses_raising() -> None:
         assert r.successful and gate.core.limits.wz == 0.3
         assert gate.status(gate.clock.monotonic())["limits"]["wz"] == 0.3
         (r,) = client.set({"max_vyaw": v(0.6)})  # under the Go2 ceiling, still a raise
-        assert not r.successful and "raising a safety limit at runtime is refused (max_vyaw 0.3 -> 0.6)" in r.reason
+        assert not r.successful and "loosening a safety limit at runtime is refused (max_vyaw 0.3 -> 0.6)" in r.reason
         (r,) = client.set({"max_vyaw": v(5.0)})
         assert not r.successful and "above the maximum 4.0" in r.reason
         (r,) = client.set({"accel_linear": v(2.0)})
@@ -427,3 +427,18 @@ def test_every_node_kinds_parameters_survive_the_wire(kind: str) -> None:
         assert getattr(again, f.name) == getattr(default, f.name), f.name
         d = describe(f, hints[f.name], read_only=not f.metadata.get("live"))
         assert d.name == f.name and pv.type in (d.type, PARAMETER_NOT_SET), f.name
+
+
+def test_commander_lowers_its_goal_bounds_live_and_refuses_raising() -> None:
+    """max_goal_s and max_go_to_m go down while the commander runs, never up: the gate's rule."""
+    from go2vlm.behavior.commander_node import CommanderNode
+
+    cmd = CommanderNode()
+    with running(cmd), ParameterClient("commander", timeout_s=15) as client:
+        assert client.set({"max_goal_s": v(60.0)})[0].successful and cmd.config.max_goal_s == 60.0
+        for name, value, was in (("max_goal_s", 86400.0, 60), ("max_go_to_m", 500.0, 25)):
+            (r,) = client.set({name: v(value)})
+            assert not r.successful and f"loosening a safety limit at runtime is refused ({name} {was} ->" in r.reason
+        r = client.set_atomically({"max_linear": v(0.1), "max_angular": v(2.0)})
+        assert not r.successful and "max_angular 0.8 -> 2" in r.reason and cmd.mission.params.max_linear == 0.4
+        assert (cmd.config.max_goal_s, cmd.config.max_go_to_m) == (60.0, 25.0)

@@ -100,3 +100,52 @@ def test_the_commander_builds_its_cores_from_its_public_names(
 def test_the_commander_refuses_inconsistent_memory_confidences_at_start_up() -> None:
     with pytest.raises(ParamError, match="memory_min_confidence <= memory_confirm_confidence"):
         build_config(CommanderConfig, {"memory_min_confidence": 0.9, "memory_confirm_confidence": 0.5})
+
+
+# -- safety limits only tighten at runtime (declare.py `bound=`, bus/params.py `loosened`) ------------
+@dataclass
+class Bounded:
+    top: float = param(1.0, help="a ceiling", min=0.0, max=10.0, live=True, bound="max")
+    floor: float = param(0.3, help="a margin", min=0.0, max=3.0, live=True, bound="min")
+    gain: float = param(1.0, help="no limit", min=0.0, max=10.0, live=True)
+
+
+@given(st.floats(0.0, 10.0), st.floats(0.0, 10.0), st.floats(0.0, 3.0), st.floats(0.0, 3.0), st.floats(0.0, 10.0))
+def test_a_limit_is_loosened_exactly_when_a_ceiling_rises_or_a_floor_falls(
+    top0: float, top1: float, floor0: float, floor1: float, gain: float
+) -> None:
+    from go2vlm.bus.params import loosened
+
+    old, new = Bounded(top0, floor0, 1.0), Bounded(top1, floor1, gain)
+    got = loosened(old, new, ["top", "floor", "gain"])
+    assert [g.split()[0] for g in got] == [n for n, up in (("top", top1 > top0), ("floor", floor1 < floor0)) if up]
+    assert loosened(old, new, []) == []
+
+
+def test_bound_is_a_known_kind() -> None:
+    with pytest.raises(TypeError, match="bound='down'"):
+        param(1.0, help="x", bound="down")
+    rows = {r[0]: r[3] for r in describe_params(Bounded)}
+    assert rows["top"].endswith("(live, lowered only)") and rows["floor"].endswith("(live, raised only)")
+
+
+def test_every_live_ceiling_of_every_node_only_goes_down() -> None:
+    """Every node's live parameter named as a ceiling (max_*) or a speed, time or distance limit is
+    declared bound="max": one rule refuses raising it while the node runs."""
+    import importlib
+
+    from go2vlm.launch.registry import NODES
+
+    # Named max_ but no motion limit: how old a frame the model may still answer about (a slow machine raises it).
+    freshness = {"vlm.max_age_s"}
+    unbound = []
+    for kind, where in NODES.items():
+        module, _, cls = where.partition(":")
+        try:
+            config = getattr(importlib.import_module(module), cls).Config
+        except ImportError:  # an extra that is not installed
+            continue
+        for f in dataclasses.fields(config):
+            if f.metadata.get("live") and f.name.startswith(("max_", "accel_")) and f.metadata.get("bound") != "max":
+                unbound.append(f"{kind}.{f.name}")
+    assert set(unbound) == freshness, unbound

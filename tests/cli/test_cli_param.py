@@ -73,7 +73,7 @@ def test_tune_the_follower_and_the_gate_live(pipeline: Recorder, tmp_path: Path)
     assert wait_for(lambda: settles(rec, -0.1), 20), f"/cmd_vel is {rec.msgs()[-1].angular.z}"
     n = len(rec)
     out = cli("set", "safety", "max_vyaw", "0.5")
-    assert out.returncode == 2 and "raising a safety limit at runtime is refused (max_vyaw 0.1 -> 0.5)" in out.stderr
+    assert out.returncode == 2 and "loosening a safety limit at runtime is refused (max_vyaw 0.1 -> 0.5)" in out.stderr
     out = cli("set", "safety", "max_vyaw", "5")
     assert out.returncode == 2 and "above the maximum 4.0" in out.stderr
     assert wait_for(lambda: len(rec) > n + 10 and settles(rec, -0.1), 20), f"/cmd_vel is {rec.msgs()[-1].angular.z}"

@@ -59,9 +59,10 @@ class CommanderConfig:
     search_step_rate: float = from_core(MissionParams, "search_step_rate")
     look_settle_s: float = from_core(MissionParams, "look_settle_s")
     look_timeout_s: float = from_core(MissionParams, "look_timeout_s")
-    max_goal_s: float = param(900.0, help="any goal stops after this long (s)", min=1.0, max=86400.0, live=True)
+    max_goal_s: float = param(900.0, help="any goal stops after this long (s)", min=1.0, max=86400.0, live=True,
+                              bound="max")  # fmt: skip
     max_go_to_m: float = param(
-        25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True
+        25.0, help="go to: an object farther than this (m) is refused", min=0.5, max=500.0, live=True, bound="max"
     )
     nav_goal_moved_m: float = from_core(NavParams, "goal_moved_m")
     nav_arrive_m: float = from_core(NavParams, "arrive_m")

@@ -10,9 +10,12 @@ follower node is the follow article's standalone demo, not part of this graph.
 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter), or
-                                  JSON {"goal": text, "lease": {"id", "s"}}: a goal with a lease
-              /goal/lease         std_msgs/String       JSON {"id", "s"}: renews the running goal's lease
-                                  (behavior/lease.py); unrenewed for its s (wall time), the goal stops
+                                  JSON {"goal": text, "lease": {"key", "s"}}: a goal with a lease; the
+                                  running goal sent again as plain text keeps its lease
+              /goal/lease         std_msgs/String       JSON {"proof", "next", "s"}: renews the running
+                                  goal's lease, if proof hashes to its key (only the goal's sender
+                                  knows it; behavior/lease.py); unrenewed for its s (wall time), the
+                                  goal stops; any other renewal is counted (lease_not_ours)
               /target/tracked     go2vlm_msgs/TrackedTarget  the target_tracker's target, one per camera
                                   frame; only `tracking` reports for the goal's object count; their
                                   bearing_rad and hfov_rad (from the real CameraInfo) place it
@@ -52,9 +55,10 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
                                   given_up, views_scored), plan (length_m, waypoints, reason), navigate
-                                  (goal, route_m, recovering, recoveries, plans, failures),
-                                  refused_inputs (topic -> refused, last: inputs dropped for their
-                                  size, msgs/sizes.py); on change and each status_period_s
+                                  (goal, route_m, recovering, recoveries, plans, failures), lease
+                                  (left_s, renewals; never its key; null when none), refused_inputs
+                                  (topic -> refused, last: inputs dropped for their size,
+                                  msgs/sizes.py); on change and each status_period_s
 
 Goals and states
   follow    waiting -> tracking (keeps follow_distance_m) | lost | searching   never ends by itself
@@ -66,54 +70,40 @@ Goals and states
   stop      stopped (zero velocity); sit / stand -> done; text it cannot parse -> rejected: reason on
             /commander/status, zero velocity, nothing else moves; an object the target_tracker cannot
             ground (free text with its colour grounder) -> rejected.
-  The target counts only while the tracker confirms it (its newest report says tracking, younger than
-  lost_timeout_s): otherwise zero at once (`lost`), then go to / look for search (turn in place
-  towards where it was last seen) if search_on_loss.
+  The target counts only while the tracker confirms it (tracking, younger than lost_timeout_s):
+  otherwise zero at once (`lost`), then go to / look for search if search_on_loss.
 
 The world (use_memory, with an object_memory running): go to / look for use the most confident
-remembered object of the goal's label while the tracker does not confirm it: turn to it, approach
-its remembered place with the local planner once the memory is sure of it (memory_confirm_confidence),
-and stop there only when an answer about a frame taken at the stop placed it within reach (or the
-tracker confirms it); look for ends found when an answer about a frame taken facing it saw it. A goal
-for an object already remembered goes straight there. Search, with answers so slow that turning at
-search_yaw_rate would turn more than search_view_per_answer of the view between two of them: stop and
-look (hold still until an answer about a frame taken at this heading has come back, then turn
-search_step_deg at search_step_rate). The memory never commands a velocity: every
-command is still the commander's, within its limits, through the safety gate (behavior/mission.py).
+remembered object of the goal's label while the tracker does not confirm it; go to walks there once
+the memory is sure of it (memory_confirm_confidence) and stops only when an answer about a frame
+taken at the stop placed it within reach; look for ends found when an answer about a frame taken
+facing it saw it. With slow answers the search stops and looks (search_view_per_answer). The memory
+never commands a velocity (behavior/mission.py, behavior/strategies/remembered.py).
 
-Exploring (explore, behavior/strategies/explore.py): once turn-and-look has found nothing, go to and
-look for walk to a frontier of /map/costmap (free space next to unknown; `frontier_choice` nearest
-by path cost, or vlm: the highest-scored way on /vlm/way first, nearest among equals) along the
-global planner's route, look all round there, and repeat, until the target
-is seen or remembered, no frontier is left (not_found, with that reason), explore_timeout_s after the
-goal began (not_found: an open world has frontiers without end), or the goal is stopped.
-A go to a remembered object the robot cannot see straight (a wall or unknown space on the straight
-line) walks the global route to it, preferring known free space. Each waypoint goes to the same
-approach law and local planner, so the safety gate and its guard keep the last word.
+Exploring (explore, behavior/strategies/explore.py): once turn-and-look has found nothing, walk to a
+frontier of /map/costmap (`frontier_choice` nearest by path cost, or vlm: the best-scored way on
+/vlm/way first), look all round there, and repeat, until the target is seen or remembered, no
+reachable frontier is left or explore_timeout_s has passed (not_found, with the reason).
 
-Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow steer round what lies
-between the robot and the target, planner_margin_m each side of the footprint. A detour that takes
-the target out of the camera's view carries on towards its last confirmed place (from /odom) for up
-to detour_memory_s, and only while the direct way is blocked. Without a scan the approach is
-straight; the safety gate's collision guard stops it short of anything either way.
+Places (a frontier, a remembered object, a stalled tracked go to's target) are walked to by the
+navigator (behavior/navigate/: route, regulated pure pursuit checked on the footprint, one progress
+checker, bounded recoveries; nav_*). A target in view is approached by the approach law, steering
+round what a fresh /scan shows (planner_margin_m); a detour that hides it carries on towards its last
+confirmed place for up to detour_memory_s. The safety gate's collision guard has the last word.
 
-Decisions (/vlm/decision): stop | continue | turn (|angle| <= max_turn_deg <= 30) | sit; anything else
-is ignored, logged and counted (decisions_rejected). The text never becomes a velocity: stop holds
-still for decision_hold_s, turn turns in place at decision_turn_rate for angle/rate seconds; all
-motion still goes through the safety gate.
+Decisions (/vlm/decision): stop | continue | turn (|angle| <= max_turn_deg <= 30) | sit; anything
+else is counted (decisions_rejected) and ignored. The text never becomes a velocity.
 
-Bounds (behavior/lease.py): a leased goal stops when its owner stops renewing it (the MCP server's goals all
-carry one); every goal stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m is rejected,
-a remembered one only given up (remembered_too_far). Leases are in wall time (an owner's silence).
+Bounds (behavior/lease.py): a leased goal stops when its owner stops renewing it (wall time); every goal
+stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m is rejected, a remembered
+one only given up (remembered_too_far).
 
-Time: every period and timeout here (control_rate_hz, lost_timeout_s, search_timeout_s,
-decision_hold_s, turns, the zero burst) is in the node's clock: sim time with use_sim_time.
+Time: every period and timeout here is in the node's clock: sim time with use_sim_time.
 
-Parameters (behavior/commander_config.py; those of the pure cores are declared once, on their fields).
-At runtime (`go2vlm param set commander ...`): the gains, speeds, distances, timeouts, search settings,
-decision limits, avoid_obstacles, planner_margin_m, detour_memory_s, the memory settings, nav_*
-(docs/navigation.md#the-navigator); goal, robot, frontier_choice, the topics, scan_timeout_s and the
-rates are read-only.
+Parameters (behavior/commander_config.py; the cores' declared once, on their fields). Live: the gains,
+speeds, distances, timeouts, search, decision, memory and nav_* settings, avoid_obstacles,
+planner_margin_m, detour_memory_s; the ceilings (max_goal_s, max_go_to_m, max_linear, max_angular,
+max_turn_deg, explore_timeout_s) only go down (bound="max"); the rest are read-only.
 """
 
 from __future__ import annotations
@@ -231,7 +221,7 @@ class CommanderNode(Node):
             self.set_goal("")  # rejected, and nothing moves
             self.mission.reason = f"a bad goal message: {exc}"
             return self.publish_status()
-        self.set_goal(g.text, None if g.lease_id is None else Lease.grant(g.lease_id, g.lease_s, time.monotonic()))
+        self.set_goal(g.text, None if g.lease_key is None else Lease.grant(g.lease_key, g.lease_s, time.monotonic()))
 
     def on_lease(self, msg: String) -> None:
         try:
@@ -240,7 +230,9 @@ class CommanderNode(Node):
             ok = False
             self.log.throttled("error", 5.0, f"ignoring a bad {GOAL_LEASE.name}: {exc}", key="lease")
         if not ok:
-            self.count("lease_not_ours")
+            n = self.count("lease_not_ours")
+            self.log.throttled("warning", 5.0, f"refused a renewal that does not prove it comes from the goal's "
+                               f"sender ({n} so far)", key="lease_not_ours")  # fmt: skip
 
     def set_goal(self, text: str, lease: Lease | None = None) -> None:
         before = self.mission.goal
@@ -248,7 +240,10 @@ class CommanderNode(Node):
         m = self.mission
         if m.goal is not before:
             self._goal_t0 = self.clock.monotonic()
-        self._lease = lease
+            self._lease = lease
+        elif lease is not None:  # the running goal again, with a lease of its own: its sender's order now
+            self._lease = lease
+        # else: a plain re-send of the running goal (a UI repeating it) keeps its lease: it never weakens it
         if m.state == "rejected":
             self.log.throttled("warning", 1.0, f"goal rejected: {m.reason}", key="goal")
         elif m.goal is not None:

@@ -54,9 +54,9 @@ class FollowerConfig:
     kp_angular: float = param(0.8, help="P gain from horizontal offset x to angular.z", min=0.0, max=20.0, live=True)
     kp_linear: float = param(0.3, help="P gain from (1 - size) to linear.x", min=0.0, max=20.0, live=True)
     max_linear: float = param(
-        0.5, help="linear.x ceiling (m/s); the safety gate limits again", min=0.0, max=3.8, live=True
+        0.5, help="linear.x ceiling (m/s); the safety gate limits again", min=0.0, max=3.8, live=True, bound="max"
     )
-    max_angular: float = param(1.0, help="|angular.z| ceiling (rad/s)", min=0.0, max=4.0, live=True)
+    max_angular: float = param(1.0, help="|angular.z| ceiling (rad/s)", min=0.0, max=4.0, live=True, bound="max")
     align_threshold: float = param(0.2, help="walk only while |x| is below this", min=0.0, max=1.0, live=True)
     lost_timeout_s: float = param(1.0, help="stop when no target came for this long", min=0.01, max=60.0, live=True)
     rate_hz: float = param(20.0, help="command publishing rate", min=1.0, max=200.0)

@@ -5,15 +5,24 @@ it on /goal/lease; the commander stops the goal when no renewal came within the 
 The commander enforces it, not the client, so an owner that dies (SIGKILL, a crash, a lost network)
 leaves a still robot within one lease.
 
-    {"goal": "follow the red ball", "lease": {"id": "mcp-5f3a", "s": 2.0}}    on /goal
-    {"id": "mcp-5f3a", "s": 2.0}                                              on /goal/lease
+Only the goal's sender can renew it. The goal carries `key`, the SHA-256 of a secret only the sender
+holds; a renewal shows that secret (`proof`) and the SHA-256 of the next one (`next`), which becomes
+the key for the renewal after. Every secret is fresh (32 random bytes) and shown once: one seen on
+the bus has already been used, and the next one cannot be worked out from its hash. A renewal whose
+proof does not hash to the key changes nothing (the commander counts it). The bus proves no more
+than that (docs/safety.md#what-the-bus-can-prove): anyone on it can still send a goal of its own.
 
+    {"goal": "follow the red ball", "lease": {"key": "9f86...", "s": 2.0}}          on /goal
+    {"proof": "<the secret, hex>", "next": "<sha256 of the next, hex>", "s": 2.0}   on /goal/lease
+
+    keys = LeaseKeys()                       # the sender's side: keys.key, then keys.renewal(s) each time
     goal = parse_goal(text)                  # a plain text goal, or one with a lease (LeaseError if bad)
-    lease = Lease.grant(goal.lease_id, goal.lease_s, now)
-    lease.renew(renewal, now)                # True when it was this lease's
+    lease = Lease.grant(goal.lease_key, goal.lease_s, now)
+    lease.renew(renewal, now)                # True when it proved it comes from the goal's sender
     lease.expired(now)                       # a reason to stop, or None
 
-A lease is at most MAX_LEASE_S: an owner cannot ask for a goal that outlives it by more. Plain text
+A lease is at most MAX_LEASE_S, and no renewal asks for more than the goal's lease: an owner cannot
+ask for a goal that outlives it by more. Plain text
 goals carry none (a person at a terminal, a launch file's goal); they keep the goal timeout and the
 go-to distance cap (`overdue`, `too_far`; `goal_end` puts them together), which bound every goal.
 Teleop and the e-stop have their own watchdogs (safety/). Timestamps are the caller's: the commander
@@ -23,18 +32,21 @@ Property tests: tests/behavior/test_behavior_lease.py.
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import json
 import math
 import re
-from dataclasses import dataclass
+import secrets
+from dataclasses import dataclass, field
 
-__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeasedGoal", "Renewal", "goal_end", "overdue", "parse_goal",
-           "parse_renewal", "too_far"]  # fmt: skip
+__all__ = ["MAX_LEASE_S", "Lease", "LeaseError", "LeaseKeys", "LeasedGoal", "Renewal", "goal_end", "overdue",
+           "parse_goal", "parse_renewal", "too_far"]  # fmt: skip
 
 MAX_LEASE_S = 60.0
 MIN_LEASE_S = 0.1
 MAX_GOAL_CHARS = 1000
-_ID = re.compile(r"[A-Za-z0-9_.:-]{1,64}")
+_HEX32 = re.compile(r"[0-9a-f]{64}")  # 32 bytes, lower-case hex: a secret or its SHA-256
 
 
 class LeaseError(ValueError):
@@ -44,14 +56,36 @@ class LeaseError(ValueError):
 @dataclass(frozen=True)
 class LeasedGoal:
     text: str  # the goal itself ("follow the red ball")
-    lease_id: str | None = None  # None: no lease
+    lease_key: bytes | None = None  # SHA-256 of the sender's first secret; None: no lease
     lease_s: float = 0.0
 
 
 @dataclass(frozen=True)
 class Renewal:
-    lease_id: str
+    proof: bytes  # the secret whose SHA-256 is the lease's key now
+    next_key: bytes  # SHA-256 of the secret the next renewal shows
     lease_s: float
+
+
+def _digest(secret: bytes) -> bytes:
+    return hashlib.sha256(secret).digest()
+
+
+@dataclass
+class LeaseKeys:
+    """The sender's side of a lease: a fresh secret per renewal; only their hashes go ahead of them."""
+
+    _secret: bytes = field(default_factory=lambda: secrets.token_bytes(32), repr=False)
+
+    @property
+    def key(self) -> str:
+        """What the goal carries as "key": the hash of the secret the first renewal will show."""
+        return _digest(self._secret).hex()
+
+    def renewal(self, lease_s: float) -> str:
+        """The next /goal/lease message: this secret, and the hash of a fresh one for the next time."""
+        proof, self._secret = self._secret, secrets.token_bytes(32)
+        return json.dumps({"proof": proof.hex(), "next": self.key, "s": lease_s})
 
 
 def _seconds(v: object, what: str) -> float:
@@ -62,10 +96,10 @@ def _seconds(v: object, what: str) -> float:
     return float(v)
 
 
-def _lease_id(v: object) -> str:
-    if not isinstance(v, str) or not _ID.fullmatch(v):
-        raise LeaseError(f"a lease id is 1-64 letters, digits or _.:- ; got {str(v)[:80]!r}")
-    return v
+def _hex32(v: object, what: str) -> bytes:
+    if not isinstance(v, str) or not _HEX32.fullmatch(v):
+        raise LeaseError(f"{what} is 64 lower-case hex digits (32 bytes); got {str(v)[:80]!r}")
+    return bytes.fromhex(v)
 
 
 def _json_object(text: str, what: str) -> dict[str, object]:
@@ -79,7 +113,7 @@ def _json_object(text: str, what: str) -> dict[str, object]:
 
 
 def parse_goal(text: str) -> LeasedGoal:
-    """A /goal message: plain text (no lease), or a JSON object {"goal": ..., "lease": {"id", "s"}}."""
+    """A /goal message: plain text (no lease), or a JSON object {"goal": ..., "lease": {"key", "s"}}."""
     if len(text) > MAX_GOAL_CHARS:
         raise LeaseError(f"a goal of {len(text)} characters; at most {MAX_GOAL_CHARS}")
     if not text.lstrip().startswith("{"):
@@ -91,35 +125,45 @@ def parse_goal(text: str) -> LeasedGoal:
     if lease is None:
         return LeasedGoal(goal)
     if not isinstance(lease, dict):
-        raise LeaseError("'lease' is not {'id': ..., 's': seconds}")
-    return LeasedGoal(goal, _lease_id(lease.get("id")), _seconds(lease.get("s"), "the lease"))
+        raise LeaseError("'lease' is not {'key': sha256 hex, 's': seconds}")
+    return LeasedGoal(goal, _hex32(lease.get("key"), "the lease's key"), _seconds(lease.get("s"), "the lease"))
 
 
 def parse_renewal(text: str) -> Renewal:
-    """A /goal/lease message: {"id": ..., "s": seconds}."""
+    """A /goal/lease message: {"proof": secret hex, "next": sha256 hex, "s": seconds}."""
     if len(text) > MAX_GOAL_CHARS:
         raise LeaseError(f"a renewal of {len(text)} characters")
     doc = _json_object(text, "a renewal")
-    return Renewal(_lease_id(doc.get("id")), _seconds(doc.get("s"), "the renewal"))
+    return Renewal(
+        _hex32(doc.get("proof"), "a renewal's proof"),
+        _hex32(doc.get("next"), "a renewal's next key"),
+        _seconds(doc.get("s"), "the renewal"),
+    )
 
 
 @dataclass
 class Lease:
-    """One goal's lease: it lasts until `until` unless renewed."""
+    """One goal's lease: it lasts until `until` unless renewed by the goal's sender."""
 
-    lease_id: str
+    key: bytes = field(repr=False)  # the SHA-256 the next renewal's proof must hash to
     until: float
+    lease_s: float  # as granted with the goal: no renewal asks for more
     renewals: int = 0
 
     @classmethod
-    def grant(cls, lease_id: str, lease_s: float, now: float) -> Lease:
-        return cls(lease_id, now + min(max(lease_s, MIN_LEASE_S), MAX_LEASE_S))
+    def grant(cls, key: bytes, lease_s: float, now: float) -> Lease:
+        s = min(max(lease_s, MIN_LEASE_S), MAX_LEASE_S)
+        return cls(key, now + s, s)
 
     def renew(self, r: Renewal, now: float) -> bool:
-        """Extend the lease to now + r.lease_s if the renewal is this lease's; never past MAX_LEASE_S."""
-        if r.lease_id != self.lease_id:
+        """Extend the lease to now + r.lease_s (never past the seconds granted with the goal) if the
+        renewal proves it comes from the goal's sender: its proof hashes to the key; its next key is the
+        one after. The cap makes a renewal copied off the bus and sent faster than the original worth
+        no more than the original."""
+        if not hmac.compare_digest(_digest(r.proof), self.key):
             return False
-        self.until = now + min(max(r.lease_s, MIN_LEASE_S), MAX_LEASE_S)
+        self.key = r.next_key
+        self.until = now + min(max(r.lease_s, MIN_LEASE_S), self.lease_s)
         self.renewals += 1
         return True
 
@@ -129,11 +173,11 @@ class Lease:
     def expired(self, now: float) -> str | None:
         if now < self.until:
             return None
-        return f"the goal's lease {self.lease_id!r} expired: its owner stopped renewing it"
+        return f"the goal's lease expired: its owner stopped renewing it ({self.renewals} renewals)"
 
     def status(self, now: float) -> dict[str, object]:
-        """What /commander/status says of it."""
-        return {"id": self.lease_id, "left_s": round(self.left(now), 2)}
+        """What /commander/status says of it: how long it has left, never its key."""
+        return {"left_s": round(self.left(now), 2), "renewals": self.renewals}
 
 
 def overdue(started: float, now: float, max_goal_s: float) -> str | None:

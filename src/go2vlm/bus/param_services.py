@@ -14,8 +14,9 @@ lists) is a string holding YAML text, which `--param` and `--params-file` accept
 
 A change goes through the same rules as start-up: the value must have the parameter's type (an
 integer is accepted for a double), then `build_config` checks the whole new Config (types,
-choices, min/max, the Config's validate()), then the node's `check_params` may refuse it (the safety
-gate refuses raising a limit). Only parameters declared `param(..., live=True)` may change; the rest,
+choices, min/max, the Config's validate()), then a safety limit (`param(..., bound="max" | "min")`)
+that would loosen is refused, one rule for every node (`params.loosened`), then the node's
+`check_params` may refuse it. Only parameters declared `param(..., live=True)` may change; the rest,
 and `use_sim_time`, are read-only (DescribeParameters reports read_only). A refused change leaves the
 node as it was and says why in SetParametersResult.reason. An accepted one replaces `node.config`
 with the new Config object in one assignment (worker threads see the old or the new one, never a
@@ -37,7 +38,15 @@ import yaml
 from go2vlm.bus import domain
 from go2vlm.bus.endpoints import Publisher
 from go2vlm.bus.log import Logger
-from go2vlm.bus.params import NodeParams, ParamError, _is_optional, _type_name, build_config
+from go2vlm.bus.params import (
+    NodeParams,
+    ParamError,
+    _is_optional,
+    _type_name,
+    build_config,
+    loosened,
+    loosening_refused,
+)
 from go2vlm.bus.qos import QOS_PARAMETERS, QosProfile
 from go2vlm.bus.service import Service, ServiceClient, ServiceError, SrvType
 from go2vlm.msgs import rcl_interfaces as rcl
@@ -383,6 +392,8 @@ class ParameterServer:
         changed = frozenset(n for n in values if getattr(new, n) != getattr(old, n))
         if not changed:
             return SetParametersResult(successful=True)
+        if loose := loosened(old, new, changed):
+            return refuse(loosening_refused(node.node_name, loose))
         try:
             node.check_params(new, changed)
         except ValueError as exc:

@@ -28,12 +28,15 @@ import types
 import typing
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import yaml
 
 from go2vlm.declare import CORE, from_core, param
 from go2vlm.errors import ConfigError
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 __all__ = [
     "BASE_PARAMS",
@@ -46,6 +49,7 @@ __all__ = [
     "describe_params",
     "from_core",
     "load_params_file",
+    "loosened",
     "param",
     "parse_overrides",
 ]
@@ -194,6 +198,30 @@ def build_config(
     return cfg
 
 
+def loosened(old: DataclassInstance, new: DataclassInstance, names: Iterable[str]) -> list[str]:
+    """The safety limits among `names` that `new` loosens against `old` ("max_goal_s 900 -> 3600"):
+    a `bound="max"` parameter raised, a `bound="min"` one lowered. The one rule for limits at runtime:
+    they only tighten while a node runs (bus/param_services.py refuses the change otherwise)."""
+    fields = {f.name: f for f in dataclasses.fields(old)}
+    out = []
+    for name in names:
+        bound = fields[name].metadata.get("bound") if name in fields else None
+        before, after = getattr(old, name), getattr(new, name)
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (before, after)):
+            continue
+        if (bound == "max" and after > before) or (bound == "min" and after < before):
+            out.append(f"{name} {before:g} -> {after:g}")
+    return out
+
+
+def loosening_refused(node: str, loose: list[str]) -> str:
+    """The reason a change that loosens limits is refused (see `loosened`)."""
+    return (
+        f"loosening a safety limit at runtime is refused ({', '.join(loose)}): a limit only tightens while "
+        f"node {node!r} runs; loosening it takes a restart"
+    )
+
+
 @dataclasses.dataclass
 class NodeParams:
     """Parameters every node has, whatever its own Config declares (as ROS 2 declares use_sim_time on
@@ -288,6 +316,8 @@ def describe_params(config_cls: type, base: bool = False) -> list[tuple[str, str
         if f.metadata.get("choices"):
             help_text += f" [{'|'.join(map(str, f.metadata['choices']))}]"
         if f.metadata.get("live"):
-            help_text += " (live)"
+            help_text += {"max": " (live, lowered only)", "min": " (live, raised only)"}.get(
+                f.metadata.get("bound") or "", " (live)"
+            )
         rows.append((f.name, _type_name(hints[f.name]), default, help_text))
     return rows + (describe_params(NodeParams) if base else [])

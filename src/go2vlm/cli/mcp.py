@@ -25,9 +25,9 @@ from typing import Any
 
 from go2vlm.cli.args import add_dds_args, add_node_params, node_params, positive
 from go2vlm.errors import ConfigError, UsageError
+from go2vlm.secret import MIN_TOKEN_CHARS
 
 TOKEN_ENV = "GO2VLM_MCP_TOKEN"
-MIN_TOKEN_CHARS = 16
 
 
 def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -1,4 +1,6 @@
-"""`go2vlm view [--port P] [--host H]`: a Foxglove WebSocket server for what is on the bus."""
+"""`go2vlm view [--port P] [--host H] [--publish [--token-file F] [--allow-origin O]]`: a Foxglove
+WebSocket server for what is on the bus; with --publish, clients holding the token may also engage
+the e-stop, teleop and confirm (apps/view/view_node.py, apps/view/front.py)."""
 
 from __future__ import annotations
 
@@ -6,6 +8,7 @@ import argparse
 import sys
 from typing import Any
 
+from go2vlm.apps.view.front import TOKEN_ENV
 from go2vlm.cli.args import add_dds_args, positive
 from go2vlm.errors import ConfigError
 
@@ -20,15 +23,46 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         description=(
             "Serve what is on the bus to Foxglove (or Lichtblick): camera images as JPEG, detections as image "
             "annotations, /tf, /odom, /cmd_vel, statuses. Connect with 'Open connection -> Foxglove WebSocket' "
-            f"and load {LAYOUT}. Clients may publish only the e-stop, its release and /teleop/cmd_vel."
+            f"and load {LAYOUT}. Clients publish nothing unless --publish: then, with the token "
+            f"(${TOKEN_ENV} or --token-file; ws://HOST:PORT/?token=TOKEN), they may engage the e-stop (never "
+            "release it), teleop on /teleop/cmd_vel and answer /mcp/confirm."
         ),
     )
     p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"port (default {DEFAULT_PORT}; 0: any free)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
+    add_publish_args(p, "")
     p.add_argument("--param", "-p", action="append", default=[], metavar="NAME=VALUE", help="a view parameter")
     p.add_argument("--duration", type=positive, default=None, help="stop after S seconds")
     add_dds_args(p)
     p.set_defaults(func=run)
+
+
+def add_publish_args(p: argparse.ArgumentParser, prefix: str) -> None:
+    """`--publish`, `--token-file`, `--allow-origin` (`--foxglove-publish`, ... with prefix "foxglove-")."""
+    p.add_argument(
+        f"--{prefix}publish", action="store_true",
+        help=f"let Foxglove clients with the token engage the e-stop, teleop and confirm (the token: ${TOKEN_ENV} "
+        f"or --{prefix}token-file; connect to ws://HOST:PORT/?token=TOKEN)",
+    )  # fmt: skip
+    p.add_argument(f"--{prefix}token-file", metavar="FILE", default=None, help="a file holding the clients' token")
+    p.add_argument(
+        f"--{prefix}allow-origin", metavar="ORIGIN", action="append", default=None,
+        help="a web page (Origin, e.g. https://app.foxglove.dev) that may connect with --publish (repeatable; "
+        "replaces the default https://app.foxglove.dev)",
+    )  # fmt: skip
+
+
+def publish_params(args: argparse.Namespace, prefix: str = "") -> dict[str, bool | str | list[str]]:
+    """The view's publishing parameters from add_publish_args' options ({} when publishing is off)."""
+    attr = prefix.replace("-", "_")
+    if not getattr(args, f"{attr}publish", False):
+        return {}
+    params: dict[str, bool | str | list[str]] = {"allow_client_publish": True}
+    if (token_file := getattr(args, f"{attr}token_file", None)) is not None:
+        params["token_file"] = token_file
+    if (origins := getattr(args, f"{attr}allow_origin", None)) is not None:
+        params["allowed_origins"] = origins
+    return params
 
 
 def add_foxglove_args(p: argparse.ArgumentParser) -> None:
@@ -45,13 +79,14 @@ def add_foxglove_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--foxglove-host", default="127.0.0.1", help="address for --foxglove (default 127.0.0.1: this machine only)"
     )
+    add_publish_args(p, "foxglove-")
 
 
 def foxglove_params(args: argparse.Namespace) -> dict[str, Any] | None:
     """The view node's parameters from --foxglove, or None when it was not asked for."""
     if getattr(args, "foxglove", None) is None:
         return None
-    return {"port": args.foxglove, "host": args.foxglove_host}
+    return {"port": args.foxglove, "host": args.foxglove_host, **publish_params(args, "foxglove-")}
 
 
 def make_view(params: dict[str, Any], **kwargs: Any) -> Any:
@@ -67,10 +102,12 @@ def make_view(params: dict[str, Any], **kwargs: Any) -> Any:
 def run(args: argparse.Namespace) -> int:
     from go2vlm.bus import parse_overrides, spin
 
-    params = {"port": args.port, "host": args.host, **parse_overrides(args.param)}
+    params = {"port": args.port, "host": args.host, **publish_params(args), **parse_overrides(args.param)}
     node = make_view(params, domain_id=args.domain, interface=args.interface)
+    publish = "clients with the token may publish (?token=...)" if node.config.allow_client_publish else "view only"
     print(
-        f"go2vlm view: Foxglove WebSocket on ws://{node.config.host}:{node.port}; layout: {LAYOUT}. Ctrl-C stops.",
+        f"go2vlm view: Foxglove WebSocket on ws://{node.config.host}:{node.port} ({publish}); layout: {LAYOUT}. "
+        "Ctrl-C stops.",
         file=sys.stderr,
         flush=True,
     )

@@ -82,7 +82,6 @@ command or silence. Before the first /clock the sim-time ticks wait; the same bo
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import time
@@ -93,7 +92,6 @@ from typing import Any
 from go2vlm.bus import QOS_ANY, Node, core_params, core_values, from_core, param
 from go2vlm.bus.domain import dds_topic_name
 from go2vlm.bus.topics import CMD_VEL, EMERGENCY_STOP, LOWSTATE, SAFETY_STATUS, SCAN
-from go2vlm.declare import CORE
 from go2vlm.msgs.geometry_msgs import Twist, Vector3
 from go2vlm.msgs.sensor_msgs import LaserScan
 from go2vlm.msgs.std_msgs import Bool, String
@@ -268,10 +266,6 @@ def health_policy(c: SafetyGateConfig) -> HealthPolicy:
     return core_params(HealthPolicy, c, **ladders, clear_s=max(c.health_clear_s, 1e-3))
 
 
-# The gate's names of the Limits fields (max_vx_forward, ...): may be lowered, never raised, at runtime.
-LIMIT_PARAMS = tuple(f.name for f in dataclasses.fields(SafetyGateConfig) if f.metadata.get(CORE, (None,))[0] is Limits)
-
-
 def limits_of(c: SafetyGateConfig) -> Limits:
     return core_params(Limits, c, ceiling=c.robot_profile.ceilings)
 
@@ -342,18 +336,8 @@ class SafetyGateNode(Node):
             self.create_timer(1.0 / c.rate_hz, self._stall_watchdog, wall=True)
         self.tick()
 
-    # -- parameters at runtime: limits go down, never up ----------------------------------------
-    def check_params(self, new: SafetyGateConfig, changed: frozenset[str]) -> None:
-        cur = self.config
-        up = [
-            f"{n} {getattr(cur, n):g} -> {getattr(new, n):g}" for n in LIMIT_PARAMS if getattr(new, n) > getattr(cur, n)
-        ]
-        if up:
-            raise ValueError(
-                f"raising a safety limit at runtime is refused ({', '.join(up)}): lowering is live, "
-                "raising takes a restart of the safety gate"
-            )
-
+    # -- parameters at runtime: the limits go down, never up (declared bound="max" on Limits; the
+    # parameter service refuses a raise for every node, bus/params.py `loosened`) ------------------
     def on_params_changed(self, old: SafetyGateConfig, changed: frozenset[str]) -> None:
         self.core.limits = limits_of(self.config)
 

@@ -52,16 +52,18 @@ class Limits:
     """Velocity and acceleration limits; declared with `param`, they are the safety gate's parameters
     too (the gate's names: max_vx_forward, ...; live: they may be lowered while it runs)."""
 
-    vx_forward: float = param(0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True)
+    vx_forward: float = param(
+        0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True, bound="max"
+    )
     vx_backward: float = param(
-        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True
+        0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True, bound="max"
     )
-    vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True)
-    wz: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True)
+    vy: float = param(0.5, help="sideways speed limit (m/s)", min=0.0, max=CEILING_BOUND.vy, live=True, bound="max")
+    wz: float = param(1.0, help="yaw rate limit (rad/s)", min=0.0, max=CEILING_BOUND.vyaw, live=True, bound="max")
     accel_linear: float = param(
-        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True
+        1.0, help="linear acceleration limit (m/s^2); braking is not limited", min=0.01, live=True, bound="max"
     )
-    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True)
+    accel_angular: float = param(3.0, help="angular acceleration limit (rad/s^2)", min=0.01, live=True, bound="max")
     ceiling: SpeedCeilings = PROFILES[DEFAULT_ROBOT].ceilings  # the commanded robot's own range
 
     def __post_init__(self) -> None:

@@ -6,9 +6,11 @@ into commands, and the safety gate limits, guards and may stop them like anyone 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   publishes   /goal                  std_msgs/String   the commander's goals: "go to the blue cylinder",
                                      "look for ...", "follow ...", "turn left 20 degrees", "sit", "stand",
-                                     each with a lease (JSON {"goal", "lease": {"id", "s"}}:
-                                     behavior/lease.py), and "stop"
-              /goal/lease            std_msgs/String   JSON {"id", "s"}: renews the goal's lease every
+                                     each with a lease (JSON {"goal", "lease": {"key", "s"}}:
+                                     behavior/lease.py; key: the hash of a secret only this
+                                     server holds), and "stop"
+              /goal/lease            std_msgs/String   JSON {"proof", "next", "s"}: renews the goal's
+                                     lease (proof: that secret; next: the next one's hash) every
                                      lease_s / 4 while this server lives, for min(lease_s, the deadman's
                                      time left + lease_s / 4): a server that dies leaves a goal that
                                      the commander itself stops; an agent that goes silent, this
@@ -50,7 +52,6 @@ person talking over a network, not about the robot's clock (the sim may run fast
 from __future__ import annotations
 
 import json
-import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -60,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from go2vlm.apps.mcp.rules import CommanderState, Confirmations, MotionRules, Refused
+from go2vlm.behavior.lease import LeaseKeys
 from go2vlm.bus import QOS_LATCHED, Node, RawSample, param
 from go2vlm.bus.topics import (
     CAMERA_IMAGE,
@@ -139,7 +141,7 @@ class McpBridgeNode(Node):
         self.last_event = ""  # the newest thing this server did on its own (deadman, unanswered goal)
         self.pub_goal = GOAL.publisher(self)
         self.pub_lease = GOAL_LEASE.publisher(self)
-        self._lease_id = ""  # our goal's lease ('' = none)
+        self._keys: LeaseKeys | None = None  # our goal's lease secrets (None: no goal of ours)
         self._starting = ""  # the goal a tool call is starting now ('' = none)
         self._renewed = -1e9
         self.pub_pending = MCP_PENDING.publisher(self)
@@ -231,7 +233,7 @@ class McpBridgeNode(Node):
         """The lease renewal to send now (under self._cv), or None: while our goal runs and the agent
         polls, every lease_s / 4, for no longer than the deadman leaves (and a quarter lease)."""
         c = self.config
-        if self.rules.ours is None or not self._lease_id or now - self._renewed < c.lease_s / 4:
+        if self.rules.ours is None or self._keys is None or now - self._renewed < c.lease_s / 4:
             return None
         # A quarter lease past the deadman: while this server lives, its own deadman stops the goal
         # first (and says so); only a server that died leaves it to the lease.
@@ -239,7 +241,7 @@ class McpBridgeNode(Node):
         if ttl < 0.1:
             return None
         self._renewed = now
-        return json.dumps({"id": self._lease_id, "s": round(ttl, 3)})
+        return self._keys.renewal(round(ttl, 3))
 
     # -- reading --------------------------------------------------------------------------------
     def status_of(self, topic: str, max_age_s: float | None = None) -> dict[str, Any] | None:
@@ -327,9 +329,9 @@ class McpBridgeNode(Node):
             with self._cv:
                 self.rules.started(text, time.monotonic())
                 self.last_event = ""
-                self._lease_id, self._renewed = f"mcp-{secrets.token_hex(6)}", time.monotonic()
+                self._keys, self._renewed = LeaseKeys(), time.monotonic()
             try:
-                return self._send(text, self._lease_id)
+                return self._send(text, self._keys)
             except Refused:
                 with self._cv:
                     self.rules.forget()
@@ -363,7 +365,7 @@ class McpBridgeNode(Node):
             )
         return self.estop_reports()
 
-    def _send(self, text: str, lease_id: str = "") -> dict[str, Any]:
+    def _send(self, text: str, keys: LeaseKeys | None = None) -> dict[str, Any]:
         timeout = self.config.ack_timeout_s
         deadline = time.monotonic() + timeout
         while self.pub_goal.matched == 0 and time.monotonic() < deadline:
@@ -372,8 +374,8 @@ class McpBridgeNode(Node):
             raise Refused(f"no commander listens on /goal (waited {timeout:g} s): is the robot's graph running?")
         with self._cv:
             seq0 = self._seq
-        lease = {"id": lease_id, "s": min(self.config.lease_s, self.config.deadman_s)}
-        self.pub_goal.publish(String(data=json.dumps({"goal": text, "lease": lease}) if lease_id else text))
+        lease = None if keys is None else {"key": keys.key, "s": min(self.config.lease_s, self.config.deadman_s)}
+        self.pub_goal.publish(String(data=json.dumps({"goal": text, "lease": lease}) if lease else text))
 
         def answered() -> bool:
             s = self._status.get(COMMANDER_STATUS.name)
@@ -416,7 +418,7 @@ class McpBridgeNode(Node):
     def close(self) -> None:
         # Leaving (SIGTERM, stdin EOF): stop our goal now rather than when its lease runs out.
         with self._cv:
-            ours, self._lease_id = self.rules.ours, ""
+            ours, self._keys = self.rules.ours, None
         if ours is not None:
             self.pub_goal.publish(String(data="stop"))
 

@@ -21,15 +21,24 @@ Topics (every one only while a client subscribes to its channel: no client, no c
               size of the last image or camera_info seen
   serves      /view/robot  foxglove.SceneUpdate: a Go2-sized box on base_frame (base_link), every
               second, for the 3D panel (with /tf)
-  publishes   only for clients (capability clientPublish), only these topics and types: the safety
-              gate's inputs, and a person's answer to `go2vlm mcp --confirm`:
-                /emergency_stop          std_msgs/Bool    (reliable)
-                /emergency_stop/release  std_msgs/String  (reliable)
+  publishes   nothing by default. With allow_client_publish (`go2vlm view --publish`), for clients
+              that came in with the token (capability clientPublish), only these topics and types:
+                /emergency_stop          std_msgs/Bool    (reliable): true only: a client engages the
+                                         e-stop, never releases it (false is refused)
                 /teleop/cmd_vel          geometry_msgs/Twist (reliable)
                 /mcp/confirm             std_msgs/String  (reliable): "yes <id>" for /mcp/pending
               client messages in cdr or json encoding; anything else a client advertises or sends
-              (/cmd_vel included) is refused, logged and counted (client_publish_refused), and the
-              client is told so in a status message
+              (/cmd_vel and /emergency_stop/release included: the release stays `go2vlm estop
+              --release` at the robot's terminal) is refused, logged and counted
+              (client_publish_refused), and the client is told so in a status message
+
+Who may connect (apps/view/front.py): with publishing off, the SDK serves host:port and offers no
+publishing at all. With it on, host:port is a front door that lets a WebSocket handshake in only
+with the token (`?token=` in the URL, or `Authorization: Bearer`; from $GO2VLM_VIEW_TOKEN or
+token_file, at least 16 characters, never a parameter or the command line) and, from a browser, an
+Origin in allowed_origins; refused ones are counted (client_refused) with the reason in the log.
+The SDK itself then listens on a loopback port of its own, and publishes only for clients whose
+connection came through the front door.
 """
 
 from __future__ import annotations
@@ -44,6 +53,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 
+from go2vlm.apps.view.front import TOKEN_ENV, FrontDoor, Handshake
 from go2vlm.bus import Node, ParamError, Publisher, QosProfile, RawSample, Subscription, param
 from go2vlm.bus.domain import ros_topic_name
 from go2vlm.bus.graph import profile_of
@@ -57,6 +67,7 @@ from go2vlm.bus.topics import (
     TOPICS,
     VLM_DETECTIONS,
 )
+from go2vlm.errors import ConfigError
 from go2vlm.msgs import get_type
 from go2vlm.msgs.convert import from_dict
 from go2vlm.msgs.geometry_msgs import PointStamped
@@ -64,15 +75,17 @@ from go2vlm.msgs.msgdef import msgdef, ros_type
 from go2vlm.msgs.sensor_msgs import CameraInfo, CompressedImage, Image
 from go2vlm.msgs.vision_msgs import Detection2DArray, best_hypothesis, box_corners
 from go2vlm.robot_profile.go2 import SIM
+from go2vlm.secret import MIN_TOKEN_CHARS, read_secret
 
 if TYPE_CHECKING:
     from foxglove.websocket import ServerListener
 
 __all__ = ["CLIENT_TOPICS", "ViewConfig", "ViewNode"]
 
-# What a Foxglove client may publish: the safety gate's inputs and a person's yes to an MCP agent's
-# goal (`go2vlm mcp --confirm`), nothing else (never /cmd_vel).
-CLIENT_TOPICS: dict[str, type] = {t.name: t.type for t in (EMERGENCY_STOP, ESTOP_RELEASE, TELEOP_CMD_VEL, MCP_CONFIRM)}
+# What a Foxglove client may publish (with allow_client_publish and the token): the e-stop (engage
+# only), teleop and a person's yes to an MCP agent's goal (`go2vlm mcp --confirm`); nothing else:
+# never /cmd_vel, never the e-stop's release (a deliberate act at the robot's terminal).
+CLIENT_TOPICS: dict[str, type] = {t.name: t.type for t in (EMERGENCY_STOP, TELEOP_CMD_VEL, MCP_CONFIRM)}
 ROBOT_TOPIC = "/view/robot"
 GO2_BOX = (SIM.footprint_length, SIM.footprint_width, 0.40)  # metres: the Go2 standing, as one box
 
@@ -88,7 +101,17 @@ class ViewConfig:
     camera_info_topic: str = param(CAMERA_INFO.name, help="image size for target annotations")
     base_frame: str = param("base_link", help="frame of the robot box in /view/robot")
     exclude: list[str] = param(list, help="topics never forwarded")
-    allow_client_publish: bool = param(True, help="let clients publish the e-stop, the release and teleop")
+    allow_client_publish: bool = param(
+        False, help="let clients with the token publish the e-stop (engage only), teleop and /mcp/confirm"
+    )
+    token_file: str = param(
+        "", help=f"with allow_client_publish: a file whose first line is the clients' token; '' = ${TOKEN_ENV}"
+    )
+    allowed_origins: list[str] = param(
+        ["https://app.foxglove.dev"],
+        help="with allow_client_publish: browser pages (Origin) that may connect, 'scheme://host:*' for any port; "
+        "clients without an Origin (not a browser) need only the token",
+    )
     discovery_period_s: float = param(0.5, help="look for new topics this often", min=0.05)
 
     def validate(self) -> None:
@@ -130,7 +153,10 @@ class ViewNode(Node):
         self._approved: dict[tuple[int, int], tuple[str, type[Any], str]] = {}
         self._image_size = (640, 480)
         self._approved_lock = threading.Lock()
+        self._trusted: set[int] = set()  # SDK client ids whose connection came through the front door
         self.client_pubs: dict[str, Publisher[Any]] = {}
+        self.door: FrontDoor | None = None
+        token = self._token() if c.allow_client_publish else ""
         if c.allow_client_publish:
             for name in CLIENT_TOPICS:
                 self.client_pubs[name] = TOPICS[name].publisher(self)
@@ -141,27 +167,54 @@ class ViewNode(Node):
         self._robot = SceneUpdateChannel(ROBOT_TOPIC, context=self.ctx)
         self._pubs_reader = BuiltinDataReader(self.participant, BuiltinTopicDcpsPublication)
         caps = [Capability.ClientPublish] if c.allow_client_publish else []
+        # Publishing on: the SDK on a loopback port of its own, behind the front door on host:port.
+        host, port = ("127.0.0.1", 0) if c.allow_client_publish else (c.host, c.port)
         try:
             self.server = foxglove.start_server(
                 name="go2vlm",
-                host=c.host,
-                port=c.port,
+                host=host,
+                port=port,
                 capabilities=caps,
                 supported_encodings=["cdr", "json"],
                 # The SDK's Protocol has default bodies, meant to be inherited; foxglove is imported lazily.
                 server_listener=cast("ServerListener", _Listener(self)),
                 context=self.ctx,
             )
+            if c.allow_client_publish:
+                rules = Handshake(token, tuple(c.allowed_origins))
+                self.door = FrontDoor(c.host, c.port, self.server.port, rules, self._refused_handshake)
         except Exception as exc:  # port taken, address not local: a setting to change, said in one line
             self._pubs_reader.__del__()
+            if getattr(self, "server", None) is not None:
+                self.server.stop()
             raise ParamError(f"cannot serve Foxglove on {c.host}:{c.port}: {exc}") from None
-        self.port = self.server.port
+        self.port = self.door.port if self.door is not None else self.server.port
         CAMERA_INFO.subscription(self, self._on_camera_info, name=c.camera_info_topic)
         self.create_timer(c.discovery_period_s, self._discover)
         self.create_timer(0.05, self._apply_requests)
         self.create_timer(1.0, self._send_robot)
         self._discover()
         self.log.info(f"Foxglove WebSocket on ws://{c.host}:{self.port} (Open connection -> Foxglove WebSocket)")
+        if self.door is not None:
+            self.log.info(f"clients with the token may publish; the SDK itself on 127.0.0.1:{self.server.port} "
+                          "publishes for none that bypass the front door")  # fmt: skip
+
+    def _token(self) -> str:
+        """The clients' token, from token_file or $GO2VLM_VIEW_TOKEN; a ParamError when there is none."""
+        try:
+            token = read_secret(TOKEN_ENV, self.config.token_file or None, "the view's token_file")
+        except ConfigError as exc:
+            raise ParamError(str(exc)) from None
+        if len(token) < MIN_TOKEN_CHARS:
+            raise ParamError(
+                f"allow_client_publish needs a token of at least {MIN_TOKEN_CHARS} characters in ${TOKEN_ENV} or "
+                "token_file (e.g. `openssl rand -hex 16`); never on the command line"
+            )
+        return token
+
+    def _refused_handshake(self, why: str) -> None:
+        n = self.count("client_refused")
+        self.log.throttled("warning", 1.0, f"refused a client: {why} ({n} refused so far)", key="handshake")
 
     # -- what the bus has --------------------------------------------------------------------------
     def _discover(self) -> None:
@@ -360,8 +413,23 @@ class ViewNode(Node):
 
     # -- what clients send -----------------------------------------------------------------------
     def client_advertised(self, client_id: int, channel_id: int, topic: str, encoding: str, schema: str) -> None:
+        if self.door is not None and topic == self.door.hello_topic:
+            with self._approved_lock:  # this connection came through the front door (token, Origin)
+                self._trusted.add(client_id)
+            return
         cls = CLIENT_TOPICS.get(topic)
-        if not self.config.allow_client_publish or cls is None:
+        if not self.config.allow_client_publish:
+            self._refuse(f"clients may not publish here (the view runs without allow_client_publish): {topic}")
+            return
+        with self._approved_lock:
+            trusted = client_id in self._trusted
+        if not trusted:
+            self._refuse(f"{topic}: this client did not come in through the view's port with the token")
+            return
+        if topic == ESTOP_RELEASE.name:
+            self._refuse("a client never releases the e-stop: release it at the robot with `go2vlm estop --release`")
+            return
+        if cls is None:
             self._refuse(f"a client may not publish {topic}; allowed: {', '.join(CLIENT_TOPICS)}")
             return
         if _ros2_name(schema) != ros_type(cls):
@@ -391,9 +459,12 @@ class ViewNode(Node):
             n = self.count("client_bad_messages")
             self.log.throttled("warning", 2.0, f"a client's {topic} message is malformed ({n} so far): {exc}")
             return
+        if topic == EMERGENCY_STOP.name and not msg.data:
+            self._refuse(f"{topic} false: a client engages the e-stop, never releases it", quiet=True)
+            return
         self.client_pubs[topic].publish(msg)
         self.count("client_published")
-        if topic == EMERGENCY_STOP.name and msg.data:
+        if topic == EMERGENCY_STOP.name:
             self.log.warning("a Foxglove client engaged the e-stop")
 
     def _refuse(self, why: str, quiet: bool = False) -> None:
@@ -406,6 +477,8 @@ class ViewNode(Node):
                 pass
 
     def close(self) -> None:
+        if self.door is not None:
+            self.door.close()
         self.server.stop()
         try:
             self._pubs_reader.__del__()

@@ -37,7 +37,7 @@ class ExploreParams:
     look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left in sight, in range
     second_pass_m: float = 2.0  # all seen and time left: look at it all again, a frame counting out to this
     timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
-                             max=3600.0, live=True)  # fmt: skip
+                             max=3600.0, live=True, bound="max")  # fmt: skip
     planner: GlobalParams = field(default_factory=GlobalParams)
 
     def __post_init__(self) -> None:

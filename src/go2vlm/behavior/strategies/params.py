@@ -25,9 +25,9 @@ class MissionParams:
         0.05, help="go to: reached within this of stop_distance_m", min=0.0, max=1.0, live=True
     )
     max_linear: float = param(
-        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True
+        0.4, help="forward speed ceiling (m/s); the gate limits again", min=0.0, max=1.0, live=True, bound="max"
     )
-    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True)
+    max_angular: float = param(0.8, help="|yaw rate| ceiling (rad/s)", min=0.0, max=2.0, live=True, bound="max")
     kp_linear: float = param(0.8, help="go to: P gain from distance error to linear.x", min=0.0, max=5.0, live=True)
     # follow, go to, look for: one gain (the follower node's own is the article's demo's)
     kp_angular: float = param(
@@ -43,7 +43,7 @@ class MissionParams:
     decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
     decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
     max_turn_deg: float = param(
-        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True
+        30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True, bound="max"
     )
     avoid_obstacles: bool = param(True, help="go to / follow (self): steer round obstacles on scan_topic", live=True)
     scan_timeout_s: float = param(0.5, help="a scan older than this (s) is no scan: no planning", min=0.05, max=5.0)
