@@ -5,8 +5,7 @@
 A thin node over the pure Mission core (behavior/mission.py has the rules, behavior/strategies/ the
 ways to the goal); it does not look at images: the target_tracker grounds, tracks and ranges, the
 vlm node answers decisions. It drives every goal itself, follow included, with one control law
-(behavior/control.py) and one set of gains (kp_angular, kp_linear, max_linear, max_angular); the
-follower node is the follow article's standalone demo, not part of this graph.
+(behavior/control.py); the follower node is the follow article's standalone demo, not this graph's.
 
 Topics (QoS: reliable, volatile, keep-last 10 unless noted)
   subscribes  /goal               std_msgs/String       a goal as text (also the `goal` parameter), or
