@@ -130,11 +130,12 @@ def test_the_controller_turns_in_place_to_a_route_behind_and_is_blocked_by_what_
     d = pursue(path, (0.0, 0.0, 0.0), None, 0.0, p, 0.5, 0.8)
     assert d.mode == "rotate" and d.vx == 0.0 and d.wz != 0.0
     ahead = np.array([[0.0, 0.0], [3.0, 0.0]])
-    wall = np.array([[0.45, y] for y in np.linspace(-0.5, 0.5, 21)])  # 0.1 m before the footprint's front
+    creep = Clearance().creep_m
+    wall = np.array([[0.35 + creep + 0.08, y] for y in np.linspace(-0.5, 0.5, 21)])  # 8 cm beyond the creep's gap
     d = pursue(ahead, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8)
-    assert d.mode == "track" and 0.0 < d.vx < 0.1  # a creep keeps only a few centimetres
-    d = pursue(ahead, (0.0, 0.0, 0.0), wall - (0.07, 0.0), 0.0, p, 0.5, 0.8)
-    assert d.mode == "blocked" and d.vx == 0.0  # within them already: no nearer
+    assert d.mode == "track" and 0.0 < d.vx < 0.1  # a creep keeps only the creep's gap
+    d = pursue(ahead, (0.0, 0.0, 0.0), wall - (0.1, 0.0), 0.0, p, 0.5, 0.8)
+    assert d.mode == "blocked" and d.vx == 0.0  # within it already: no nearer
     d = pursue(ahead, (0.0, 0.0, 0.0), None, 0.0, p, 0.5, 0.8)
     assert d.mode == "track" and d.vx > 0.3 and abs(d.wz) < 1e-6
 

@@ -77,8 +77,6 @@ class CommanderConfig:
     nav_approach_gain: float = from_core(NavParams, "approach_gain")
     nav_min_speed: float = from_core(NavParams, "min_speed")
     nav_horizon_s: float = from_core(NavParams, "horizon_s")
-    nav_clearance_m: float = from_core(NavParams, "clearance_m")
-    nav_clearance_per_mps: float = from_core(NavParams, "clearance_per_mps")
     nav_progress_m: float = from_core(NavParams, "progress_m")
     nav_progress_s: float = from_core(NavParams, "progress_s")
     nav_spin_deg: float = from_core(NavParams, "spin_deg")

@@ -31,12 +31,15 @@ class Clearance:
     defaults a Go2 (0.31 m wide) crosses a 0.8 m doorway square-on at up to 0.36 m/s (0.245 m each
     side), refuses a 0.5 m gap (0.095 m each side, less than `creep_m`), and keeps 0.3 m at 0.5 m/s."""
 
+    # bound="min": a clearance is a safety limit, it may only grow while a node runs (declare.py)
     creep_m: float = param(
-        0.10, help="clearance: gap (m) the footprint keeps from any obstacle at a creep", min=0.0, max=1.5, live=True
-    )
+        0.10, help="clearance: gap (m) the footprint keeps from any obstacle at a creep", min=0.0, max=1.5,
+        live=True, bound="min",
+    )  # fmt: skip
     per_speed_s: float = param(
-        0.4, help="clearance: gap added (m) per m/s of the footprint's fastest point", min=0.0, max=3.0, live=True
-    )
+        0.4, help="clearance: gap added (m) per m/s of the footprint's fastest point", min=0.0, max=3.0,
+        live=True, bound="min",
+    )  # fmt: skip
     creep_mps: float = param(
         0.15, help="clearance: a creep (m/s): how fast it passes where only the creep's gap is free", min=0.02, max=1.0
     )
