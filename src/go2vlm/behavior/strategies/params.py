@@ -10,6 +10,7 @@ from go2vlm.behavior.control import ApproachParams
 from go2vlm.behavior.planner import PlannerParams
 from go2vlm.declare import param
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.ranging import RangingParams
 
 __all__ = ["MissionParams"]
 
@@ -51,6 +52,7 @@ class MissionParams:
         8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
     )
     planner: PlannerParams = field(default_factory=PlannerParams)
+    ranging: RangingParams = field(default_factory=RangingParams)  # the target's range (world/ranging.py)
     use_memory: bool = param(True, help="go to / look for remembered objects (objects_topic)", live=True)
     # one sighting: 0.5; then three empty looks: 0.32
     memory_min_confidence: float = param(
