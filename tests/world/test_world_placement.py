@@ -158,10 +158,13 @@ def test_a_wall_behind_the_object_is_not_its_range(pose: Pose2D, dist: float, be
     obj = _object_in_view(pose, dist, bearing)
     box = cylinder_box(pose, obj, R, H)
     assume(box is not None)
-    cx, cy = pose.to_world(MOUNT.forward_m, MOUNT.left_m)
-    far = math.hypot(obj[0] - cx, obj[1] - cy) + R + behind
-    wall = cylinder_scan(pose, (cx + far * math.cos(math.atan2(obj[1] - cy, obj[0] - cx)),
-                                cy + far * math.sin(math.atan2(obj[1] - cy, obj[0] - cx))), 3.0)  # fmt: skip
+    ox, oy = pose.to_local(*obj)
+    dx, dy = ox - MOUNT.forward_m, oy - MOUNT.left_m
+    d = math.hypot(dx, dy)
+    ux, uy = dx / d, dy / d
+    t = np.linspace(-1.5, 1.5, 61)  # a wall across the bearing, `behind` m past the object's far side
+    far = d + R + behind
+    wall = np.column_stack([MOUNT.forward_m + far * ux - t * uy, MOUNT.left_m + far * uy + t * ux])
     p = place("blue cylinder", box, 1.0, pose, CAM, MOUNT, ranger(), wall)
     assert p.method == "bottom"
     assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.1

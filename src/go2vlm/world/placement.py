@@ -16,9 +16,11 @@ Rules
   the nearest scan return within the box's bearings (the middle half of them) when it agrees with the
   monocular range (nearer by at most `lidar_agree_m` or `lidar_agree_frac` of it, farther by at most
   `lidar_past_m`: a return farther is the lidar seeing past the object, the wall behind a duck) or
-  when there is no monocular range and the return is within `lidar_only_max_m`; never a return of a
-  surface that runs on past both edges of the box at that range (`surface_m`, `past_rad`): that is the
-  wall behind a small object, which a noisy bottom edge far away may happen to agree with. Neither: a
+  when there is no monocular range and the return is within `lidar_only_max_m`; and only a return of
+  a surface as wide as the box: one that spans its share of it (world/ranging.py `as_wide`, the
+  tracked target's rule: not a table leg before a tray) and does not run on past both of its edges at
+  that range (`surface_m`, `past_rad`: the wall behind a small object, which a noisy bottom edge far
+  away may happen to agree with). Neither: a
   bearing-only sighting (`range_m` None), which can confirm an object already remembered along that
   bearing but places nothing new. So is a
   box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
@@ -34,7 +36,7 @@ Rules
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -45,6 +47,7 @@ from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.vocabulary.words import ROUND_SHAPES, SHAPES
 from go2vlm.world.poses import Pose2D, wrap_angle
+from go2vlm.world.ranging import RangingParams, as_wide
 
 __all__ = ["CameraMount", "Placed", "PlacementError", "PlacementParams", "check_box", "place", "rebase"]
 
@@ -86,6 +89,7 @@ class PlacementParams:
     lidar_past_m: float = 0.15  # ... and farther than it by at most this (a scan bin, the near edge's error)
     lidar_only_max_m: float = 2.0  # without a monocular range, a scan return this close is the object
     max_range_m: float = 15.0  # a place farther than this is absurd
+    ranging: RangingParams = field(default_factory=RangingParams)  # as_wide's scan_depth_m and scan_cover
     free_depth_m: float = 1.0  # an object of no known shape is taken no deeper than this (m)
 
 
@@ -141,6 +145,15 @@ def rebase(points: np.ndarray, from_pose: Pose2D, to_pose: Pose2D) -> np.ndarray
     wy = from_pose.y + s * p[:, 0] + c * p[:, 1] - to_pose.y
     c2, s2 = math.cos(to_pose.yaw), math.sin(to_pose.yaw)
     return np.column_stack([c2 * wx + s2 * wy, -s2 * wx + c2 * wy])
+
+
+def _fits_box(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
+    """Is the surface the scan hit at range `d` as wide as the box (bearings `b_r`..`b_l` from the
+    camera) -- it spans its share of the box (world/ranging.py `as_wide`, the target's rule) and does
+    not run on past both of its edges?"""
+    origin = (mount.forward_m, mount.left_m)
+    wide = as_wide(p.ranging, points, origin, d, (b_r + b_l) / 2.0, b_l - b_r)
+    return wide and not _runs_past(points, mount, d, b_r, b_l, p)
 
 
 def _runs_past(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
@@ -202,8 +215,8 @@ def place(
     rng, method = mono, reading.method
     if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
-    elif lidar is not None and scan_points is not None and _runs_past(scan_points, mount, lidar, b_r, b_l, p):
-        pass  # a surface wider than the box at that range (the wall behind it): not the object's range
+    elif lidar is not None and scan_points is not None and not _fits_box(scan_points, mount, lidar, b_r, b_l, p):
+        pass  # a surface narrower or wider than the box at that range (a leg, the wall behind): not the object
     elif lidar is not None:
         # Nearer than the monocular range by up to the tolerance, or farther by at most lidar_past_m: a
         # return farther is what the lidar sees past the object (a duck below its plane: the wall

@@ -33,15 +33,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from go2vlm.declare import param
 from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.labels import label_fits
-from go2vlm.world.objects_msg import Remembered
 from go2vlm.world.poses import Pose2D, wrap_angle
+
+if TYPE_CHECKING:  # objects_msg -> memory -> placement -> here: the type alone
+    from go2vlm.world.objects_msg import Remembered
 
 __all__ = ["SIZE_METHODS", "RangingParams", "Reading", "TargetRanging", "as_wide", "remembered_on"]
 
