@@ -83,6 +83,8 @@ __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
+
+
 @dataclass
 class TargetTrackerConfig:
     """The target_tracker's parameters: those of the TargetTracking core are its TrackingParams' fields

@@ -128,8 +128,7 @@ class Go2DriverConfig(RobotEndConfig):
         p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
     )
     aes_key_file: str = param(
-        "",
-        help="webrtc: a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
+        "", help="webrtc: a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
         "needed on firmware >= 1.1.15",
     )
     connect_timeout_s: float = param(
