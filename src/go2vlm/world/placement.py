@@ -18,7 +18,7 @@ Rules
   `lidar_past_m`: a return farther is the lidar seeing past the object, the wall behind a duck) or
   when there is no monocular range and the return is within `lidar_only_max_m`; and only a return of
   a surface as wide as the box: one that spans its share of it (world/ranging.py `as_wide`, the
-  tracked target's rule: not a table leg before a tray) and does not run on past both of its edges at
+  tracked target's rule: not a table leg before a tray) and does not run on past either of its edges at
   that range (`surface_m`, `past_rad`: the wall behind a small object, which a noisy bottom edge far
   away may happen to agree with). Neither: a
   bearing-only sighting (`range_m` None), which can confirm an object already remembered along that
@@ -150,24 +150,25 @@ def rebase(points: np.ndarray, from_pose: Pose2D, to_pose: Pose2D) -> np.ndarray
 def _fits_box(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
     """Is the surface the scan hit at range `d` as wide as the box (bearings `b_r`..`b_l` from the
     camera) -- it spans its share of the box (world/ranging.py `as_wide`, the target's rule) and does
-    not run on past both of its edges?"""
+    not run on past either of its edges?"""
     origin = (mount.forward_m, mount.left_m)
     wide = as_wide(p.ranging, points, origin, d, (b_r + b_l) / 2.0, b_l - b_r)
     return wide and not _runs_past(points, mount, d, b_r, b_l, p)
 
 
 def _runs_past(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
-    """Do scan returns at about the range `d` (within `surface_m`) lie beyond both edges of the box
+    """Do scan returns at about the range `d` (within `surface_m`) lie beyond an edge of the box
     (bearings `b_r`..`b_l` from the camera), by up to the box's width again? Then the return is of a
-    surface that runs on past the object on both sides (a wall behind it, a floor-to-ceiling shelf
-    behind a duck), not of the object, whose returns end where its box does."""
+    surface that runs on past the object (a wall behind it; one side is enough, as in a corner the
+    other wall lies at another range), not of the object, whose returns end where its box does. An
+    object against a wall at its own range loses the lidar too, and is placed by its bottom edge."""
     rel = np.asarray(points, dtype=float).reshape(-1, 2) - (mount.forward_m, mount.left_m)
     ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
     at = (np.abs(rng - d) <= p.surface_m) & (rel[:, 0] > 0.0)
     reach = max(b_l - b_r, p.past_rad)
     left = at & (ang > b_l + p.past_gap_rad) & (ang <= b_l + reach)
     right = at & (ang < b_r - p.past_gap_rad) & (ang >= b_r - reach)
-    return bool(left.any() and right.any())
+    return bool(left.any() or right.any())
 
 
 def _sigma(method: str, d: float) -> float:

@@ -24,6 +24,9 @@ against what the world holds at the same moment:
 - The go-to cap. A range by the object's size beyond a cap counts only once such ranges have held
   `far_hold_s` (`capped`): one frame of a sliver of the object can range it tens of metres away.
 
+The object memory's placement (world/placement.py) asks the scan the same question of an answer's
+box before a return ranges it (`as_wide`).
+
 Distances are base centre -> the object's surface (m); the tracker's are camera -> surface, and the
 camera sits `camera_forward_m` ahead of the base centre.
 """
