@@ -259,3 +259,30 @@ def test_a_second_signal_waits_for_the_results() -> None:
     term = ShutdownRequested()
     term._on_signal(signal.SIGTERM)
     assert term.exit_code == 143
+
+
+def test_the_memory_is_scored_against_its_bodies_and_summed_in_the_report() -> None:
+    """A remembered object is measured from its body's centre, or for a long body (a wall) from the
+    line its middle runs on: a place anywhere along a wall is on it. A remembered object of no body's
+    label, or farther than PHANTOM_M, is a phantom. The report sums them per group."""
+    from go2vlm.apps.episodes.metrics import PHANTOM_M, memory_metrics
+    from go2vlm.apps.episodes.report import summarize
+    from go2vlm.world.objects_msg import Remembered
+
+    def rem(oid: str, label: str, x: float, y: float) -> Remembered:
+        return Remembered(oid, label, x, y, 0.2, (0.3, 0.3, 0.3), 0.9, 1.0, (0.01, 0.0, 0.01))
+
+    bodies = {"wall_north": Footprint.rect(0.0, 3.5, 0.0, 12.0, 0.1), "duck": Footprint("circle", -4.8, -2.6, r=0.1)}
+    far = -2.6 - PHANTOM_M - 0.1
+    objs = [rem("w", "wall_north", 4.5, 3.45), rem("d", "duck", -4.7, -2.6), rem("p", "duck", -4.8, far),
+            rem("x", "blue mug", 0.0, 0.0)]  # fmt: skip
+    m = memory_metrics(objs, bodies)
+    got = {o["id"]: o for o in m["objects"]}
+    assert got["w"]["error_m"] == pytest.approx(0.05) and not got["w"]["phantom"]
+    assert got["d"]["error_m"] == pytest.approx(0.1) and not got["d"]["phantom"]
+    assert got["p"]["phantom"] and got["x"]["phantom"] and m["phantoms"] == 2
+    assert m["mean_error_m"] == pytest.approx(0.075)
+    line = {"metrics": {"success": True, "kind": "go_to", "collisions": 0, "fell": False, "wall_s": 1.0, "memory": m},
+            "config": {"suite": "s", "perception": "oracle", "run_id": "r"}, "suite": "s"}  # fmt: skip
+    [row] = summarize([line])
+    assert (row["memory_objects"], row["memory_phantoms"], row["memory_mean_error_m"]) == (4, 2, 0.075)

@@ -174,8 +174,9 @@ def test_a_thin_thing_on_the_bearing_of_a_wider_target_does_not_range_it() -> No
 
     from go2vlm.behavior.goals import parse_goal
     from go2vlm.behavior.sighting import Sighting
-    from go2vlm.behavior.strategies.base import SCAN_COVER, Context
+    from go2vlm.behavior.strategies.base import Context
     from go2vlm.behavior.strategies.params import MissionParams
+    from go2vlm.world.ranging import RangingParams
 
     p = MissionParams()
     cf = p.camera_forward_m
@@ -186,6 +187,7 @@ def test_a_thin_thing_on_the_bearing_of_a_wider_target_does_not_range_it() -> No
     leg = np.array([[cf + 0.84, 0.0], [cf + 0.86, 0.01]])
     ctx.scan = (leg, 1.0)
     assert ctx.base_distance(1.0) == pytest.approx(1.7 + cf, abs=0.01)  # the leg: not the tray
+    SCAN_COVER = RangingParams().scan_cover
     for cover, want in ((SCAN_COVER + 0.1, 0.84 + cf), (SCAN_COVER - 0.1, 1.7 + cf)):
         a = np.linspace(-cover * width / 2, cover * width / 2, 7)
         ctx.scan = (np.column_stack([cf + 0.84 * np.cos(a), 0.84 * np.sin(a)]), 1.0)
@@ -218,8 +220,8 @@ def test_a_range_far_short_of_the_remembered_object_on_its_bearing_gives_way_to_
     and the go to ended `reached` 7.4 m short, while the memory held the shelf, seen 0.5 s before,
     8 m away on that bearing. A confident, fresh remembered object of the goal's label on the bearing,
     far beyond the range, is the range; an old, unsure, off-bearing or near one is not."""
-    from go2vlm.behavior.strategies.base import MEMORY_FRESH_S
     from go2vlm.world.objects_msg import Remembered
+    from go2vlm.world.ranging import RangingParams
 
     p = MissionParams()
     cf = p.camera_forward_m
@@ -243,6 +245,7 @@ def test_a_range_far_short_of_the_remembered_object_on_its_bearing_gives_way_to_
     cmd = Approach().step(ctx, 10.0)
     assert cmd is not None and cmd.state == "detouring" and "(memory)" in cmd.reason, cmd
     ctx.scan = (np.zeros((0, 2)), 10.0)
+    MEMORY_FRESH_S = RangingParams().memory_fresh_s
     for other in (shelf(8.5, conf=0.3), shelf(8.5, seen=10.0 - MEMORY_FRESH_S - 0.5), shelf(8.5, y=4.0),
                   shelf(2.2), shelf(8.5, label="duck")):  # fmt: skip
         ctx.memory, ctx.overruled = [other], None  # (not held from the overrule above: MEMORY_HOLD_S)
@@ -253,11 +256,10 @@ def test_the_memory_s_range_is_held_a_moment_after_it_overruled() -> None:
     """Rooms 37 at 405ed76: for one step the shelf fell out of the memory's cone, and the blob on the
     door leaf, 0.81 m away and ranged by the lidar, was `reached` 7.4 m short. The memory's range
     stands MEMORY_HOLD_S after it last overruled, while the tracker's is still as far short of it."""
-    from go2vlm.behavior.strategies.base import MEMORY_HOLD_S
     from go2vlm.world.objects_msg import Remembered
 
     p = MissionParams()
-    cf = p.camera_forward_m
+    cf, MEMORY_HOLD_S = p.camera_forward_m, p.ranging.memory_hold_s
     ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
     ctx.scan = (np.zeros((0, 2)), 10.0)
     ctx.memory = [Remembered("s1", "shelf", 8.5, 0.0, 0.5, (1.0, 1.0, 1.0), 0.9, 9.5, (0.01, 0.0, 0.01))]
@@ -287,11 +289,11 @@ def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> 
     such ranges; a range by the bottom edge counts at once; a range within the cap starts the hold again."""
     from go2vlm.behavior.goals import parse_goal
     from go2vlm.behavior.sighting import Sighting
-    from go2vlm.behavior.strategies.base import FAR_HOLD_S, Context
+    from go2vlm.behavior.strategies.base import Context
     from go2vlm.behavior.strategies.params import MissionParams
 
     p = MissionParams()
-    cf, cap = p.camera_forward_m, 25.0
+    cf, cap, FAR_HOLD_S = p.camera_forward_m, 25.0, p.ranging.far_hold_s
     ctx = Context(p, goal=parse_goal("go to the teddy bear"), view=math.radians(73))
 
     def seen(t: float, d: float, method: str) -> float | None:

@@ -119,3 +119,12 @@ def test_no_other_module_spells_a_word_list() -> None:
                     if len({s for s in strings if s in words}) >= 2:
                         found.append(f"{rel}:{line} spells {kind} words {strings}")
     assert not found, "take the words from go2vlm.vocabulary:\n" + "\n".join(found)
+
+
+def test_a_label_with_more_than_a_colour_and_a_shape_keeps_its_words() -> None:
+    """ "blue_mug" is a mug, not every blue thing: the memory kept it as "blue", which no body is."""
+    from go2vlm.world.labels import label_fits, normalize_label
+
+    assert normalize_label("blue_mug") == "blue mug" and normalize_label("the red_lego_brick") == "red lego brick"
+    assert normalize_label("box_1") == "box 1" and normalize_label("red_sphere") == "red ball"
+    assert label_fits("blue mug", normalize_label("blue_mug")) == 2 and label_fits("box", "box 1") >= 1

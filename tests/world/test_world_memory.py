@@ -165,3 +165,15 @@ def test_a_rough_far_sighting_and_sharp_near_ones_are_one_object() -> None:
                   view_towards(-2.0, 0.0, k, camera=(-0.8, 0.0)))  # fmt: skip
     (o,) = m.snapshot()
     assert math.hypot(o.x + 2.0, o.y) < 0.1 and o.seen == 24
+
+
+def test_a_sighting_too_unsure_of_its_place_starts_nothing_but_still_joins() -> None:
+    """A far bottom edge is a metre or more off: it starts no object (refused.uncertain), since nothing
+    seen later would refute a place behind a wall; the same sighting near a remembered object joins it."""
+    m = ObjectMemory()
+    loose = MemoryParams().new_max_sigma_m * 1.5
+    assert m.observe([sighting("duck", 6.0, 0.0, sigma=loose)], view_towards(6.0, 0.0)) == ["refused.uncertain"]
+    assert not m.objects and m.counters["refused.uncertain"] == 1
+    [oid] = m.observe([sighting("duck", 2.0, 0.0, sigma=0.1, stamp=2.0)], view_towards(2.0, 0.0, 2.0))
+    assert m.observe([sighting("duck", 2.4, 0.0, sigma=loose, stamp=3.0)], view_towards(2.0, 0.0, 3.0)) == [oid]
+    assert m.objects[oid].seen == 2 and abs(m.objects[oid].x - 2.0) < 0.1

@@ -259,24 +259,55 @@ def _free_past_walls(grid: OccupancyMap, room: tuple[float, float] = ROOM) -> in
 
 @settings(max_examples=30, deadline=None)
 @given(start=st.integers(0, BINS - 1), width=st.integers(OPEN, 120))
-def test_a_ray_without_a_return_never_clears_a_wall_the_map_has_seen(start: int, width: int) -> None:
-    """Once a wall is on the map, no opening in the scan (beams without a return, however many)
-    clears it or anything past it: free space outside the house would be a frontier outside it."""
+def test_a_ray_without_a_return_clears_what_it_passes_through(start: int, width: int) -> None:
+    """A wall on the map, then an opening in the scan (beams without a return, wider than a gap in the
+    sampling): the rays looked and saw nothing, so the wall they pass through has gone (a door opened).
+    They clear it after a few scans, out to no_return_m and no farther; the walls off the opening stay."""
     room = (1.02, 0.98)  # near walls: the returns 2 degrees apart fall in neighbouring cells
     pose = Pose2D(0.0, 0.0, 0.0)
     beams = room_scan(pose, room=room)
     grid = OccupancyMap()
     grid.integrate(beams, pose)
-    rows, cols = np.nonzero(grid.values() == LETHAL)
-    walls = [((c + grid.offset[0] + 0.5) * grid.resolution, (r + grid.offset[1] + 0.5) * grid.resolution)
-             for r, c in zip(rows, cols, strict=True)]  # fmt: skip
     opening = beams.ranges.copy()
-    opening[np.arange(start, start + width) % BINS] = np.inf
-    for _ in range(5):
+    idx = np.arange(start, start + width) % BINS
+    opening[idx] = np.inf
+    for _ in range(10):  # (max_logodds - free_logodds) / miss scans at most
         grid.integrate(Beams(opening, beams.angle_min, INC, beams.range_min, beams.range_max), pose)
-    assert _free_past_walls(grid, room) == 0
     values = grid.values()
-    assert all(values[grid.cell_of(x, y)] == LETHAL for x, y in walls), "a wall cell cleared by rays that saw nothing"
+    angles = beams.angle_min + INC * idx[1:-1]  # the opening's inner beams (its edges share cells)
+    for a in angles:
+        r = min(room[0] / max(abs(math.cos(a)), 1e-9), room[1] / max(abs(math.sin(a)), 1e-9))
+        x, y = r * math.cos(a), r * math.sin(a)
+        assert values[grid.cell_of(x, y)] == FREE, f"the wall at {math.degrees(a):.0f} deg stayed"
+    reach = GridParams().no_return_m + grid.resolution
+    rows, cols = np.nonzero(values == FREE)
+    xs, ys = (cols + grid.offset[0] + 0.5) * grid.resolution, (rows + grid.offset[1] + 0.5) * grid.resolution
+    assert float(np.hypot(xs, ys).max()) <= reach
+    inside = set(idx.tolist())
+    kept = [k for k in range(BINS) if all((k + d) % BINS not in inside for d in range(-3, 4))]
+    for k in kept:  # the walls off the opening (three beams clear of it) stay
+        a = beams.angle_min + INC * k
+        assert values[grid.cell_of(beams.ranges[k] * math.cos(a), beams.ranges[k] * math.sin(a))] == LETHAL, k
+
+
+def test_an_obstacle_taken_away_is_cleared_by_rays_with_or_without_a_return() -> None:
+    """A door leaf 1 m ahead, mapped; then it opens. Behind it a wall 3 m off clears it in a few scans;
+    with nothing behind it (no return within range_max, over more than a gap in the sampling) it is
+    cleared all the same."""
+    pose = Pose2D(0.0, 0.0, 0.0)
+    for behind in (3.0, math.inf):
+        grid = OccupancyMap()
+        box = room_scan(pose, room=(3.0, 3.0)).ranges.copy()
+        ahead = np.abs(np.arange(BINS) - BINS // 2) <= OPEN // 2 + 1  # the beams round 0 rad (angle_min = -pi)
+        box[ahead] = 1.0
+        for _ in range(20):
+            grid.integrate(Beams(box, -math.pi, INC, 0.05, 10.0), pose)
+        assert grid.values()[grid.cell_of(1.0, 0.0)] == LETHAL
+        gone = box.copy()
+        gone[ahead] = behind
+        for _ in range(15):
+            grid.integrate(Beams(gone, -math.pi, INC, 0.05, 10.0), pose)
+        assert grid.values()[grid.cell_of(1.0, 0.0)] == FREE, behind
 
 
 def test_a_run_beside_a_near_object_is_the_lidars_shadow_not_an_opening() -> None:

@@ -146,3 +146,41 @@ def test_a_round_object_cut_by_the_image_lands_on_it(
     assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.06
     q = place("green box", clipped, 1.0, pose, cam, MOUNT, RangeEstimator("box"))
     assert not q.ranged and q.method == "cut"
+
+
+@settings(max_examples=100, deadline=None)
+@given(pose=poses, dist=st.floats(1.0, 6.0), bearing=st.floats(-0.4, 0.4), behind=st.floats(-2 * R, 3.0))
+def test_a_wall_behind_the_object_is_not_its_range(pose: Pose2D, dist: float, bearing: float, behind: float) -> None:
+    """A small object below the scan's reach, a wall `behind` m past its far side on its bearing (at
+    its near surface at worst): the wall's return is farther than the object's near surface, or it runs
+    on past both sides of the box, so it is not the object's and the object is placed by its own bottom
+    edge, never on the wall (the lidar's return put ducks and trays on the walls behind them)."""
+    obj = _object_in_view(pose, dist, bearing)
+    box = cylinder_box(pose, obj, R, H)
+    assume(box is not None)
+    ox, oy = pose.to_local(*obj)
+    dx, dy = ox - MOUNT.forward_m, oy - MOUNT.left_m
+    d = math.hypot(dx, dy)
+    ux, uy = dx / d, dy / d
+    t = np.linspace(-1.5, 1.5, 61)  # a wall across the bearing, `behind` m past the object's far side
+    far = d + R + behind
+    wall = np.column_stack([MOUNT.forward_m + far * ux - t * uy, MOUNT.left_m + far * uy + t * ux])
+    p = place("blue cylinder", box, 1.0, pose, CAM, MOUNT, ranger(), wall)
+    assert p.method == "bottom"
+    assert math.hypot(p.x - obj[0], p.y - obj[1]) < 0.1
+
+
+def test_a_wall_across_the_view_is_placed_on_its_face_not_behind_it() -> None:
+    """A thing of no known shape that spans the image's width is known by its face only: it is placed
+    on it, not half its visible width behind it (walls were remembered metres beyond themselves)."""
+    pose = Pose2D(0.0, 0.0, 0.0)
+    face = 3.0
+    ys = np.linspace(-4.0, 4.0, 161)
+    scan = np.column_stack([np.full_like(ys, MOUNT.forward_m + face), ys])
+    wall = (0.0, 0.0, float(CAM.width), CAM.cy + CAM.fy * MOUNT.height_m / face)  # its foot 3 m ahead
+    r = RangeEstimator(None, camera_height=MOUNT.height_m)
+    p = place("wall", wall, 1.0, pose, CAM, MOUNT, r, scan)
+    assert p.x - MOUNT.forward_m == pytest.approx(face, abs=0.1) and abs(p.y) < 0.05
+    narrow = (CAM.cx - 50.0, CAM.cy - 80.0, CAM.cx + 50.0, wall[3])  # seen whole: as deep as it is wide at most
+    q = place("crate", narrow, 1.0, pose, CAM, MOUNT, r, scan)
+    assert face < q.x - MOUNT.forward_m <= face + q.size[0] / 2 + 0.1

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from go2vlm.declare import param
+
 __all__ = [
     "ScanSpec",
     "cloud_to_ranges",
@@ -34,10 +36,17 @@ class ScanSpec:
     bins: int = 180  # 2 degrees: the sim lidar's azimuth step
     range_min: float = 0.05  # m
     range_max: float = 10.0  # m
-    z_min: float = -0.25  # m in the base frame: ~7 cm above the floor for a standing Go2 ...
-    # ... up to 0.77 m above the floor: a standing Go2 is 0.40 m tall, and walking under a dining table
-    # (its top 0.69 m up, above a band to 0.67 m) put the footprint inside the table's (rooms 12, 40)
-    z_max: float = 0.45
+    # The obstacle band. Its top is above the robot's own height (a standing Go2 is 0.40 m tall): the
+    # episodes count a collision where the footprints meet in the plane, so a table top the robot could
+    # walk under is kept an obstacle (docs/navigation.md, "Known limits").
+    z_min: float = param(
+        -0.25, help="scan: points at least this high in the base frame are obstacles (m; -0.25: 7 cm off the "
+        "floor for a standing Go2)", min=-1.0, max=1.0,
+    )  # fmt: skip
+    z_max: float = param(
+        0.45, help="scan: ... and at most this high (m in the base frame; 0.45: 0.77 m off the floor)", min=-1.0,
+        max=2.0,
+    )  # fmt: skip
     self_hx: float = 0.0  # half length and width of the robot's own box, left out (0 = keep all)
     self_hy: float = 0.0
 

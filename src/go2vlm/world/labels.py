@@ -7,19 +7,25 @@ remembered object mean the same thing by the same words.
 
 from __future__ import annotations
 
-from go2vlm.vocabulary.words import label_match, parse_label
+from go2vlm.vocabulary.words import BODY_SHAPE_WORDS, COLOR_HSV, label_match, label_words, parse_label
 
 __all__ = ["label_fits", "normalize_label"]
 
 MAX_LABEL = 200  # characters: a label longer than this is cut
+ARTICLES = frozenset({"a", "an", "the"})  # not part of an object's name
 
 
 def normalize_label(text: str) -> str:
-    """One spelling per object: "<colour> <shape>" for the grounder's words ("red_sphere" ->
-    "red ball", "Blue  Cylinder" -> "blue cylinder"), else the lower-cased words ("Person" -> "person")."""
+    """One spelling per object: "<colour> <shape>" for the grounder's words alone ("red_sphere" ->
+    "red ball", "Blue  Cylinder" -> "blue cylinder"); a label with more words keeps them all ("blue_mug"
+    -> "blue mug", not "blue": a mug is not every blue thing); else the lower-cased words ("Person" ->
+    "person")."""
     lab = parse_label(str(text)[:MAX_LABEL])
     if lab.classical:
-        return " ".join(w for w in (lab.color, lab.shape) if w)
+        words = [w for w in label_words(lab.text) if w not in ARTICLES]
+        if all(w in COLOR_HSV or BODY_SHAPE_WORDS.get(w, w) == lab.shape for w in words):
+            return " ".join(w for w in (lab.color, lab.shape) if w)
+        return " ".join(words)
     return " ".join(lab.text.lower().split())
 
 

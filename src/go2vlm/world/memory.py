@@ -16,9 +16,12 @@ Rules
   `min_sigma_m`): the errors of sightings from one place repeat, so a hundred from far away must not
   shut out the first one from close by. A sighting that fits no object starts a new one (log-odds
   `prior + hit`: confidence 0.5): a wrong answer far from the others never moves an object, it is
-  counted as refused by the objects of that label it did not fit. A bearing-only sighting (no range)
-  confirms the object of its label along its bearings within `bearing_only_max_m`, and places nothing
-  new.
+  counted as refused by the objects of that label it did not fit. A sighting less sure of its place
+  than `new_max_sigma_m` (a bottom edge or a size read from far away: its error grows with the
+  square of the range) starts nothing (`refused.uncertain`): placed wrong by a metre, far out or
+  behind a wall, nothing the robot sees later would ever refute it. It still joins an object it fits.
+  A bearing-only sighting (no range) confirms the object of its label along its bearings within
+  `bearing_only_max_m`, and places nothing new.
 - An answer is about some labels (`View.covers`; None: every label, as the sim's ground truth is).
   An object with such a label that the answer did not see although it should have -- its centre well
   inside the camera's view, its surface `view_min_m`..`view_max_m` away, not hidden behind a scan
@@ -84,6 +87,10 @@ class MemoryParams:
     )  # fmt: skip
     occlusion_m: float = 0.3  # a scan return this much nearer, in front of it, hides it
     merge_m: float = 0.3  # two objects of one label closer than this are one
+    new_max_sigma_m: float = param(
+        0.5, help="a sighting less sure of its place than this (1 sigma, m) starts no new object", min=0.05,
+        max=10.0, live=True,
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         if self.max_objects < 1:
@@ -116,8 +123,7 @@ class MemoryObject:
     @property
     def sigma(self) -> float:
         """The larger standard deviation of its position (m)."""
-        xx, xy, yy = self.cov
-        return math.sqrt(max(0.0, (xx + yy) / 2 + math.sqrt(((xx - yy) / 2) ** 2 + xy * xy)))
+        return _max_sigma(self.cov)
 
     @property
     def radius(self) -> float:
@@ -146,6 +152,12 @@ def _mahalanobis2(dx: float, dy: float, cov: tuple[float, float, float]) -> floa
 
 def _sigma_of(cov: tuple[float, float, float]) -> float:
     return math.sqrt(max(0.0, (cov[0] + cov[2]) / 2.0))
+
+
+def _max_sigma(cov: tuple[float, float, float]) -> float:
+    """The larger standard deviation of a position covariance (m)."""
+    xx, xy, yy = cov
+    return math.sqrt(max(0.0, (xx + yy) / 2 + math.sqrt(((xx - yy) / 2) ** 2 + xy * xy)))
 
 
 def _add(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -226,6 +238,8 @@ class ObjectMemory:
             self._fuse(best, s)
             self.counters["fused"] += 1
             return best.id
+        if _max_sigma(s.cov) > p.new_max_sigma_m:  # too unsure to say where it is: no new object
+            return "refused.uncertain"
         for o in self.objects.values():  # a far answer: the objects of its label did not move
             if o.label == s.label and o.confidence >= 0.5:
                 o.refused += 1

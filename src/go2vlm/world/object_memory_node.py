@@ -59,7 +59,8 @@ Refused answers and boxes, counted on the status (refused.<reason>), never place
 stamp), no_camera_info, older_than_history (the pose history no longer reaches the stamp), pose_gap,
 no_pose (no pose came within pose_wait_s), bad_box (NaN, absurd, no area), out_of_range,
 color_mismatch (the box holds less than min_label_color of the colour its label names: the right label
-on the wrong object), unranged (no range and nothing remembered along its bearings), memory_full.
+on the wrong object), unranged (no range and nothing remembered along its bearings), uncertain (placed
+less surely than new_max_sigma_m and fitting no object: world/memory.py), memory_full.
 Bounded: at most max_objects objects, history_s of poses, scans and small frames, 32 answers waiting
 for their pose; a flood of answers cannot grow it.
 
@@ -184,6 +185,7 @@ class ObjectMemoryConfig:
     miss: float = from_core(MemoryParams, "miss")
     forget_below: float = from_core(MemoryParams, "forget_below")
     view_max_m: float = from_core(MemoryParams, "view_max_m")
+    new_max_sigma_m: float = from_core(MemoryParams, "new_max_sigma_m")
     publish_period_s: float = param(0.05, help="/objects at most this often (s)", min=0.0, max=10.0)
     status_period_s: float = param(1.0, help="/object_memory/status period besides on a new refusal", min=0.1,
                                    max=60.0)  # fmt: skip

@@ -25,8 +25,10 @@ Rules
   the nearest return within NEAR_BEAMS of the run), is a gap in the sampling, not an opening (a /scan
   binned from a cloud leaves such holes: along walls, and wide ones beside a near object, as the
   Go2's lidar sits 0.29 m ahead of the base): it clears only up to the nearer of the two returns,
-  less a cell. A ray without a return never clears a cell the map holds occupied, nor any past it:
-  it cannot see through a wall seen before (a leak through it would read as a frontier outside).
+  less a cell, and never clears a cell the map holds occupied, nor any past it: a hole in the
+  sampling cannot see through a wall seen before (a leak through it would read as a frontier
+  outside). Every other ray clears what it passes through, a ray without a return too: it looked,
+  and what the map held on it has moved (a door opened, an object taken away).
   NaN ranges are dropped and counted (`nan`); -inf and negative ranges too (`invalid`). A cell gains or loses once
   per scan, and a cell hit by this scan is not cleared by another of its rays grazing it. Log-odds
   are clamped to [min_logodds, max_logodds], so a moved object is cleared after a few scans.
@@ -248,10 +250,11 @@ class OccupancyMap:
         h_flat = (h_iy[h_in] - iy0) * flat_w + (h_ix[h_in] - ix0)
         f_flat = (f_iy[f_in] - iy0) * flat_w + (f_ix[f_in] - ix0)
         before = lo[h_flat]
-        # A ray without a return (a gap, or nothing within range) stops at the first cell that is, or
-        # touches, one the map holds occupied: it may not clear what has been seen (a wall behind a
-        # shadow stays a wall), nor slip between two wall cells that meet at a corner.
-        weak = ~hit[ray[f_in]]
+        # A gap in the sampling (not a measurement: a hole a binned cloud leaves) stops at the first
+        # cell that is, or touches, one the map holds occupied: it may not clear what has been seen (a
+        # wall behind a shadow stays a wall), nor slip between two wall cells that meet at a corner. A
+        # ray that returned nothing did look: what the map held on it has gone, and it clears it.
+        weak = gap[ray[f_in]]
         occ = np.zeros(len(f_flat), dtype=bool)
         if weak.any():
             grid2 = self.logodds

@@ -15,9 +15,14 @@ Rules
   bottom edge of boxes and cylinders and for a box's width, a distance along the ray otherwise), or
   the nearest scan return within the box's bearings (the middle half of them) when it agrees with the
   monocular range (nearer by at most `lidar_agree_m` or `lidar_agree_frac` of it, farther by at most
-  `lidar_agree_m`: a return much farther is the lidar seeing past the object) or when there is no monocular
-  range and the return is within `lidar_only_max_m`. Neither: a bearing-only sighting (`range_m` None),
-  which can confirm an object already remembered along that bearing but places nothing new. So is a
+  `lidar_past_m`: a return farther is the lidar seeing past the object, the wall behind a duck) or
+  when there is no monocular range and the return is within `lidar_only_max_m`; and only a return of
+  a surface as wide as the box: one that spans its share of it (world/ranging.py `as_wide`, the
+  tracked target's rule: not a table leg before a tray) and does not run on past either of its edges at
+  that range (`surface_m`, `past_rad`: the wall behind a small object, which a noisy bottom edge far
+  away may happen to agree with). Neither: a
+  bearing-only sighting (`range_m` None), which can confirm an object already remembered along that
+  bearing but places nothing new. So is a
   box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
   its bottom edge), and a box cut by one side of the image (`cut`: its middle is not the object's),
   unless it is a ball or a cylinder more than half in view: its centre then lies a half-angle
@@ -31,7 +36,7 @@ Rules
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +47,7 @@ from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.vocabulary.words import ROUND_SHAPES, SHAPES
 from go2vlm.world.poses import Pose2D, wrap_angle
+from go2vlm.world.ranging import RangingParams, as_wide
 
 __all__ = ["CameraMount", "Placed", "PlacementError", "PlacementParams", "check_box", "place", "rebase"]
 
@@ -77,8 +83,14 @@ class PlacementParams:
     border_px: float = 3.0  # a box edge this close to the image's side is cut by it
     lidar_agree_m: float = 0.5  # lidar and monocular ranges agree within this ...
     lidar_agree_frac: float = 0.35  # ... or within this fraction of the monocular range
+    surface_m: float = 0.3  # returns this near the box's range are of the surface it hit ...
+    past_rad: float = 0.1  # ... and looked for this far (or the box's width) beyond each of its edges ...
+    past_gap_rad: float = 0.035  # ... past a gap of this (two of the scan's 2-degree bins: its edge's blur)
+    lidar_past_m: float = 0.15  # ... and farther than it by at most this (a scan bin, the near edge's error)
     lidar_only_max_m: float = 2.0  # without a monocular range, a scan return this close is the object
     max_range_m: float = 15.0  # a place farther than this is absurd
+    ranging: RangingParams = field(default_factory=RangingParams)  # as_wide's scan_depth_m and scan_cover
+    free_depth_m: float = 1.0  # an object of no known shape is taken no deeper than this (m)
 
 
 @dataclass(frozen=True)
@@ -135,6 +147,30 @@ def rebase(points: np.ndarray, from_pose: Pose2D, to_pose: Pose2D) -> np.ndarray
     return np.column_stack([c2 * wx + s2 * wy, -s2 * wx + c2 * wy])
 
 
+def _fits_box(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
+    """Is the surface the scan hit at range `d` as wide as the box (bearings `b_r`..`b_l` from the
+    camera) -- it spans its share of the box (world/ranging.py `as_wide`, the target's rule) and does
+    not run on past either of its edges?"""
+    origin = (mount.forward_m, mount.left_m)
+    wide = as_wide(p.ranging, points, origin, d, (b_r + b_l) / 2.0, b_l - b_r)
+    return wide and not _runs_past(points, mount, d, b_r, b_l, p)
+
+
+def _runs_past(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
+    """Do scan returns at about the range `d` (within `surface_m`) lie beyond an edge of the box
+    (bearings `b_r`..`b_l` from the camera), by up to the box's width again? Then the return is of a
+    surface that runs on past the object (a wall behind it; one side is enough, as in a corner the
+    other wall lies at another range), not of the object, whose returns end where its box does. An
+    object against a wall at its own range loses the lidar too, and is placed by its bottom edge."""
+    rel = np.asarray(points, dtype=float).reshape(-1, 2) - (mount.forward_m, mount.left_m)
+    ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
+    at = (np.abs(rng - d) <= p.surface_m) & (rel[:, 0] > 0.0)
+    reach = max(b_l - b_r, p.past_rad)
+    left = at & (ang > b_l + p.past_gap_rad) & (ang <= b_l + reach)
+    right = at & (ang < b_r - p.past_gap_rad) & (ang >= b_r - reach)
+    return bool(left.any() or right.any())
+
+
 def _sigma(method: str, d: float) -> float:
     a, b, n = RANGE_SIGMA.get(method, RANGE_SIGMA["default_size"])
     return a + b * d**n
@@ -180,11 +216,13 @@ def place(
     rng, method = mono, reading.method
     if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
+    elif lidar is not None and scan_points is not None and not _fits_box(scan_points, mount, lidar, b_r, b_l, p):
+        pass  # a surface narrower or wider than the box at that range (a leg, the wall behind): not the object
     elif lidar is not None:
-        # Nearer than the monocular range by up to the tolerance, or farther by at most lidar_agree_m: a
-        # return much farther is what the lidar sees past the object (a duck below its plane at 6 m:
-        # the wall behind it), not the object.
-        agree = mono is not None and -p.lidar_agree_m <= mono - lidar <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
+        # Nearer than the monocular range by up to the tolerance, or farther by at most lidar_past_m: a
+        # return farther is what the lidar sees past the object (a duck below its plane: the wall
+        # behind it), not the object; taking it put small objects on the walls behind them.
+        agree = mono is not None and -p.lidar_past_m <= mono - lidar <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
         if agree or (mono is None and lidar <= p.lidar_only_max_m):
             rng, method = lidar, "lidar"
     if (x1 <= p.border_px) != (x2 >= cam.width - p.border_px):  # cut by one side of the image
@@ -195,9 +233,6 @@ def place(
             b_c = b_r + half if x1 <= p.border_px else b_l - half
             lat_c = math.tan(b_c)
             stretch = math.sqrt(1.0 + lat_c * lat_c)
-    if shape not in SHAPES:
-        width = max(0.05, (rng if rng is not None else 1.0) * (math.tan(b_l) - math.tan(b_r)))
-        half_depth = width / 2.0
     cx_w, cy_w = pose.to_world(mount.forward_m, mount.left_m)
     bearing = wrap_angle(pose.yaw + b_c)
     span = (wrap_angle(pose.yaw + b_r), wrap_angle(pose.yaw + b_l))
@@ -207,6 +242,12 @@ def place(
     elif y1 > 3.0 and rng is not None:  # the top is in the picture
         depth_near = rng / stretch
         height = max(0.0, mount.height_m - depth_near * math.tan(math.atan((y1 - cam.cy) / cam.fy) + mount.pitch_rad))
+    if shape not in SHAPES:
+        width = max(0.05, (rng if rng is not None else 1.0) * (math.tan(b_l) - math.tan(b_r)))
+        # How deep it is, the picture does not show: no deeper than it is wide or (seen whole) tall, nor
+        # than free_depth_m; cut by both sides of the image (a wall across the view), only its face is known
+        across = x1 <= p.border_px and x2 >= cam.width - p.border_px
+        half_depth = 0.0 if across else min(width, height if height else width, p.free_depth_m) / 2.0
     if rng is None:
         return Placed(label, stamp, math.nan, math.nan, math.nan, (math.inf, 0.0, math.inf),
                       (width, width, height), None, bearing, span, method, (cx_w, cy_w))  # fmt: skip

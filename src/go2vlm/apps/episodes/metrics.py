@@ -54,7 +54,9 @@ Tracking (/target/tracked, goal episodes):
   forward_on_memory  of the forward samples, those the memory alone confirmed (the tracker did not).
 Memory (/objects, episodes with an object_memory), at the end, against the ground truth:
   objects          every remembered object: label, place, confidence, and the world body of that
-                   label nearest to it (apps/episodes/episode.py label_matches) with the error (m);
+                   label nearest to it (apps/episodes/episode.py label_matches) with the error (m): the
+                   distance to the body's centre, or for a long body (a wall) to the line its middle
+                   runs along (a place anywhere along a wall is on it);
   phantoms         remembered objects with no body of their label within PHANTOM_M (1 m): not there;
   max_error_m      the largest error of the others; `accurate`: how many are within ACCURATE_M (0.3 m).
 Map (/map, /map/costmap, /plan; episodes with a map node; None without): `map` = the newest map's
@@ -274,14 +276,27 @@ def _body_fits(label: str, body: str) -> bool:
         return " ".join(body.replace("_", " ").lower().split()) == label
 
 
-def memory_metrics(objects: list[Remembered], bodies: dict[str, tuple[float, float]]) -> dict[str, Any]:
+def _on_axis(x: float, y: float, f: Footprint) -> tuple[float, float]:
+    """The point of body `f`'s long axis nearest (x, y): its centre for a round or square body; along a
+    long one (a wall, a counter) the segment its middle runs on, so that a place anywhere along a wall
+    is as right as its distance from the wall."""
+    half = max(0.0, abs(f.hx - f.hy)) if f.kind == "rect" else 0.0
+    ux, uy = (math.cos(f.yaw), math.sin(f.yaw)) if f.hx >= f.hy else (-math.sin(f.yaw), math.cos(f.yaw))
+    t = max(-half, min(half, (x - f.x) * ux + (y - f.y) * uy))
+    return f.x + t * ux, f.y + t * uy
+
+
+def memory_metrics(objects: list[Remembered], bodies: dict[str, Footprint]) -> dict[str, Any]:
     """The memory at the end against the ground truth (see the module docstring)."""
     out: list[dict[str, Any]] = []
     phantoms = 0
     errors: list[float] = []
     for o in objects:
         fits = [
-            (math.hypot(o.x - x, o.y - y), name, x, y) for name, (x, y) in bodies.items() if _body_fits(o.label, name)
+            (math.hypot(o.x - x, o.y - y), name, x, y)
+            for name, f in bodies.items()
+            if _body_fits(o.label, name)
+            for x, y in [_on_axis(o.x, o.y, f)]
         ]
         err, name, tx, ty = min(fits) if fits else (None, None, None, None)
         phantom = err is None or err > PHANTOM_M
@@ -467,7 +482,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     }
     if rec.memory:
         last = rec.poses[-1][1] if rec.poses else {}
-        bodies = {n: (last[n][0], last[n][1]) if n in last else (f.x, f.y) for n, f in ctx.shapes.items()}
+        bodies = {n: f.moved(last[n][0], last[n][1]) if n in last else f for n, f in ctx.shapes.items()}
         m["memory"] = memory_metrics(rec.memory[-1][1], bodies)
     cmds = rec.cmds
     if ep.goal is None:  # the follow article's loop: `go2vlm demo`'s figures

@@ -88,6 +88,9 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
         visible = sum(x["answers_target_visible"] for x in g)
         ious = [v for x in g for v in x["iou"]]
         lat = [m["vlm"]["latency_ms_mean"] for m in ms if m.get("vlm") and m["vlm"].get("latency_ms_mean") is not None]
+        mem = [m["memory"] for m in ms if m.get("memory")]  # the object memory at each episode's end
+        remembered = sum(len(x["objects"]) for x in mem)
+        errs = [o["error_m"] for x in mem for o in x["objects"] if not o["phantom"] and o["error_m"] is not None]
         by_kind: dict[str, list[bool]] = defaultdict(list)
         for m in ms:
             by_kind[m["kind"]].append(bool(m["success"]))
@@ -125,6 +128,10 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "grounding_mean_iou": _r(float(np.mean(ious))) if ious else None,
                 "wrong_object": sum(x["wrong_object"] for x in g) if g else None,
                 "vlm_latency_ms_mean": _r(float(np.mean(lat)), 1) if lat else None,
+                "memory_objects": remembered if mem else None,
+                "memory_phantoms": sum(x["phantoms"] for x in mem) if mem else None,
+                "memory_phantom_rate": _r(sum(x["phantoms"] for x in mem) / remembered) if remembered else None,
+                "memory_mean_error_m": _r(float(np.mean(errs)), 3) if errs else None,
                 "wall_s_per_episode": _r(float(np.mean([m["wall_s"] for m in ms])), 2),
                 "episodes_per_hour_last_session": _r(3600 * len(last) / span, 1) if span > 0 else None,
                 "workers_last_session": last[-1].get("workers"),
@@ -168,12 +175,14 @@ def write_report(out: Path) -> dict[str, Any]:
         "Every episode in `results.jsonl`, with its exact configuration; this page is rewritten by every run",
         "(`go2vlm eval --report --out DIR` rewrites it alone). 95 % intervals: Wilson for rates, percentile",
         "bootstrap for means. SPL: go-to episodes only, shortest path = straight-line distance from the start",
-        "to the object's surface minus the commander's stop distance (0.8 m).",
+        "to the object's surface minus the commander's stop distance (0.8 m). Memory: the object memory at",
+        "each episode's end, summed over the episodes: objects remembered, phantoms (no body of the label",
+        "within 1 m), and the mean error of the others (apps/episodes/metrics.py).",
         "",
         "| suite | perception | model | added latency (s) | episodes | success [95 % CI] | SPL [95 % CI] | "
         "time to goal (s) | collisions | fell | grounding precision / recall @0.5 | mean IoU | VLM latency (ms) | "
-        "episodes/h |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "memory: objects / phantoms / mean error (m) | episodes/h |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         spl = "n/a" if r["spl_mean"] is None else f"{r['spl_mean']:.3f}{_range(r['spl_ci95'], pct=False)}"
@@ -187,10 +196,14 @@ def write_report(out: Path) -> dict[str, Any]:
         lat = "n/a" if r["vlm_latency_ms_mean"] is None else f"{r['vlm_latency_ms_mean']:.0f}"
         eph = "n/a" if r["episodes_per_hour_last_session"] is None else f"{r['episodes_per_hour_last_session']:.0f}"
         added = "-" if r["answer_latency_s"] is None else f"{r['answer_latency_s']:g}"
+        mem = "n/a" if r["memory_objects"] is None else (
+            f"{r['memory_objects']} / {r['memory_phantoms']} ({_pct(r['memory_phantom_rate'])}) / "
+            + ("n/a" if r["memory_mean_error_m"] is None else f"{r['memory_mean_error_m']:.2f}")
+        )  # fmt: skip
         md.append(
             f"| {r['suite']} | {r['perception']} | {r['model'] or '-'} | {added} | {r['episodes']} | "
             f"{_pct(r['success_rate'])}{_range(r['success_rate_ci95'])} | {spl} | {ttg} | {r['collisions']} | "
-            f"{r['fell']} | {pr} | {iou} | {lat} | {eph} |"
+            f"{r['fell']} | {pr} | {iou} | {lat} | {mem} | {eph} |"
         )
     md += ["", "By task kind (successes / episodes):", ""]
     for r in rows:

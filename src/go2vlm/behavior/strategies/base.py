@@ -23,44 +23,15 @@ from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
 from go2vlm.behavior.strategies.params import MissionParams
-from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.coverage import Coverage
-from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
-from go2vlm.world.poses import PoseHistory, PoseUnavailable, wrap_angle
+from go2vlm.world.poses import Pose2D, PoseHistory, PoseUnavailable
+from go2vlm.world.ranging import TargetRanging, remembered_on
 
 __all__ = ["Command", "Context", "Pose", "SearchStrategy", "Sighting", "Strategy"]
 
 POSES_KEPT_S = 60.0  # the mission's recent poses, to find where an answered frame was taken
 VIEW_POSE_S = 0.5  # an answered frame newer than the newest pose by more than this looks at nothing
-SCAN_CONE = math.radians(3.0)  # an unranged target's scan return lies this near its bearing ...
-SCAN_RANGE_M = 2.0  # ... and this near the camera (farther, it may be what is behind a small object)
-# ... and at least this share of the tracker's range (base frame): a return much nearer is something
-# else on the bearing (a door jamb with the shelf 10 m beyond it, rooms 37; a brick before the counter,
-# rooms 47), and ended go-tos `reached` metres short
-SCAN_AGREE = 0.45
-# ... and only if what it hits is as wide as the target: the points within SCAN_DEPTH_M behind the
-# return span at least SCAN_COVER of the box's angular width (a table leg 6 cm wide, on the bearing of
-# a tray 2.3 m away, ended "go to the tray" `reached` 1.5 m short, rooms 40)
-SCAN_DEPTH_M = 0.25
-SCAN_COVER = 0.4
-# A range by the object's size puts it beyond the go-to cap only once it has held this long: a sliver of
-# a teddy bear beside a door jamb, 8 m away, was ranged 72.5 m in one frame and the go to refused (rooms 14)
-FAR_HOLD_S = 1.0
-SIZE_METHODS = ("size", "default_size")
-# The tracker's box can spread onto what stands before its object (a door leaf of the shelf's wood, 7 m
-# short of it; the dining table's top without its legs): a confident remembered object of the goal's
-# label on the bearing (within MEMORY_CONE, or half the box), seen in the last MEMORY_FRESH_S, whose
-# surface lies more than MEMORY_FAR times and MEMORY_GAP_M beyond the range, is the range. The go tos
-# ended `reached` 7.4 and 3.2 m short (rooms 37, 45)
-MEMORY_CONE = math.radians(5.0)
-MEMORY_FRESH_S = 2.0
-MEMORY_FAR = 2.0
-MEMORY_GAP_M = 1.5
-# The memory's range stands MEMORY_HOLD_S after it last overruled, while the tracker's is still as far
-# short of it: for one step the shelf fell out of the memory's cone and the blob on the door leaf,
-# 0.81 m away, was `reached`, 7.4 m short (rooms 37)
-MEMORY_HOLD_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -129,9 +100,7 @@ class Context:
         default_factory=lambda: PoseHistory(horizon_s=POSES_KEPT_S, max_extrapolation_s=VIEW_POSE_S)
     )
     viewed_through: float = -math.inf  # the newest answered frame already in `coverage`
-    far_since: float | None = None  # since when a range by size has put the target beyond the go-to cap
-    ranged_by: str = ""  # what base_distance took last: the tracker's method, lidar or memory
-    overruled: tuple[float, float] | None = None  # when the memory last overruled the range, and its range
+    ranging: TargetRanging = field(default_factory=TargetRanging)  # the target's range (world/ranging.py)
     align_since: float | None = None  # when a look for's turn to centre a confirmed target began
 
     # -- the goal ------------------------------------------------------------------------------
@@ -153,8 +122,7 @@ class Context:
         self.look.forget()
         self.coverage.reset()
         self.viewed_through = self.answers.through if self.answers.through is not None else -math.inf
-        self.far_since = None
-        self.overruled = None
+        self.ranging.forget()
 
     def observe_view(self) -> None:
         """The newest answered frame has looked at the world (world/coverage.py), from the pose the
@@ -200,74 +168,37 @@ class Context:
         s = self.sighting
         return s is not None and s.tracked and 0.0 <= now - s.t < self.params.lost_timeout_s
 
+    @property
+    def ranged_by(self) -> str:
+        """What base_distance took last: the tracker's method, lidar or memory."""
+        return self.ranging.ranged_by
+
+    @property
+    def overruled(self) -> tuple[float, float] | None:
+        """When the memory last overruled the range, and its range."""
+        return self.ranging.overruled
+
+    @overruled.setter
+    def overruled(self, value: tuple[float, float] | None) -> None:
+        self.ranging.overruled = value
+
     def base_distance(self, now: float) -> float | None:
-        """Base centre -> the object's surface, while confirmed and ranged: the tracker's range, or
-        the nearest fresh scan return on its bearing within SCAN_RANGE_M where that is nearer, but not
-        below SCAN_AGREE of it, and where what it hits is as wide as the box (SCAN_COVER) (the box's
-        bottom edge cut by the image when it is near; a range by an assumed size that is off: a cone
-        ranged at 1.2 m stood 0.65 m away, where the guard held every step closer). A box that fills
-        the view (range 0) takes the scan's return alike: a shelf was `reached` at 1.01 m, rooms 37.
-        A confident remembered object far beyond the range overrules it (MEMORY_FAR, MEMORY_HOLD_S)."""
-        s = self.sighting
+        """Base centre -> the object's surface, while confirmed and ranged: the tracker's range fused
+        with the fresh scan and the object memory (world/ranging.py)."""
+        s, p = self.sighting, self.params
         if not self.confirmed(now) or s is None:
             return None
-        cf = self.params.camera_forward_m
-        own = s.distance if s.distance is not None and math.isfinite(s.distance) else None
-        self.ranged_by = s.range_method
-        if not math.isfinite(s.bearing):
-            return None if own is None else own + cf
-        scan = self.fresh_scan(now)
-        d = nearest_return(scan, (cf, 0.0), s.bearing - SCAN_CONE, s.bearing + SCAN_CONE)
-        # "fills the view" says near, not how near: the scan's return, where it has one, is the range
-        ref = None if s.range_method == "fills_view" else own
-        agrees = d is not None and d <= SCAN_RANGE_M and (ref is None or SCAN_AGREE * (ref + cf) <= d + cf < ref + cf)
-        if agrees and d is not None and scan is not None and _as_wide(scan, (cf, 0.0), d, s.bearing, s.width):
-            self.ranged_by, ranged = "lidar", d + cf
-        elif own is None:
-            return None
-        else:
-            ranged = own + cf
-
-        def far(mem: float) -> bool:
-            return mem > MEMORY_FAR * ranged and mem > ranged + MEMORY_GAP_M
-
-        mem = self.remembered_on(s, now)
-        if mem is not None and far(mem):
-            self.overruled = (now, mem)
-        held = self.overruled
-        if held is not None and 0.0 <= now - held[0] <= MEMORY_HOLD_S and far(held[1]):
-            self.ranged_by, ranged = "memory", held[1]
-        return ranged
-
-    def remembered_on(self, s: Sighting, now: float) -> float | None:
-        """Base centre -> the surface of the nearest confident remembered object of the goal's label
-        on the sighting's bearing, seen in the last MEMORY_FRESH_S (MEMORY_FAR); None: none, or no pose."""
-        pose, p = self.fresh_pose(now), self.params
-        if pose is None or not self.memory or not self.label or not p.use_memory:
-            return None
-        cone = max(MEMORY_CONE, s.width / 2.0 if math.isfinite(s.width) else 0.0)
-        best: float | None = None
-        for o in self.memory:
-            if o.confidence < p.memory_confirm_confidence or not 0.0 <= now - o.last_seen <= MEMORY_FRESH_S:
-                continue
-            if not label_fits(self.label, o.label):
-                continue
-            dx, dy = o.x - pose.x, o.y - pose.y
-            if abs(wrap_angle(math.atan2(dy, dx) - pose.yaw - s.bearing)) <= cone:
-                d = math.hypot(dx, dy) - o.radius
-                best = d if best is None else min(best, d)
-        return best
+        pose, mem = self.fresh_pose(now), None
+        if pose is not None and self.memory and self.label and p.use_memory:
+            at = Pose2D(pose.x, pose.y, pose.yaw)
+            mem = remembered_on(p.ranging, s, now, at, self.memory, self.label, p.memory_confirm_confidence)
+        return self.ranging.base_distance(p.ranging, s, now, self.fresh_scan(now), p.camera_forward_m, mem)
 
     def capped_distance(self, now: float, cap: float) -> float | None:
-        """`base_distance` as the go-to cap (`cap` m) judges it: a range by the object's size beyond the
-        cap counts only once such ranges have held FAR_HOLD_S (None until then)."""
+        """`base_distance` as the go-to `cap` (m) judges it: a range by the object's size beyond the cap
+        counts only once such ranges have held (None until then)."""
         d, s = self.base_distance(now), self.sighting
-        if d is None or d <= cap or s is None or s.range_method not in SIZE_METHODS:
-            self.far_since = None
-            return d
-        if self.far_since is None:
-            self.far_since = now
-        return d if now - self.far_since >= FAR_HOLD_S else None
+        return self.ranging.capped(self.params.ranging, d, s.range_method if s is not None else "", cap, now)
 
     def seen_in_base(self, s: Sighting) -> tuple[float, float] | None:
         """The sighted surface point in the base frame (x forward, y left), if ranged and with a bearing."""
@@ -345,14 +276,3 @@ class SearchStrategy(Strategy, Protocol):
     name: str
 
     def pause(self, now: float, cause: str) -> None: ...
-
-
-def _as_wide(points: np.ndarray, origin: tuple[float, float], d: float, bearing: float, width: float) -> bool:
-    """Do the scan points `d`..`d` + SCAN_DEPTH_M from `origin`, within the box's bearings, span at least
-    SCAN_COVER of its angular `width` (rad; a box no wider than the scan cone, or of unknown width, passes)?"""
-    if not math.isfinite(width) or width <= 2.0 * SCAN_CONE:
-        return True
-    rel = np.asarray(points, dtype=float).reshape(-1, 2) - origin
-    ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
-    hit = (np.abs(ang - bearing) <= width / 2.0) & (rng >= d - 1e-6) & (rng <= d + SCAN_DEPTH_M) & (rel[:, 0] > 0.0)
-    return bool(hit.any() and float(ang[hit].max() - ang[hit].min()) >= SCAN_COVER * width)

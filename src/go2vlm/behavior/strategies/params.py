@@ -11,6 +11,7 @@ from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.planner import PlannerParams
 from go2vlm.declare import param
 from go2vlm.robot_profile import go2 as spec
+from go2vlm.world.ranging import RangingParams
 
 __all__ = ["MissionParams"]
 
@@ -57,6 +58,7 @@ class MissionParams:
     )  # fmt: skip
     planner: PlannerParams = field(default_factory=PlannerParams)
     nav: NavParams = field(default_factory=NavParams)  # the navigator's (behavior/navigate/params.py)
+    ranging: RangingParams = field(default_factory=RangingParams)  # the target's range (world/ranging.py)
     use_memory: bool = param(True, help="go to / look for remembered objects (objects_topic)", live=True)
     # one sighting: 0.5; then three empty looks: 0.32
     memory_min_confidence: float = param(
