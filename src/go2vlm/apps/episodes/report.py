@@ -5,6 +5,8 @@ drift (`--drift`) is a suite of its own ("rooms (odometry drift 1)"). Confidence
   rates (success, grounding precision and recall at IoU 0.5)  Wilson score interval;
   means (SPL, time to goal)                                   percentile bootstrap, 10,000 resamples
                                                               of the episodes, seeded (reproducible).
+In generated houses (the `houses` suite) each group is also split by the number of doors between
+the spawn and the object and by the narrowest of them (bins of DOOR_BINS): success, SPL and time to goal.
 Precision and recall pool the answers of all episodes; answers within one episode are correlated
 (consecutive frames), so their intervals are narrower than a per-episode analysis would give.
 """
@@ -24,6 +26,7 @@ __all__ = ["bootstrap_ci", "summarize", "wilson", "write_report"]
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000
+DOOR_BINS = ((0.0, 0.8), (0.8, 0.9), (0.9, 9.9))  # narrowest door on the way, metres: [lo, hi)
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
@@ -68,6 +71,42 @@ def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
     lat = run.get("answer_latency_s")
     suite = suite_label(run["suite"], run.get("odom_drift"))
     return suite, run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
+
+
+def _cell(ms: list[dict[str, Any]]) -> dict[str, Any]:
+    """Success, SPL and time to goal of some episodes."""
+    wins = sum(bool(m["success"]) for m in ms)
+    spl = [m["spl"] for m in ms if m.get("spl") is not None]
+    ttg = [m["time_to_goal_s"] for m in ms if m.get("success") and m.get("time_to_goal_s") is not None]
+    return {
+        "episodes": len(ms),
+        "success": wins,
+        "success_rate": _r(wins / len(ms)) if ms else None,
+        "success_rate_ci95": _ci(wilson(wins, len(ms))),
+        "spl_mean": _r(float(np.mean(spl))) if spl else None,
+        "time_to_goal_s_mean": _r(float(np.mean(ttg)), 2) if ttg else None,
+    }
+
+
+def by_house(ms: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """A group's episodes in generated houses by number of doors and by narrowest door; None without any."""
+    houses = [m for m in ms if m.get("house") and m["house"].get("doors") is not None]
+    if not houses:
+        return None
+    doors: dict[int, list[dict[str, Any]]] = defaultdict(list)
+    narrow: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for m in houses:
+        doors[int(m["house"]["doors"])].append(m)
+        w = m["house"].get("narrowest_door_m")
+        if w is not None:
+            lo, hi = next(b for b in DOOR_BINS if b[0] <= w < b[1])
+            narrow[f"{lo:.2f}-{hi:.2f}" if hi < 9 else f">= {lo:.2f}"].append(m)
+    return {
+        "houses": len({m["house"]["seed"] for m in houses}),
+        "replaced_seeds": sum(1 for m in houses if m["house"]["seed"] != m["house"]["asked_seed"]),
+        "by_doors": {str(n): _cell(v) for n, v in sorted(doors.items())},
+        "by_narrowest_door_m": {k: _cell(v) for k, v in sorted(narrow.items())},
+    }
 
 
 def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -131,6 +170,7 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "speed": "fast" if cfg.get("fast") else f"rtf {cfg.get('rtf')}",
                 "git_commit": cfg.get("git", {}).get("commit"),
                 "run_ids": sorted({r["config"]["run_id"] for r in rows}),
+                "houses": by_house(ms),
             }
         )
     return out
@@ -197,6 +237,9 @@ def write_report(out: Path) -> dict[str, Any]:
         kinds = ", ".join(f"{k} {v['success']}/{v['episodes']}" for k, v in r["success_by_kind"].items())
         lat = "" if r["answer_latency_s"] is None else f" / {r['answer_latency_s']:g} s late"
         md.append(f"- {r['suite']} / {r['perception']}{' / ' + r['model'] if r['model'] else ''}{lat}: {kinds}")
+    for r in rows:
+        if r.get("houses"):
+            md += _house_tables(r)
     md += ["", *[f"![{name}]({name})" for name in plots], ""]
     md += ["## Runs", ""]
     for c in configs.values():
@@ -209,6 +252,21 @@ def write_report(out: Path) -> dict[str, Any]:
         )
     write_text(out / "report.md", "\n".join(md) + "\n")
     return summary
+
+
+def _house_tables(r: dict[str, Any]) -> list[str]:
+    h = r["houses"]
+    out = ["", f"### {_label(r, ' / ')}: in {h['houses']} generated houses ({h['replaced_seeds']} seeds replaced)", ""]
+    for title, cells in (("doors between spawn and object", h["by_doors"]),
+                         ("narrowest door on the way (m)", h["by_narrowest_door_m"])):  # fmt: skip
+        out += [f"| {title} | episodes | success [95 % CI] | SPL | time to goal (s) |", "|---|---|---|---|---|"]
+        for key, c in cells.items():
+            spl = "n/a" if c["spl_mean"] is None else f"{c['spl_mean']:.3f}"
+            ttg = "n/a" if c["time_to_goal_s_mean"] is None else f"{c['time_to_goal_s_mean']:.1f}"
+            out.append(f"| {key} | {c['episodes']} | {_pct(c['success_rate'])}{_range(c['success_rate_ci95'])} | "
+                       f"{spl} | {ttg} |")  # fmt: skip
+        out.append("")
+    return out
 
 
 def _plots(out: Path, rows: list[dict[str, Any]], lines: list[dict[str, Any]]) -> list[str]:
