@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from go2vlm.sim.houses.check import check_house, floor_grid, spawns
+from go2vlm.sim.houses.check import check_house, floor_grid, hidden_items, spawns
 from go2vlm.sim.houses.furniture import furnish
 from go2vlm.sim.houses.mjcf import house_mjcf
 from go2vlm.sim.houses.objects import OBJECTS, place_objects
@@ -52,6 +52,7 @@ __all__ = [
 
 SEED_MAX = 2**31 - 1
 MAX_REPLACED = 20
+RESEAT_ROUNDS = 3
 PREFIX = "house:"
 
 
@@ -88,6 +89,13 @@ def _one(seed: int, rooms: int | None, objects: tuple[str, ...]) -> tuple[House,
     place_objects(house, rng, objects)
     floor = floor_grid(house)
     spawns(house, floor)
+    for _ in range(RESEAT_ROUNDS):  # an object the robot cannot reach or see is put elsewhere
+        hidden = hidden_items(house, floor)
+        if not hidden:
+            break
+        place_objects(house, rng, tuple(hidden))
+        floor = floor_grid(house)
+        spawns(house, floor)
     return house, check_house(house, floor)
 
 
@@ -150,18 +158,19 @@ def cache_dir() -> Path:
     return Path(base) / "go2vlm" / "houses"
 
 
-_MEMO: dict[str, tuple[Path, Generated]] = {}
+_MEMO: dict[tuple[Path, str], tuple[Path, Generated]] = {}  # (cache folder, name): generated once a process
 
 
 def house_file(name: str) -> tuple[Path, Generated]:
     """The world file of a house world name (written to the cache when missing or not as generated)."""
-    if name in _MEMO and _MEMO[name][0].is_file():
-        path, gen = _MEMO[name]
+    folder = cache_dir()
+    key = (folder, name)
+    if key in _MEMO and _MEMO[key][0].is_file():
+        path, gen = _MEMO[key]
         if path.read_text(encoding="utf-8") == gen.mjcf:
             return path, gen
     seed, rooms = parse_house(name)
-    gen = generate(seed, rooms)
-    folder = cache_dir()
+    gen = _MEMO[key][1] if key in _MEMO else generate(seed, rooms)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"house-{seed}{'' if rooms is None else f'-r{rooms}'}.xml"
     if not path.is_file() or path.read_text(encoding="utf-8") != gen.mjcf:  # a file edited by hand is rewritten
@@ -169,5 +178,5 @@ def house_file(name: str) -> tuple[Path, Generated]:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(gen.mjcf)
         os.replace(tmp, path)
-    _MEMO[name] = (path, gen)
+    _MEMO[key] = (path, gen)
     return path, gen

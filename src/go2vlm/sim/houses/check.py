@@ -24,7 +24,7 @@ from go2vlm.robot_profile.go2 import SIM
 from go2vlm.sim.houses.furniture import overlaps
 from go2vlm.sim.houses.plan import House, Rect
 
-__all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "spawns"]
+__all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns"]
 
 GRID_M = 0.05
 MARGIN_M = 0.05  # beyond the footprint's half width (reachability) and its circle (spawns)
@@ -149,15 +149,24 @@ def check_house(house: House, floor: Floor | None = None) -> list[str]:
             problems.append(f"the spawn in {room.name} does not clear the robot")
     if main == 0:
         return problems
-    ii, jj = np.nonzero(reach == main)
+    return problems + list(hidden_items(house, floor, main).values())
+
+
+def hidden_items(house: House, floor: Floor, main: int | None = None) -> dict[str, str]:
+    """Object name -> why the robot cannot reach or see it, from the floor most rooms share."""
+    if main is None:
+        home = [int(floor.reach[floor.cell(r.spawn[0], r.spawn[1])]) for r in house.rooms]
+        main = max(set(home), key=home.count) if home else 0
+    ii, jj = np.nonzero(floor.reach == main)
     xs, ys = floor.xy(ii, jj)
+    out: dict[str, str] = {}
     for it in house.items:
         d = np.hypot(xs - it.cx, ys - it.cy) - it.radius
         if not (d <= REACH_M).any():
-            problems.append(f"the {it.name} is not reachable")
+            out[it.name] = f"the {it.name} is not reachable"
             continue
         near = np.nonzero(d <= SIGHT_M)[0]
         order = near[np.argsort(d[near])][:: max(1, len(near) // 300)]
         if not any(floor.sees(float(xs[k]), float(ys[k]), it.cx, it.cy, it.radius) for k in order):
-            problems.append(f"the {it.name} is not visible from anywhere the robot can stand")
-    return problems
+            out[it.name] = f"the {it.name} is not visible from anywhere the robot can stand"
+    return out

@@ -115,27 +115,34 @@ def _free(house: House, room: Room, cx: float, cy: float, r: float, zones: list[
     return all(math.hypot(cx - i.cx, cy - i.cy) > r + i.radius + 0.25 for i in house.items)
 
 
+def _place_one(house: House, name: str, rng: np.random.Generator, zones: list[Rect]) -> None:
+    """Put one object: by the piece it is kept by, else anywhere in that room (HouseError: no place)."""
+    ox, oy, r = mesh_extent(name)
+    room, kept_by = _choose(name, house, rng)
+    by = [p for p in house.pieces if p.room == room.name and p.kind == kept_by]
+    for k in range(TRIES):
+        near = by and k < TRIES // 2
+        if near:
+            x, y = _near(by[int(rng.integers(len(by)))], rng)
+        else:
+            f = room.floor.shrunk(0.2)
+            x, y = float(rng.uniform(f.x0, f.x1)), float(rng.uniform(f.y0, f.y1))
+        yaw = float(rng.uniform(-math.pi, math.pi))
+        c, s = math.cos(yaw), math.sin(yaw)
+        bx, by_ = x - (c * ox - s * oy), y - (s * ox + c * oy)  # the body origin that centres it there
+        if _free(house, room, x, y, r, zones):
+            house.items.append(Item(name, room.name, round(bx, 3), round(by_, 3), round(yaw, 3), round(r, 3),
+                                    round(x, 3), round(y, 3), kept_by if near else ""))  # fmt: skip
+            return
+    raise HouseError(f"no place for the {name.replace('_', ' ')} in the {room.name}")
+
+
 def place_objects(house: House, rng: np.random.Generator, names: tuple[str, ...] = OBJECTS) -> None:
-    """Put each object in the house (HouseError: an object that finds no place)."""
+    """Put each object in the house (HouseError: an object that finds no place); an object placed
+    already is taken away and placed anew (the generator moves one the robot cannot reach or see)."""
     zones = door_zones(house.doors)
     for name in names:
         if name not in MESHES:
             raise HouseError(f"no room of a house holds a {name.replace('_', ' ')} (objects: {', '.join(OBJECTS)})")
-        ox, oy, r = mesh_extent(name)
-        room, kept_by = _choose(name, house, rng)
-        by = [p for p in house.pieces if p.room == room.name and p.kind == kept_by]
-        for _ in range(TRIES):
-            if by:
-                x, y = _near(by[int(rng.integers(len(by)))], rng)
-            else:
-                f = room.floor.shrunk(0.2)
-                x, y = float(rng.uniform(f.x0, f.x1)), float(rng.uniform(f.y0, f.y1))
-            yaw = float(rng.uniform(-math.pi, math.pi))
-            c, s = math.cos(yaw), math.sin(yaw)
-            bx, by_ = x - (c * ox - s * oy), y - (s * ox + c * oy)  # the body origin that centres it there
-            if _free(house, room, x, y, r, zones):
-                house.items.append(Item(name, room.name, round(bx, 3), round(by_, 3), round(yaw, 3), round(r, 3),
-                                        round(x, 3), round(y, 3), kept_by if by else ""))  # fmt: skip
-                break
-        else:
-            raise HouseError(f"no place for the {name.replace('_', ' ')} in the {room.name}")
+        house.items[:] = [i for i in house.items if i.name != name]
+        _place_one(house, name, rng, zones)
