@@ -44,8 +44,19 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path) -> None:
         (["houses", "show", str(edited)], "does not load"),
         (["sim", "--world", "house:-1", "--duration", "0.1"], "out of range"),
         (["sim", "--world", str(edited), "--duration", "0.1"], "meshh"),
-        (["demo", "--world", "house:3:rooms=9", "--goal", "go to the mug", "--no-video", "--out", str(tmp_path / "d")],
-         "9 rooms do not fit"),  # fmt: skip
+        (
+            [
+                "demo",
+                "--world",
+                "house:3:rooms=9",
+                "--goal",
+                "go to the mug",
+                "--no-video",
+                "--out",
+                str(tmp_path / "d"),
+            ],
+            "9 rooms do not fit",
+        ),  # fmt: skip
     ]
     for args, fragment in cases:
         out = _run(*args)

@@ -10,7 +10,6 @@ import dataclasses
 import itertools
 from pathlib import Path
 
-import mujoco
 import pytest
 
 from go2vlm.apps.episodes.metrics import house_metrics
@@ -40,7 +39,9 @@ def houses():  # noqa: ANN201
 def test_one_seed_one_house(houses) -> None:  # noqa: ANN001
     again = generate(3)
     assert again.mjcf == houses[3].mjcf and again.digest == houses[3].digest
-    assert len({h.digest for h in houses.values()}) == len({h.seed for h in houses.values()}) > 10, "other seeds, other houses"
+    assert len({h.digest for h in houses.values()}) == len({h.seed for h in houses.values()}) > 10, (
+        "other seeds, other houses"
+    )
 
 
 def test_twenty_seeds_generate_pass_the_check_and_load(houses) -> None:  # noqa: ANN001

@@ -73,7 +73,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -332,7 +332,22 @@ def _memory_confirmed(rec: Recording, ep: Episode) -> list[tuple[float, bool]]:
     ]
 
 
-def house_metrics(ep: Episode, target: Footprint | None) -> dict[str, Any] | None:
+class HouseFacts(TypedDict):
+    """An episode's house (module docstring)."""
+
+    asked_seed: int
+    seed: int
+    hash: str | None
+    rooms: list[str]
+    room_types: list[str]
+    spawn_room: str | None
+    target_room: str | None
+    doors: int | None
+    door_widths_m: list[float]
+    narrowest_door_m: float | None
+
+
+def house_metrics(ep: Episode, target: Footprint | None) -> HouseFacts | None:
     """The house facts of an episode in a generated house (module docstring); None in other worlds."""
     from go2vlm.sim.houses import is_house, parse_house
     from go2vlm.sim.houses.plan import door_path

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -73,11 +74,15 @@ def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
     return suite, run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
 
 
-def _cell(ms: list[dict[str, Any]]) -> dict[str, Any]:
+def _num(v: object) -> float | None:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
+def _cell(ms: Sequence[Mapping[str, object]]) -> dict[str, object]:
     """Success, SPL and time to goal of some episodes."""
     wins = sum(bool(m["success"]) for m in ms)
-    spl = [m["spl"] for m in ms if m.get("spl") is not None]
-    ttg = [m["time_to_goal_s"] for m in ms if m.get("success") and m.get("time_to_goal_s") is not None]
+    spl = [v for m in ms if (v := _num(m.get("spl"))) is not None]
+    ttg = [v for m in ms if m.get("success") and (v := _num(m.get("time_to_goal_s"))) is not None]
     return {
         "episodes": len(ms),
         "success": wins,
@@ -88,22 +93,27 @@ def _cell(ms: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def by_house(ms: list[dict[str, Any]]) -> dict[str, Any] | None:
+def by_house(ms: Sequence[Mapping[str, object]]) -> dict[str, object] | None:
     """A group's episodes in generated houses by number of doors and by narrowest door; None without any."""
-    houses = [m for m in ms if m.get("house") and m["house"].get("doors") is not None]
-    if not houses:
-        return None
-    doors: dict[int, list[dict[str, Any]]] = defaultdict(list)
-    narrow: dict[str, list[dict[str, Any]]] = defaultdict(list)
-    for m in houses:
-        doors[int(m["house"]["doors"])].append(m)
-        w = m["house"].get("narrowest_door_m")
+    doors: dict[int, list[Mapping[str, object]]] = defaultdict(list)
+    narrow: dict[str, list[Mapping[str, object]]] = defaultdict(list)
+    seeds, replaced = set(), 0
+    for m in ms:
+        h = m.get("house")
+        if not isinstance(h, dict) or h.get("doors") is None:
+            continue
+        doors[int(h["doors"])].append(m)
+        seeds.add(h["seed"])
+        replaced += h["seed"] != h["asked_seed"]
+        w = _num(h.get("narrowest_door_m"))
         if w is not None:
             lo, hi = next(b for b in DOOR_BINS if b[0] <= w < b[1])
             narrow[f"{lo:.2f}-{hi:.2f}" if hi < 9 else f">= {lo:.2f}"].append(m)
+    if not doors:
+        return None
     return {
-        "houses": len({m["house"]["seed"] for m in houses}),
-        "replaced_seeds": sum(1 for m in houses if m["house"]["seed"] != m["house"]["asked_seed"]),
+        "houses": len(seeds),
+        "replaced_seeds": replaced,
         "by_doors": {str(n): _cell(v) for n, v in sorted(doors.items())},
         "by_narrowest_door_m": {k: _cell(v) for k, v in sorted(narrow.items())},
     }
@@ -237,9 +247,20 @@ def write_report(out: Path) -> dict[str, Any]:
         kinds = ", ".join(f"{k} {v['success']}/{v['episodes']}" for k, v in r["success_by_kind"].items())
         lat = "" if r["answer_latency_s"] is None else f" / {r['answer_latency_s']:g} s late"
         md.append(f"- {r['suite']} / {r['perception']}{' / ' + r['model'] if r['model'] else ''}{lat}: {kinds}")
-    for r in rows:
-        if r.get("houses"):
-            md += _house_tables(r)
+    for r in rows:  # generated houses: by number of doors and by narrowest door
+        h = r.get("houses")
+        if not h:
+            continue
+        md += ["", f"### {_label(r, ' / ')}: {h['houses']} generated houses ({h['replaced_seeds']} seeds replaced)", ""]
+        for title, cells in (("doors between spawn and object", h["by_doors"]),
+                             ("narrowest door on the way (m)", h["by_narrowest_door_m"])):  # fmt: skip
+            md += [f"| {title} | episodes | success [95 % CI] | SPL | time to goal (s) |", "|---|---|---|---|---|"]
+            for key, c in cells.items():
+                spl = "n/a" if c["spl_mean"] is None else f"{c['spl_mean']:.3f}"
+                ttg = "n/a" if c["time_to_goal_s_mean"] is None else f"{c['time_to_goal_s_mean']:.1f}"
+                md.append(f"| {key} | {c['episodes']} | {_pct(c['success_rate'])}{_range(c['success_rate_ci95'])} "
+                          f"| {spl} | {ttg} |")  # fmt: skip
+            md.append("")
     md += ["", *[f"![{name}]({name})" for name in plots], ""]
     md += ["## Runs", ""]
     for c in configs.values():
@@ -252,21 +273,6 @@ def write_report(out: Path) -> dict[str, Any]:
         )
     write_text(out / "report.md", "\n".join(md) + "\n")
     return summary
-
-
-def _house_tables(r: dict[str, Any]) -> list[str]:
-    h = r["houses"]
-    out = ["", f"### {_label(r, ' / ')}: in {h['houses']} generated houses ({h['replaced_seeds']} seeds replaced)", ""]
-    for title, cells in (("doors between spawn and object", h["by_doors"]),
-                         ("narrowest door on the way (m)", h["by_narrowest_door_m"])):  # fmt: skip
-        out += [f"| {title} | episodes | success [95 % CI] | SPL | time to goal (s) |", "|---|---|---|---|---|"]
-        for key, c in cells.items():
-            spl = "n/a" if c["spl_mean"] is None else f"{c['spl_mean']:.3f}"
-            ttg = "n/a" if c["time_to_goal_s_mean"] is None else f"{c['time_to_goal_s_mean']:.1f}"
-            out.append(f"| {key} | {c['episodes']} | {_pct(c['success_rate'])}{_range(c['success_rate_ci95'])} | "
-                       f"{spl} | {ttg} |")  # fmt: skip
-        out.append("")
-    return out
 
 
 def _plots(out: Path, rows: list[dict[str, Any]], lines: list[dict[str, Any]]) -> list[str]:

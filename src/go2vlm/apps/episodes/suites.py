@@ -49,6 +49,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -101,7 +102,9 @@ class Suite:
             values[key] = _draw(v, rng, key)
         spawn = _spawn(task, rng, k) if task.get("spawn") is not None else None
         if task.get("house") is not None:
-            values, spawn = _house_episode(task["house"], values, rng, k)
+            h = task["house"]
+            world, goal, target, spawn = _house_episode(int(h["first_seed"]), str(h["goal"]), h.get("rooms"), rng, k)
+            values.update(world=world, goal=goal, target=target)
         return Episode(
             **values,
             spawn=spawn,
@@ -155,21 +158,19 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
 
 
 def _house_episode(
-    spec: dict[str, Any], values: dict[str, Any], rng: np.random.Generator, k: int
-) -> tuple[dict[str, Any], tuple[float, float, float]]:
+    first_seed: int, verb: str, rooms: int | None, rng: np.random.Generator, k: int
+) -> tuple[str, str, str, tuple[float, float, float]]:
     """Episode k of a house task: house first_seed + k, one of its objects drawn, the robot at the
-    spawn of another room drawn."""
+    spawn of another room drawn. (world, goal, target body, spawn)."""
     from go2vlm.sim.houses import generate
 
-    seed = int(spec["first_seed"]) + k
-    rooms = spec.get("rooms")
+    seed = first_seed + k
     house = generate(seed, rooms).house
     item = house.items[int(rng.integers(len(house.items)))]
     others = [r for r in house.rooms if r.name != item.room]
     start = others[int(rng.integers(len(others)))]
     world = f"house:{seed}" + ("" if rooms is None else f":rooms={rooms}")
-    goal = f"{spec['goal']} the {item.name.replace('_', ' ')}"
-    return {**values, "world": world, "goal": goal, "target": item.name}, start.spawn
+    return world, f"{verb} the {item.name.replace('_', ' ')}", item.name, start.spawn
 
 
 @functools.lru_cache(maxsize=16)
@@ -253,7 +254,7 @@ def load_suite(name: str) -> Suite:
     return suite
 
 
-def _check_house_task(task: dict[str, Any], where: str) -> None:
+def _check_house_task(task: Mapping[str, object], where: str) -> None:
     from go2vlm.sim.houses import HouseError, generate
 
     spec = task["house"]
