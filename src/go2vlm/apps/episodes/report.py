@@ -108,7 +108,7 @@ def by_house(ms: Sequence[Mapping[str, object]]) -> dict[str, object] | None:
         w = _num(h.get("narrowest_door_m"))
         if w is not None:
             lo, hi = next(b for b in DOOR_BINS if b[0] <= w < b[1])
-            narrow[f"{lo:.2f}-{hi:.2f}" if hi < 9 else f">= {lo:.2f}"].append(m)
+            narrow[f"< {hi:.2f}" if lo == 0 else f"{lo:.2f}-{hi:.2f}" if hi < 9 else f">= {lo:.2f}"].append(m)
     if not doors:
         return None
     return {
