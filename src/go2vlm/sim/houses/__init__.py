@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from go2vlm.sim.houses.check import check_house, floor_grid, hidden_items, spawns
+from go2vlm.sim.houses.check import check_house, floor_grid, hidden_items, spawns, unreachable_rooms
 from go2vlm.sim.houses.furniture import furnish
 from go2vlm.sim.houses.mjcf import house_mjcf
 from go2vlm.sim.houses.objects import OBJECTS, place_objects
@@ -52,7 +52,7 @@ __all__ = [
 
 SEED_MAX = 2**31 - 1
 MAX_REPLACED = 20
-RESEAT_ROUNDS = 3
+REPAIR_ROUNDS = 3
 PREFIX = "house:"
 
 
@@ -89,7 +89,15 @@ def _one(seed: int, rooms: int | None, objects: tuple[str, ...]) -> tuple[House,
     place_objects(house, rng, objects)
     floor = floor_grid(house)
     spawns(house, floor)
-    for _ in range(RESEAT_ROUNDS):  # an object the robot cannot reach or see is put elsewhere
+    for _ in range(REPAIR_ROUNDS):  # a room furniture cuts off is furnished anew, and its objects put again
+        lost = unreachable_rooms(house, floor)[0]
+        if not lost:
+            break
+        furnish(house, rng, lost)
+        place_objects(house, rng, tuple(i.name for i in house.items if i.room in lost))
+        floor = floor_grid(house)
+        spawns(house, floor)
+    for _ in range(REPAIR_ROUNDS):  # an object the robot cannot reach or see is put elsewhere
         hidden = hidden_items(house, floor)
         if not hidden:
             break

@@ -24,7 +24,7 @@ from go2vlm.robot_profile.go2 import SIM
 from go2vlm.sim.houses.furniture import overlaps
 from go2vlm.sim.houses.plan import House, Rect
 
-__all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns"]
+__all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns", "unreachable_rooms"]
 
 GRID_M = 0.05
 MARGIN_M = 0.05  # beyond the footprint's half width (reachability) and its circle (spawns)
@@ -138,12 +138,10 @@ def check_house(house: House, floor: Floor | None = None) -> list[str]:
         for other, c in boxes[k + 1 :]:
             if overlaps(b.shrunk(1e-3), c.shrunk(1e-3)):
                 problems.append(f"{name} overlaps {other}")
-    reach = floor.reach
-    home = [reach[floor.cell(r.spawn[0], r.spawn[1])] for r in house.rooms]
-    main = max(set(home), key=home.count) if home else 0
-    for room, lab in zip(house.rooms, home, strict=True):
+    lost, main = unreachable_rooms(house, floor)
+    for room in house.rooms:
         i, j = floor.cell(room.spawn[0], room.spawn[1])
-        if lab == 0 or lab != main:
+        if room.name in lost:
             problems.append(f"room {room.name} is not reachable by the robot")
         elif floor.clearance[i, j] <= CIRCUMSCRIBED:
             problems.append(f"the spawn in {room.name} does not clear the robot")
@@ -152,11 +150,17 @@ def check_house(house: House, floor: Floor | None = None) -> list[str]:
     return problems + list(hidden_items(house, floor, main).values())
 
 
+def unreachable_rooms(house: House, floor: Floor) -> tuple[list[str], int]:
+    """The rooms whose spawn is not on the floor most rooms' spawns share, and that floor's label."""
+    home = [int(floor.reach[floor.cell(r.spawn[0], r.spawn[1])]) for r in house.rooms]
+    main = max(set(home), key=home.count) if home else 0
+    return [r.name for r, lab in zip(house.rooms, home, strict=True) if lab == 0 or lab != main], main
+
+
 def hidden_items(house: House, floor: Floor, main: int | None = None) -> dict[str, str]:
     """Object name -> why the robot cannot reach or see it, from the floor most rooms share."""
     if main is None:
-        home = [int(floor.reach[floor.cell(r.spawn[0], r.spawn[1])]) for r in house.rooms]
-        main = max(set(home), key=home.count) if home else 0
+        main = unreachable_rooms(house, floor)[1]
     ii, jj = np.nonzero(floor.reach == main)
     xs, ys = floor.xy(ii, jj)
     out: dict[str, str] = {}

@@ -10,7 +10,7 @@ then takes the next seed).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import replace
 
 import numpy as np
@@ -262,8 +262,15 @@ def _furnish_room(r: _Room, rng: np.random.Generator) -> list[Piece]:
     return out
 
 
-def furnish(house: House, rng: np.random.Generator) -> None:
-    """Put each room's furniture in it (HouseError: a required piece found no place)."""
-    counts: dict[str, int] = {}
+def furnish(house: House, rng: np.random.Generator, rooms: Collection[str] | None = None) -> None:
+    """Put each room's furniture in it, or only the named rooms' anew (their pieces taken away first);
+    HouseError: a required piece found no place."""
+    if rooms is not None:
+        house.pieces[:] = [p for p in house.pieces if p.room not in rooms]
+    counts: dict[str, int] = {}  # kind -> the highest number its names have (bed, bed_2, ...)
+    for p in house.pieces:
+        base, _, n = p.name.rpartition("_")
+        counts[p.kind] = max(counts.get(p.kind, 0), int(n) if n.isdigit() and base == p.kind else 1)
     for room in house.rooms:
-        house.pieces.extend(_furnish_room(_Room(room, house, counts), rng))
+        if rooms is None or room.name in rooms:
+            house.pieces.extend(_furnish_room(_Room(room, house, counts), rng))

@@ -21,7 +21,8 @@ __all__ = ["ASSETS", "ELSEWHERE_P", "MESHES", "OBJECTS", "Mesh", "mesh_extent", 
 
 ASSETS = Path(__file__).resolve().parent.parent / "assets" / "household"
 ELSEWHERE_P = 0.15  # an object in a room where it does not belong
-TRIES = 80
+TRIES = 80  # in the room it belongs in
+TRIES_ELSEWHERE = 20  # in each other room, when that one has no place
 
 
 @dataclass(frozen=True)
@@ -116,25 +117,28 @@ def _free(house: House, room: Room, cx: float, cy: float, r: float, zones: list[
 
 
 def _place_one(house: House, name: str, rng: np.random.Generator, zones: list[Rect]) -> None:
-    """Put one object: by the piece it is kept by, else anywhere in that room (HouseError: no place)."""
+    """Put one object: by the piece it is kept by, else anywhere in that room, else anywhere in
+    another room (HouseError: no place in the house)."""
     ox, oy, r = mesh_extent(name)
     room, kept_by = _choose(name, house, rng)
     by = [p for p in house.pieces if p.room == room.name and p.kind == kept_by]
-    for k in range(TRIES):
-        near = by and k < TRIES // 2
+    rooms = [room, *(o for o in house.rooms if o is not room)]
+    for k in range(TRIES + TRIES_ELSEWHERE * (len(rooms) - 1)):
+        near = bool(by) and k < TRIES // 2
+        where = rooms[0 if k < TRIES else 1 + (k - TRIES) // TRIES_ELSEWHERE]
         if near:
             x, y = _near(by[int(rng.integers(len(by)))], rng)
         else:
-            f = room.floor.shrunk(0.2)
+            f = where.floor.shrunk(0.2)
             x, y = float(rng.uniform(f.x0, f.x1)), float(rng.uniform(f.y0, f.y1))
         yaw = float(rng.uniform(-math.pi, math.pi))
         c, s = math.cos(yaw), math.sin(yaw)
         bx, by_ = x - (c * ox - s * oy), y - (s * ox + c * oy)  # the body origin that centres it there
-        if _free(house, room, x, y, r, zones):
-            house.items.append(Item(name, room.name, round(bx, 3), round(by_, 3), round(yaw, 3), round(r, 3),
+        if _free(house, where, x, y, r, zones):
+            house.items.append(Item(name, where.name, round(bx, 3), round(by_, 3), round(yaw, 3), round(r, 3),
                                     round(x, 3), round(y, 3), kept_by if near else ""))  # fmt: skip
             return
-    raise HouseError(f"no place for the {name.replace('_', ' ')} in the {room.name}")
+    raise HouseError(f"no place for the {name.replace('_', ' ')} in the house")
 
 
 def place_objects(house: House, rng: np.random.Generator, names: tuple[str, ...] = OBJECTS) -> None:
