@@ -89,10 +89,11 @@ def _one(seed: int, rooms: int | None, objects: tuple[str, ...]) -> tuple[House,
     place_objects(house, rng, objects)
     floor = floor_grid(house)
     spawns(house, floor)
-    for _ in range(REPAIR_ROUNDS):  # a room furniture cuts off is furnished anew, and its objects put again
-        lost = unreachable_rooms(house, floor)[0]
+    for _ in range(REPAIR_ROUNDS):  # a room furniture cuts off (and the rooms next to it) furnished anew
+        lost = set(unreachable_rooms(house, floor)[0])
         if not lost:
             break
+        lost |= {d.a for d in house.doors if d.b in lost} | {d.b for d in house.doors if d.a in lost}  # the way in
         furnish(house, rng, lost)
         place_objects(house, rng, tuple(i.name for i in house.items if i.room in lost))
         floor = floor_grid(house)
