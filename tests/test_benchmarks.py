@@ -37,6 +37,7 @@ SMALLEST: dict[str, Smallest] = {
     "bench_bus": Smallest(("--types", "ours", "--cases", "10", "--duration", "1", "--ser-n", "2", "--json", "{json}")),
     "bench_demo": Smallest(("--duration", "1", "--fast-duration", "1", "--no-video", "--json", "{json}")),
     "bench_guard": Smallest(("--trials", "1", "--json", "{json}"), slow="three 8 s drives of the sim at a wall"),
+    "bench_houses": Smallest(("--seeds", "2", "--json", "{json}")),
     "bench_images": Smallest(("--sizes", "640x480", "--frames", "3", "--json", "{json}")),
     "bench_map": Smallest(("--sections", "walk,node", "--walk-m", "10", "--json", "{json}")),
     "bench_mcp": Smallest(

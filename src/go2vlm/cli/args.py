@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from typing import Any
 
-__all__ = ["add_dds_args", "add_node_params", "non_negative", "node_params", "positive"]
+__all__ = ["add_dds_args", "add_node_params", "house_note", "non_negative", "node_params", "positive"]
 
 
 def _number(text: str) -> float:
@@ -64,3 +65,14 @@ def node_params(items: list[str]) -> dict[str, dict[str, Any]]:
             raise ParamError(f"--param {item!r}: expected NODE.NAME=VALUE, e.g. follower.kp_angular=1.0")
         out.setdefault(node.strip(), {}).update(parse_overrides([f"{pname}={value}"]))
     return out
+
+
+def house_note(world: str, verb: str) -> None:
+    """A generated house (`house:SEED`): made now (HouseError, exit 2, when it cannot be), and a line
+    on stderr when its seed failed the check and the next seed's house is used."""
+    from go2vlm.sim.houses import house_file, is_house
+
+    if is_house(world):
+        note = house_file(world)[1].note()
+        if note:
+            print(f"go2vlm {verb}: {note}", file=sys.stderr)

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from go2vlm.cli.args import add_dds_args, add_node_params, node_params
+from go2vlm.cli.args import add_dds_args, add_node_params, house_note, node_params
 from go2vlm.cli.view import add_foxglove_args, foxglove_params
 
 
@@ -47,7 +47,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
     p.add_argument("--bag", action="store_true", help="also record every topic into OUT/bag (rosbag2 MCAP)")
     add_foxglove_args(p)
-    p.add_argument("--world", default=None, help="world (default follow_ball; with --goal, picked from the goal)")
+    p.add_argument(
+        "--world",
+        default=None,
+        help="world (default follow_ball; with --goal, picked from the goal); house:SEED is a generated house",
+    )
     p.add_argument(
         "--spawn",
         default=None,
@@ -118,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
     world = args.world or demo_world(goal)
     try:
+        house_note(world, "demo")
         spawn = None if args.spawn is None else demo_spawn(world, args.spawn)
     except ValueError as exc:
         print(f"go2vlm demo: {exc}", file=sys.stderr)

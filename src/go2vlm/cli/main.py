@@ -38,6 +38,7 @@ COMMANDS = {
     "doctor": "go2vlm.cli.doctor",
     "mcp": "go2vlm.cli.mcp",
     "objects": "go2vlm.cli.objects",
+    "houses": "go2vlm.cli.houses",
 }
 
 

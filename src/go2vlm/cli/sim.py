@@ -13,7 +13,7 @@ import time
 from typing import TYPE_CHECKING, cast
 
 from go2vlm.bus import ShutdownRequested, exit_code, parse_overrides
-from go2vlm.cli.args import add_dds_args
+from go2vlm.cli.args import add_dds_args, house_note
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import UsageError
 
@@ -31,7 +31,12 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
             "OSMesa fallback). `go2vlm run --help` lists every parameter of the sim node; set them with --param."
         ),
     )
-    p.add_argument("--world", default="follow_ball", help="vision_test, follow_ball, obstacles or an .xml path")
+    p.add_argument(
+        "--world",
+        default="follow_ball",
+        help="vision_test, follow_ball, obstacles, household, apartment ..., house:SEED (a generated house) or an "
+        ".xml path",
+    )
     p.add_argument("--mode", default="dynamic", choices=("dynamic", "kinematic"), help="physics mode")
     speed = p.add_mutually_exclusive_group()
     speed.add_argument("--rtf", type=float, default=1.0, help="target real-time factor (default 1.0)")
@@ -71,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
             os.environ.setdefault("MUJOCO_GL", "glfw")
     from go2vlm.launch.registry import make_node
 
+    house_note(args.world, "sim")
     params = {"world": args.world, "mode": args.mode, "rtf": args.rtf, "fast": args.fast, "viewer": args.viewer}
     if args.unitree:
         params["unitree"] = True

@@ -6,7 +6,12 @@ walls, what suites and their tests call a room), ``spawn_<room>`` (x y yaw: a cl
 room, `go2vlm demo --spawn ROOM`), ``ball_path_type`` (text, "ellipse" or
 "figure8"), ``ball_path`` (cx cy rx ry start_angle), ``ball_radius`` and
 ``light_jitter`` (a fraction: every light's intensity and tint, and the headlight's,
-vary by up to it, drawn from the sim's seed, so that each episode sees other lighting).
+vary by up to it, drawn from the sim's seed, so that each episode sees other lighting), ``doors``
+(text, "room_a room_b x y width axis; ...": each doorway's centre, clear width and the axis its wall
+runs along) and ``house`` (text, "seed N hash H": a generated house's).
+
+A world name ``house:SEED`` (or ``house:SEED:rooms=N``) is a generated house (sim/houses): its file is
+written to the cache folder and read like any other.
 Angles in world files are radians (the loader forces ``<compiler angle="radian"/>``).
 Mesh and texture folders (``<compiler meshdir texturedir assetdir>``) are relative to
 the world file, as MuJoCo reads them from a file.
@@ -24,6 +29,8 @@ import numpy as np
 
 from go2vlm.geometry.footprint import Footprint
 from go2vlm.sim import go2_model
+from go2vlm.sim.houses import house_file, is_house
+from go2vlm.sim.houses.plan import Door
 from go2vlm.sim.render import labelled_bodies
 
 WORLDS_DIR = Path(__file__).with_name("worlds")
@@ -52,6 +59,8 @@ class WorldInfo:
     ball_radius: float
     rooms: tuple[Room, ...] = ()
     room_spawns: tuple[tuple[str, tuple[float, float, float]], ...] = ()  # (room, (x, y, yaw))
+    doors: tuple[Door, ...] = ()
+    house: str = ""  # a generated house's "seed N hash H"
 
     def room_of(self, x: float, y: float) -> str | None:
         """The room this floor point is in (None: in none of them: a wall, a doorway, outside)."""
@@ -71,6 +80,10 @@ def available_worlds() -> list[str]:
 
 
 def world_path(name: str) -> Path:
+    """The file of a world: a packaged name, an .xml path, or a house (``house:SEED``, generated into the
+    cache). ValueError (HouseError for a house) naming what is wrong."""
+    if is_house(name):
+        return house_file(name)[0]
     path = Path(name)
     if path.suffix == ".xml" and path.exists():
         return path
@@ -129,6 +142,18 @@ def _rooms(meta: dict[str, str], file: Path) -> tuple[Room, ...]:
     return tuple(out)
 
 
+def _doors(meta: dict[str, str], file: Path) -> tuple[Door, ...]:
+    out = []
+    for part in filter(None, (p.strip() for p in meta.get("doors", "").split(";"))):
+        words = part.split()
+        try:
+            a, b, x, y, w, axis = words[0], words[1], *(float(v) for v in words[2:5]), words[5]
+        except (ValueError, IndexError):
+            raise ValueError(f"{file}: a door is 'room_a room_b x y width x|y', got {part!r}") from None
+        out.append(Door(a, b, x, y, w, axis == "x"))
+    return tuple(out)
+
+
 def _room_spawns(meta: dict[str, str]) -> tuple[tuple[str, tuple[float, float, float]], ...]:
     out = []
     for key, data in meta.items():
@@ -166,13 +191,15 @@ def build_world_xml(
         spawn = (vals[0], vals[1], vals[2])
     path = tuple(float(v) for v in meta["ball_path"].split()) if "ball_path" in meta else None
     info = WorldInfo(
-        name=Path(name).stem,
+        name=name if is_house(name) else Path(name).stem,
         spawn=spawn,
         ball_path_type=meta.get("ball_path_type"),
         ball_path=path,
         ball_radius=float(meta.get("ball_radius", "0.2")),
         rooms=_rooms(meta, file),
         room_spawns=_room_spawns(meta),
+        doors=_doors(meta, file),
+        house=meta.get("house", ""),
     )
 
     # Everything here (robot ranges, world eulers) is in radians. Files a world names (textures)

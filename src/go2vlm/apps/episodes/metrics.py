@@ -59,6 +59,10 @@ Memory (/objects, episodes with an object_memory), at the end, against the groun
                    runs along (a place anywhere along a wall is on it);
   phantoms         remembered objects with no body of their label within PHANTOM_M (1 m): not there;
   max_error_m      the largest error of the others; `accurate`: how many are within ACCURATE_M (0.3 m).
+House (a generated house, `--world house:SEED`; None in other worlds): `house` = the seed asked and
+the seed used (a failed seed is replaced by the next), the house's hash, its rooms and their types,
+the spawn's room and the target's, and the doors between them on the way through the fewest doors:
+how many (`doors`), their clear widths and the narrowest (`narrowest_door_m`; None in the same room).
 Map (/map, /map/costmap, /plan; episodes with a map node; None without): `map` = the newest map's
 size (resolution_m, width, height cells), free_m2 and occupied_m2, the frontiers left in the newest
 costmap, explored_frontiers (those the explorer walked to) and plans (routes heard on /plan). The map
@@ -71,7 +75,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -343,6 +347,51 @@ def _memory_confirmed(rec: Recording, ep: Episode) -> list[tuple[float, bool]]:
     ]
 
 
+class HouseFacts(TypedDict):
+    """An episode's house (module docstring)."""
+
+    asked_seed: int
+    seed: int
+    hash: str | None
+    rooms: list[str]
+    room_types: list[str]
+    spawn_room: str | None
+    target_room: str | None
+    doors: int | None
+    door_widths_m: list[float]
+    narrowest_door_m: float | None
+
+
+def house_metrics(ep: Episode, target: Footprint | None) -> HouseFacts | None:
+    """The house facts of an episode in a generated house (module docstring); None in other worlds."""
+    from go2vlm.sim.houses import is_house, parse_house
+    from go2vlm.sim.houses.plan import door_path
+    from go2vlm.sim.worlds import world_info
+
+    if not is_house(ep.world):
+        return None
+    info = world_info(ep.world)
+    words = info.house.split()
+    meta = dict(zip(words[::2], words[1::2], strict=False))
+    x, y, _ = ep.spawn if ep.spawn is not None else info.spawn
+    start = info.room_of(x, y)
+    goal = info.room_of(target.x, target.y) if target is not None else None
+    path = door_path(info.doors, start, goal) if start and goal else []
+    widths = [d.width for d in path]
+    return {
+        "asked_seed": parse_house(ep.world)[0],
+        "seed": int(meta.get("seed", -1)),
+        "hash": meta.get("hash"),
+        "rooms": [r.name for r in info.rooms],
+        "room_types": sorted({r.name.rstrip("_0123456789") for r in info.rooms}),
+        "spawn_room": start,
+        "target_room": goal,
+        "doors": len(path) if start and goal else None,
+        "door_widths_m": widths,
+        "narrowest_door_m": min(widths) if widths else None,
+    }
+
+
 def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[str, Any]]:
     """(metrics, series): the episode's numbers and the time series behind its plot."""
     ep = ctx.episode
@@ -484,6 +533,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         last = rec.poses[-1][1] if rec.poses else {}
         bodies = {n: f.moved(last[n][0], last[n][1]) if n in last else f for n, f in ctx.shapes.items()}
         m["memory"] = memory_metrics(rec.memory[-1][1], bodies)
+    m["house"] = house_metrics(ep, ctx.shapes.get(target or ""))
     cmds = rec.cmds
     if ep.goal is None:  # the follow article's loop: `go2vlm demo`'s figures
         ball = np.array(centre)

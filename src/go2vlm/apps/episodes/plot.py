@@ -1,7 +1,9 @@
 """plot.png of one episode: over sim time what the robot saw and did, and the top view of the world;
 with a map node, the top view is drawn over the robot's map (unknown grey, free white, occupied
 black) with the frontiers left, the frontiers the explorer walked to and the routes it planned
-(series.json's map, frontiers, explored, plans: apps/episodes/navmap.py)."""
+(series.json's map, frontiers, explored, plans: apps/episodes/navmap.py). In a generated house
+(`--world house:SEED`) the top view also draws its plan under the rest: the rooms by type with their
+names, the doors with their clear widths, each room's spawn (`draw_plan`, also `go2vlm houses show`)."""
 
 from __future__ import annotations
 
@@ -18,17 +20,75 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["UNKNOWN_GREY", "OccupancyGridDict", "draw_occupancy", "draw_plot", "write_plot"]
+    from go2vlm.sim.worlds import WorldInfo
+
+__all__ = ["UNKNOWN_GREY", "OccupancyGridDict", "draw_occupancy", "draw_plan", "draw_plot", "write_plot"]
 
 UNKNOWN_GREY = "#b8b8b8"  # the map's unknown cells
+ROOM_COLOURS = {"kitchen": "#f5eedc", "living": "#dfe9f5", "bedroom": "#e3f2e1", "bathroom": "#e0f0f4",
+                "hall": "#eeeeee", "study": "#ece3f5"}  # fmt: skip
+
+
+def draw_plan(
+    ax: Axes, info: WorldInfo, shapes: Mapping[str, Footprint], objects: bool = True, fill: bool = True
+) -> None:
+    """A world's plan: its rooms (filled by type, or outlined without `fill`; named), walls and furniture
+    (of `shapes`), doors (a gap with its clear width), and with `objects` the objects (named dots) and
+    each room's spawn (an arrow)."""
+    import matplotlib.patches as mp
+
+    from go2vlm.sim.houses import OBJECTS
+
+    for r in info.rooms:
+        kind = r.name.rstrip("_0123456789")
+        colour = ROOM_COLOURS.get(kind, "#f0f0f0")
+        ax.add_patch(mp.Rectangle((r.x0, r.y0), r.x1 - r.x0, r.y1 - r.y0, facecolor=colour if fill else "none",
+                                  edgecolor="none" if fill else "tab:cyan", lw=0.8,
+                                  zorder=0 if fill else 2))  # fmt: skip
+        ax.annotate(r.name, ((r.x0 + r.x1) / 2, (r.y0 + r.y1) / 2), ha="center", va="center", fontsize=9,
+                    weight="bold", color="0.3", zorder=5, alpha=0.85,
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.6})  # fmt: skip
+    for name, sh in shapes.items():
+        if name in OBJECTS:
+            continue
+        wall = name.startswith("wall")
+        corner = np.array([sh.x, sh.y]) + _rot(sh.yaw) @ np.array([-sh.hx, -sh.hy])
+        ax.add_patch(mp.Rectangle((float(corner[0]), float(corner[1])), 2 * sh.hx, 2 * sh.hy,
+                                  angle=float(np.degrees(sh.yaw)), facecolor="0.2" if wall else "#c8a57a",
+                                  edgecolor="0.2" if wall else "#7a5a3a", lw=0.6, zorder=1))  # fmt: skip
+        if not wall:
+            ax.annotate(name, (sh.x, sh.y), ha="center", va="center", fontsize=5.5, color="#5a3f25", zorder=2)
+    for d in info.doors:
+        dx, dy = (d.width / 2, 0.0) if d.along_x else (0.0, d.width / 2)
+        ax.plot([d.x - dx, d.x + dx], [d.y - dy, d.y + dy], color="tab:green", lw=3, solid_capstyle="butt", zorder=2)
+        ax.annotate(f"{d.width:.2f}", (d.x, d.y), xytext=(0, 5) if d.along_x else (5, 0),
+                    textcoords="offset points", fontsize=6, color="tab:green", ha="center" if d.along_x else "left",
+                    va="center", zorder=3)  # fmt: skip
+    ax.plot([], [], color="tab:green", lw=3, label="door (clear width, m)")
+    if not objects:
+        return
+    for name, sh in shapes.items():
+        if name in OBJECTS:
+            ax.add_patch(mp.Circle((sh.x, sh.y), 0.1, color="tab:orange", zorder=3))
+            ax.annotate(name, (sh.x, sh.y), xytext=(0, -8), textcoords="offset points", ha="center", va="top",
+                        fontsize=6.5, color="tab:red", zorder=4)  # fmt: skip
+    for k, (_, (x, y, yaw)) in enumerate(info.room_spawns):
+        ax.arrow(x, y, 0.4 * math.cos(yaw), 0.4 * math.sin(yaw), width=0.06, color="tab:purple", zorder=4,
+                 label="spawn_<room>" if k == 0 else None)  # fmt: skip
 
 
 def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, Footprint]) -> None:
     import matplotlib.patches as mp
 
+    from go2vlm.sim.houses import is_house
+
     grid = s.get("map")
     draw_occupancy(ax, grid)
     on_map = bool(grid)
+    if is_house(str(m.get("world") or "")):  # a generated house: its rooms and doors (over a map: outlined)
+        from go2vlm.sim.worlds import world_info
+
+        draw_plan(ax, world_info(m["world"]), {}, objects=False, fill=not on_map)
     for name, sh in shapes.items():
         is_target = name == m.get("target_body")
         colour = "tab:orange" if is_target else ("tab:olive" if on_map else "0.6")

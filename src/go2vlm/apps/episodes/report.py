@@ -5,6 +5,8 @@ drift (`--drift`) is a suite of its own ("rooms (odometry drift 1)"). Confidence
   rates (success, grounding precision and recall at IoU 0.5)  Wilson score interval;
   means (SPL, time to goal)                                   percentile bootstrap, 10,000 resamples
                                                               of the episodes, seeded (reproducible).
+In generated houses (the `houses` suite) each group is also split by the number of doors between
+the spawn and the object and by the narrowest of them (bins of DOOR_BINS): success, SPL and time to goal.
 Precision and recall pool the answers of all episodes; answers within one episode are correlated
 (consecutive frames), so their intervals are narrower than a per-episode analysis would give.
 """
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +27,7 @@ __all__ = ["bootstrap_ci", "summarize", "wilson", "write_report"]
 
 Z95 = 1.959963984540054
 BOOTSTRAP = 10_000
+DOOR_BINS = ((0.0, 0.8), (0.8, 0.9), (0.9, 9.9))  # narrowest door on the way, metres: [lo, hi)
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float] | None:
@@ -68,6 +72,51 @@ def group_key(line: dict[str, Any]) -> tuple[str, str, str, float]:
     lat = run.get("answer_latency_s")
     suite = suite_label(run["suite"], run.get("odom_drift"))
     return suite, run["perception"], run.get("model") or "", -1.0 if lat is None else float(lat)
+
+
+def _num(v: object) -> float | None:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
+def _cell(ms: Sequence[Mapping[str, object]]) -> dict[str, object]:
+    """Success, SPL and time to goal of some episodes."""
+    wins = sum(bool(m["success"]) for m in ms)
+    spl = [v for m in ms if (v := _num(m.get("spl"))) is not None]
+    ttg = [v for m in ms if m.get("success") and (v := _num(m.get("time_to_goal_s"))) is not None]
+    return {
+        "episodes": len(ms),
+        "success": wins,
+        "success_rate": _r(wins / len(ms)) if ms else None,
+        "success_rate_ci95": _ci(wilson(wins, len(ms))),
+        "spl_mean": _r(float(np.mean(spl))) if spl else None,
+        "time_to_goal_s_mean": _r(float(np.mean(ttg)), 2) if ttg else None,
+    }
+
+
+def by_house(ms: Sequence[Mapping[str, object]]) -> dict[str, object] | None:
+    """A group's episodes in generated houses by number of doors and by narrowest door; None without any."""
+    doors: dict[int, list[Mapping[str, object]]] = defaultdict(list)
+    narrow: dict[str, list[Mapping[str, object]]] = defaultdict(list)
+    seeds, replaced = set(), 0
+    for m in ms:
+        h = m.get("house")
+        if not isinstance(h, dict) or h.get("doors") is None:
+            continue
+        doors[int(h["doors"])].append(m)
+        seeds.add(h["seed"])
+        replaced += h["seed"] != h["asked_seed"]
+        w = _num(h.get("narrowest_door_m"))
+        if w is not None:
+            lo, hi = next(b for b in DOOR_BINS if b[0] <= w < b[1])
+            narrow[f"< {hi:.2f}" if lo == 0 else f"{lo:.2f}-{hi:.2f}" if hi < 9 else f">= {lo:.2f}"].append(m)
+    if not doors:
+        return None
+    return {
+        "houses": len(seeds),
+        "replaced_seeds": replaced,
+        "by_doors": {str(n): _cell(v) for n, v in sorted(doors.items())},
+        "by_narrowest_door_m": {k: _cell(v) for k, v in sorted(narrow.items())},
+    }
 
 
 def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -138,6 +187,7 @@ def summarize(lines: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "speed": "fast" if cfg.get("fast") else f"rtf {cfg.get('rtf')}",
                 "git_commit": cfg.get("git", {}).get("commit"),
                 "run_ids": sorted({r["config"]["run_id"] for r in rows}),
+                "houses": by_house(ms),
             }
         )
     return out
@@ -210,6 +260,20 @@ def write_report(out: Path) -> dict[str, Any]:
         kinds = ", ".join(f"{k} {v['success']}/{v['episodes']}" for k, v in r["success_by_kind"].items())
         lat = "" if r["answer_latency_s"] is None else f" / {r['answer_latency_s']:g} s late"
         md.append(f"- {r['suite']} / {r['perception']}{' / ' + r['model'] if r['model'] else ''}{lat}: {kinds}")
+    for r in rows:  # generated houses: by number of doors and by narrowest door
+        h = r.get("houses")
+        if not h:
+            continue
+        md += ["", f"### {_label(r, ' / ')}: {h['houses']} generated houses ({h['replaced_seeds']} seeds replaced)", ""]
+        for title, cells in (("doors between spawn and object", h["by_doors"]),
+                             ("narrowest door on the way (m)", h["by_narrowest_door_m"])):  # fmt: skip
+            md += [f"| {title} | episodes | success [95 % CI] | SPL | time to goal (s) |", "|---|---|---|---|---|"]
+            for key, c in cells.items():
+                spl = "n/a" if c["spl_mean"] is None else f"{c['spl_mean']:.3f}"
+                ttg = "n/a" if c["time_to_goal_s_mean"] is None else f"{c['time_to_goal_s_mean']:.1f}"
+                md.append(f"| {key} | {c['episodes']} | {_pct(c['success_rate'])}{_range(c['success_rate_ci95'])} "
+                          f"| {spl} | {ttg} |")  # fmt: skip
+            md.append("")
     md += ["", *[f"![{name}]({name})" for name in plots], ""]
     md += ["## Runs", ""]
     for c in configs.values():

@@ -1,7 +1,7 @@
 """Suites: YAML files of tasks that expand into seeded episodes.
 
 A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
-obstacles, household, household_cross, referring, rooms) or a path to a file of your own (copy a
+obstacles, household, household_cross, referring, rooms, houses) or a path to a file of your own (copy a
 packaged one and edit it):
 
     name: goals
@@ -25,6 +25,15 @@ packaged one and edit it):
         target: red_ball    # the body the goal refers to (needed when its words do not name one body:
                             # "the ball under the table"); left out, the body whose name fits the goal
 
+A task may be a generated house each episode instead of a world (the `houses` suite):
+
+      - house: {first_seed: 1000, goal: go to}    # episode k: house first_seed + k (sim/houses),
+                                                  # an object of it drawn, the robot in another room
+                                                  # (that room's spawn); goal: go to | look for
+
+A task naming one house (`world: house:17`) needs that house itself to pass its check: a house whose
+seed would be replaced stops the suite before any episode runs.
+
 Top-level keys starting with `x-` are left alone: a place for YAML anchors the tasks refer to
 (`x-rooms: {kitchen: &kitchen {x: ..., y: ...}}`, then `spawn: *kitchen`).
 
@@ -40,6 +49,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -54,7 +64,9 @@ __all__ = ["SUITES_DIR", "Suite", "SuiteError", "available_suites", "load_suite"
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"
 _SUITE_KEYS = {"name", "description", "episodes", "seed", "defaults", "tasks"}
-_TASK_ONLY = {"goals", "spawn"}
+_TASK_ONLY = {"goals", "spawn", "house"}
+_HOUSE_KEYS = {"first_seed", "goal", "rooms"}
+_HOUSE_GOALS = ("go to", "look for")
 _SPAWN_KEYS = {"x", "y", "yaw", "min_clearance_m", "min_goal_distance_m"}
 _EPISODE_FIELDS = {f.name for f in fields(Episode)} - {"id", "perception", "spawn", "seed"}
 _MAX_TRIES = 2000
@@ -89,6 +101,10 @@ class Suite:
                 continue
             values[key] = _draw(v, rng, key)
         spawn = _spawn(task, rng, k) if task.get("spawn") is not None else None
+        if task.get("house") is not None:
+            h = task["house"]
+            world, goal, target, spawn = _house_episode(int(h["first_seed"]), str(h["goal"]), h.get("rooms"), rng, k)
+            values.update(world=world, goal=goal, target=target)
         return Episode(
             **values,
             spawn=spawn,
@@ -139,6 +155,22 @@ def _spawn(task: dict[str, Any], rng: np.random.Generator, k: int) -> tuple[floa
     raise SuiteError(
         f"task {k % 1000}: no spawn in its region clears the objects by {min_clear} m ({_MAX_TRIES} tries)"
     )
+
+
+def _house_episode(
+    first_seed: int, verb: str, rooms: int | None, rng: np.random.Generator, k: int
+) -> tuple[str, str, str, tuple[float, float, float]]:
+    """Episode k of a house task: house first_seed + k, one of its objects drawn, the robot at the
+    spawn of another room drawn. (world, goal, target body, spawn)."""
+    from go2vlm.sim.houses import generate
+
+    seed = first_seed + k
+    house = generate(seed, rooms).house
+    item = house.items[int(rng.integers(len(house.items)))]
+    others = [r for r in house.rooms if r.name != item.room]
+    start = others[int(rng.integers(len(others)))]
+    world = f"house:{seed}" + ("" if rooms is None else f":rooms={rooms}")
+    return world, f"{verb} the {item.name.replace('_', ' ')}", item.name, start.spawn
 
 
 @functools.lru_cache(maxsize=16)
@@ -197,8 +229,12 @@ def load_suite(name: str) -> Suite:
         bad = set(task) - _EPISODE_FIELDS - _TASK_ONLY
         if bad:
             raise SuiteError(f"{where}: unknown key(s) {sorted(bad)}")
+        if "house" in task:
+            _check_house_task(task, where)
+            tasks.append(task)
+            continue
         if "world" not in task:
-            raise SuiteError(f"{where}: needs a world")
+            raise SuiteError(f"{where}: needs a world (or a house)")
         if not isinstance(task.get("spawn", {}) or {}, dict) or set(task.get("spawn") or {}) - _SPAWN_KEYS:
             raise SuiteError(f"{where}: spawn takes {', '.join(sorted(_SPAWN_KEYS))}")
         goals = task.pop("goals", None)
@@ -218,10 +254,29 @@ def load_suite(name: str) -> Suite:
     return suite
 
 
+def _check_house_task(task: Mapping[str, object], where: str) -> None:
+    from go2vlm.sim.houses import HouseError, generate
+
+    spec = task["house"]
+    if not isinstance(spec, dict) or set(spec) - _HOUSE_KEYS or "first_seed" not in spec or "goal" not in spec:
+        raise SuiteError(f"{where}: house takes first_seed, goal ({' | '.join(_HOUSE_GOALS)}) and rooms")
+    if spec["goal"] not in _HOUSE_GOALS:
+        raise SuiteError(f"{where}: a house task's goal is {' or '.join(_HOUSE_GOALS)}, not {spec['goal']!r}")
+    if {"world", "goal", "goals", "spawn", "target"} & set(task):
+        raise SuiteError(f"{where}: a house task draws its world, goal, target and spawn itself")
+    try:
+        generate(int(spec["first_seed"]), spec.get("rooms"))
+    except (HouseError, TypeError, ValueError) as exc:
+        raise SuiteError(f"{where}: {exc}") from None
+
+
 def _check_task(task: dict[str, Any], where: str) -> None:
+    from go2vlm.sim.houses import generate, is_house, parse_house
     from go2vlm.sim.worlds import world_path
 
     try:
+        if is_house(task["world"]):  # a house the suite names: that very house must pass its check
+            generate(*parse_house(task["world"]), strict=True)
         world_path(task["world"])
     except ValueError as exc:
         raise SuiteError(f"{where}: {exc}") from None
