@@ -89,7 +89,8 @@ line) walks the global route to it, preferring known free space. Each waypoint g
 approach law and local planner, so the safety gate and its guard keep the last word.
 
 Obstacles: with a fresh /scan (younger than scan_timeout_s) go to and follow steer round what lies
-between the robot and the target, planner_margin_m each side of the footprint. A detour that takes
+between the robot and the target, the clearance at its speed each side of the footprint (planner_margin_m
+at a creep, more at speed: geometry/footprint.py Clearance, the guard's rule too). A detour that takes
 the target out of the camera's view carries on towards its last confirmed place (from /odom) for up
 to detour_memory_s, and only while the direct way is blocked. Without a scan the approach is
 straight; the safety gate's collision guard stops it short of anything either way.
