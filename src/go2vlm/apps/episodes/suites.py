@@ -1,7 +1,7 @@
 """Suites: YAML files of tasks that expand into seeded episodes.
 
 A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
-obstacles, household, household_cross, referring, rooms) or a path to a file of your own (copy a
+obstacles, household, household_cross, referring, rooms, rooms_narrow) or a path to a file of your own (copy a
 packaged one and edit it):
 
     name: goals
