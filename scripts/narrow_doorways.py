@@ -29,9 +29,7 @@ def narrow(text: str, width: float) -> tuple[str, int]:
     grow: dict[str, tuple[float, float]] = {}  # name -> (extend the low end, extend the high end)
     doors = 0
     for (axis, _), names in lines.items():
-        segs = sorted(
-            (walls[n][axis] - walls[n][3 + axis], walls[n][axis] + walls[n][3 + axis], n) for n in names
-        )
+        segs = sorted((walls[n][axis] - walls[n][3 + axis], walls[n][axis] + walls[n][3 + axis], n) for n in names)
         for (_, a_hi, a), (b_lo, _, b) in zip(segs, segs[1:]):
             gap = b_lo - a_hi
             if width < gap <= MAX_DOORWAY_M:

@@ -142,6 +142,35 @@ def test_the_rooms_suite_crosses_rooms_both_ways_in_both_worlds() -> None:
     assert all(parse_goal(suite.episode(k, "color").goal or "").target.color is None for k in range(12, 28))
 
 
+@pytest.mark.parametrize(("world", "door"), [("apartment_door080", 0.8), ("apartment_door090", 0.9)])
+def test_the_narrow_door_apartments_differ_only_in_their_doorways(world: str, door: float) -> None:
+    """scripts/narrow_doorways.py's variants: the apartment's rooms, spawns and objects, every doorway
+    `door` m clear: a robot kept door/2 - 0.05 m from everything still reaches every room from the
+    corridor, one kept door/2 + 0.05 m reaches none."""
+    info, base = world_info(world), world_info("apartment")
+    assert info.rooms == base.rooms and info.room_spawns == base.room_spawns
+    shapes, plain = world_footprints(world_model(world)[0]), world_footprints(world_model("apartment")[0])
+    assert {n for n in shapes if not n.startswith("wall")} == {n for n in plain if not n.startswith("wall")}
+    names = [r.name for r in info.rooms]
+    spawns = dict(info.room_spawns)
+    free, x0, y0 = _free(world, door / 2 - 0.05)
+    labels, _ = ndimage.label(free)
+    assert len({labels[_cell(*spawns[r][:2], x0, y0)] for r in names}) == 1, "a doorway is narrower"
+    closed, _, _ = _free(world, door / 2 + 0.05)
+    labels, _ = ndimage.label(closed)
+    assert len({labels[_cell(*spawns[r][:2], x0, y0)] for r in names}) == len(names), "a doorway is wider"
+
+
+def test_rooms_narrow_crosses_rooms_through_both_widths() -> None:
+    suite = load_suite("rooms_narrow")
+    assert suite.episodes == len(suite.tasks), "one episode per task"
+    counts = _check_cross_room("rooms_narrow")
+    for world in ("apartment_door080", "apartment_door090"):
+        assert sum(n for key, n in counts.items() if key.startswith(world)) >= 6, world
+    # the widths alternate: any first few episodes take both
+    assert {suite.episode(k, "oracle").world for k in range(2)} == {"apartment_door080", "apartment_door090"}
+
+
 def test_household_cross_is_household_across_the_doorway() -> None:
     cross, home = load_suite("household_cross"), load_suite("household")
     assert cross.episodes == home.episodes

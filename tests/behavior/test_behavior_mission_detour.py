@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from go2vlm.behavior.mission import Mission, MissionParams, Sighting
 from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
 from go2vlm.geometry.camera import fovy_to_hfov
-from go2vlm.geometry.footprint import Footprint, clearance
+from go2vlm.geometry.footprint import Clearance, Footprint, clearance
 from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, scan_points
 from go2vlm.robot_profile import go2 as spec
 
@@ -93,7 +93,9 @@ def test_a_box_in_the_way_is_driven_round_and_the_goal_reached() -> None:
     m, least, states, blind_forward = drive(MissionParams(), with_scan=True)
     assert m.state == "reached", (m.state, m.reason)
     assert "detouring" in states
-    assert least > 0.25, f"passed {least:.3f} m from the crate"  # the gate's guard margin is 0.3
+    # the clearance rule (the guard's too): at least a creep's 0.16 m, more at speed (0.25 m at 0.4 m/s);
+    # the way round is walked at half speed where only that speed's clearance is free
+    assert least > Clearance().creep, f"passed {least:.3f} m from the crate"
     assert blind_forward * 0.05 <= MissionParams().detour_memory_s  # out of view only on the detour
 
 

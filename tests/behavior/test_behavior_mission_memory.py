@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from go2vlm.behavior.mission import Mission, MissionParams, Sighting
 from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
 from go2vlm.geometry.camera import fovy_to_hfov
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.world.memory import ObjectMemory, View
 from go2vlm.world.objects_msg import Remembered
@@ -290,8 +291,10 @@ def test_it_goes_round_what_is_in_the_way_to_a_remembered_object() -> None:
         least = min(least, clearance(Footprint.rect(x, y, yaw, spec.FOOTPRINT_LENGTH, spec.FOOTPRINT_WIDTH), box))
         t += dt
     assert out.state == "reached", (t, m.reason)
-    assert least > 0.2 and t < 40.0
-    assert changes <= 6, f"{changes} changes of state: the detour and the walk fight"
+    assert least > Clearance().creep and t < 40.0  # the clearance rule: a creep's 0.16 m at the least
+    # 6 with one clearance at every speed; with the clearance by speed the box's corner flickers between
+    # a way free at half speed and a detour for 0.3 s (two more changes) before the walk goes on
+    assert changes <= 8, f"{changes} changes of state: the detour and the walk fight"
 
 
 def test_a_remembered_object_beyond_the_go_to_cap_is_given_up_not_the_goal() -> None:

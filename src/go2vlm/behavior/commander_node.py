@@ -87,8 +87,9 @@ reachable frontier is left or explore_timeout_s has passed (not_found, with the 
 Places (a frontier, a remembered object, a stalled tracked go to's target) are walked to by the
 navigator (behavior/navigate/: route, regulated pure pursuit checked on the footprint, one progress
 checker, bounded recoveries; nav_*). A target in view is approached by the approach law, steering
-round what a fresh /scan shows (planner_margin_m); a detour that hides it carries on towards its last
-confirmed place for up to detour_memory_s. The safety gate's collision guard has the last word.
+round what a fresh /scan shows at the clearance of its speed (planner_margin_m at a creep, more at
+speed: geometry/footprint.py Clearance, the guard's rule too); a detour that hides it carries on
+towards its last confirmed place for up to detour_memory_s. The guard has the last word.
 
 Decisions (/vlm/decision): stop | continue | turn (|angle| <= max_turn_deg <= 30) | sit; anything
 else is counted (decisions_rejected) and ignored. The text never becomes a velocity.
@@ -98,7 +99,6 @@ stops after max_goal_s; a go to whose seen object lies beyond max_go_to_m is rej
 one only given up (remembered_too_far).
 
 Time: every period and timeout here is in the node's clock: sim time with use_sim_time.
-
 Parameters (behavior/commander_config.py; the cores' declared once, on their fields). Live: the gains,
 speeds, distances, timeouts, search, decision, memory and nav_* settings, avoid_obstacles,
 planner_margin_m, detour_memory_s; the ceilings (max_goal_s, max_go_to_m, max_linear, max_angular,

@@ -16,7 +16,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         help="run a suite of seeded sim episodes and report success, SPL and grounding with confidence intervals",
         description=(
             "Run the episodes of a suite (packaged: smoke, goals, follow, distractors, obstacles, household, "
-            "household_cross, referring, rooms, houses; or a path to a "
+            "household_cross, referring, rooms, rooms_narrow, houses; or a path to a "
             "suite YAML) with one perception variant (oracle: the sim's ground-truth boxes; color: the colour-shape "
             "grounder; vlm: a vision-language model, local or OpenAI-compatible) and write results.jsonl (one line "
             "per episode, with its exact configuration), summary.json, report.md and plots to --out. Several "

@@ -21,6 +21,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from go2vlm.world.occupancy import INSCRIBED
+
 __all__ = ["Frontier", "FrontierParams", "clusters", "find_frontiers", "frontier_cells"]
 
 _EIGHT = np.ones((3, 3), bool)
@@ -28,7 +30,7 @@ _EIGHT = np.ones((3, 3), bool)
 
 @dataclass(frozen=True)
 class FrontierParams:
-    lethal: int = 99  # as the global planner's: a cell this costly is no place to stand
+    lethal: int = INSCRIBED  # as the global planner's: a cell this costly is no place to stand
     min_size_m: float = 0.5  # a frontier with a shorter edge is dropped
 
     def __post_init__(self) -> None:

@@ -1,8 +1,8 @@
 """Suites: YAML files of tasks that expand into seeded episodes.
 
 A suite is a packaged name (apps/episodes/suites/NAME.yaml: smoke, goals, follow, distractors,
-obstacles, household, household_cross, referring, rooms, houses) or a path to a file of your own (copy a
-packaged one and edit it):
+obstacles, household, household_cross, referring, rooms, rooms_narrow, houses) or a path to a file of
+your own (copy a packaged one and edit it):
 
     name: goals
     description: go to and look for each object of the VLM article's world from seeded random spawns
