@@ -153,8 +153,20 @@ def test_the_controller_stays_within_its_limits_and_never_drives_into_its_cleara
     path = np.array([[0.0, 0.0], [gx, gy], [gx + 1.0, gy]])
     scan = np.array(obstacles).reshape(-1, 2)
     d = pursue(path, (0.0, 0.0, yaw), scan, speed, p, vmax, wmax)
-    assert 0.0 <= d.vx <= vmax + 1e-9 and abs(d.wz) <= wmax + 1e-9
-    if d.vx > 0.0 or d.wz != 0.0:
+    assert -p.back_up_speed - 1e-9 <= d.vx <= vmax + 1e-9 and abs(d.wz) <= wmax + 1e-9
+    if d.vx < 0.0:
+        assert d.mode == "reverse"  # only where it has no room to turn towards a route behind
+    if d.vx != 0.0 or d.wz != 0.0:
         here = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
         need = min(FP.need(Clearance(), d.vx, d.wz), here)
         assert arc_clearance(scan, d.vx, d.wz, p.horizon_s, FP) >= need - 1e-3
+
+
+def test_with_no_room_to_turn_it_backs_along_a_route_behind() -> None:
+    """In a corridor 0.9 m wide the footprint cannot turn in place; the route lies behind: it backs along it."""
+    p = NavParams()
+    ys = np.concatenate([np.full(40, 0.45), np.full(40, -0.45)])
+    walls = np.column_stack((np.tile(np.linspace(-2.0, 2.0, 40), 2), ys))
+    behind = np.array([[0.0, 0.0], [-3.0, 0.0]])
+    d = pursue(behind, (0.0, 0.0, 0.0), walls, 0.0, p, 0.5, 0.8)
+    assert d.mode == "reverse" and d.vx < 0.0 and abs(d.wz) < 0.05, d

@@ -5,7 +5,9 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
   the point `lookahead` further along it; the lookahead grows with speed (`lookahead_s` x speed,
   within `lookahead_min_m`..`lookahead_max_m`).
 - A carrot more than `rotate_to_heading_deg` off the heading: turn in place towards it first (a
-  doorway is walked into square-on, not cut at a slant).
+  doorway is walked into square-on, not cut at a slant), as fast as the turn's sweep keeps its
+  clearance (a slower turn needs less). With no room to turn at all: back along the route where the
+  carrot lies behind (`back_up_speed`), else creep along the arc through it (`min_speed`).
 - Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
@@ -56,7 +58,7 @@ class Rect:
 class Drive:
     vx: float
     wz: float
-    mode: str  # track | rotate | blocked
+    mode: str  # track | rotate | reverse | blocked
     note: str  # what regulated or held it ("" = nothing)
     index: int  # the path segment the robot is on
     remaining: float  # m along the path to its end
@@ -130,14 +132,31 @@ def pursue(
     alpha = math.atan2(ly, lx)
     pts = scan if scan is not None else np.zeros((0, 2))
     now_clear = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
-    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
-        wz = math.copysign(min(max(p.rotate_gain * abs(alpha), p.min_turn_rate), max_angular), alpha)
-        need = min(fp.need(rule, 0.0, wz), now_clear)
-        if arc_clearance(pts, 0.0, wz, p.horizon_s, fp) >= need - 1e-3:
-            return Drive(0.0, wz, "rotate", "turning to the route", index, remaining)
-        return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
     d2 = lx * lx + ly * ly
     kappa = 2.0 * ly / max(d2, 1e-9)
+
+    def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
+        return arc_clearance(pts, vx, wz, duration, fp) >= min(fp.need(rule, vx, wz), now_clear) - 1e-3
+
+    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
+        slow = min(p.min_turn_rate, max_angular)
+        fast = min(max(p.rotate_gain * abs(alpha), slow), max_angular)
+        for rate in sorted({fast, max(fast / 2, slow), slow}, reverse=True):  # slower needs less room
+            # the whole turn to face the carrot must keep it, not only its first moments
+            if rate > 0 and keeps(0.0, math.copysign(rate, alpha), max(p.horizon_s, abs(alpha) / rate)):
+                return Drive(0.0, math.copysign(rate, alpha), "rotate", "turning to the route", index, remaining)
+        # No room to turn where it stands: back along the route where it lies behind (a driver
+        # reversing out of a narrow lane), else creep along the arc that turns it.
+        v = -p.back_up_speed if abs(alpha) > math.pi / 2 else p.min_speed
+        wz = v * kappa
+        if abs(wz) > max_angular:
+            v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+        for scale in (1.0, 0.5):
+            if v != 0.0 and keeps(v * scale, wz * scale):
+                how = "backing along the route" if v < 0 else "creeping along the route's arc"
+                return Drive(v * scale, wz * scale, "reverse" if v < 0 else "track", f"no room to turn: {how}",
+                             index, remaining)  # fmt: skip
+        return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
     v, notes = max_linear, []
     if abs(kappa) > 1e-9 and 1.0 / abs(kappa) < p.min_radius_m:
         v *= (1.0 / abs(kappa)) / p.min_radius_m
@@ -153,8 +172,7 @@ def pursue(
     if abs(wz) > max_angular:  # keep the arc: slow down rather than turn wider
         v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
     for scale in (1.0, 0.5, 0.25):
-        need = min(fp.need(rule, v * scale, wz * scale), now_clear)
-        if arc_clearance(pts, v * scale, wz * scale, p.horizon_s, fp) >= need - 1e-3:
+        if keeps(v * scale, wz * scale):
             if scale < 1.0:
                 notes.append("clearance")
             return Drive(v * scale, wz * scale, "track", ", ".join(notes), index, remaining)
