@@ -80,6 +80,8 @@ from go2vlm.robot_profile import go2 as spec
 
 __all__ = ["TargetTrackerConfig", "TargetTrackerNode", "grounding_of", "tracked_msg"]
 
+ROUTINE_REFUSALS = frozenset({"no_match", "stale"})  # refused in normal running: debug, not warnings
+
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
@@ -205,7 +207,9 @@ class TargetTrackerNode(Node):
             self.count("empty_answers")
         why = self.tracking.add_answer(grounding_of(msg))
         if why is not None:
-            self.log.throttled("warning", 5.0, f"refused a grounding answer: {self.tracking.last_refusal}", key="ref")
+            # The object not in view yet, or an answer about an old frame, is normal (counted on the status).
+            level = "debug" if self.tracking.last_refusal.split(":")[0] in ROUTINE_REFUSALS else "warning"
+            self.log.throttled(level, 5.0, f"refused a grounding answer: {self.tracking.last_refusal}", key="ref")
         self._status_if_changed()
 
     def on_image(self, msg: Image) -> None:

@@ -145,6 +145,9 @@ SCAN_WINDOW_S = 0.15  # a scan this close in time to the frame covers it
 FRAME_WINDOW_S = 0.06  # a small frame this close in time is the answer's frame
 QUERY_SETTLE_S = 0.5  # answers about frames this soon after a new query may be about the old one
 MAX_PENDING = 32
+# Refusals that a working memory meets all the time (an answer about something too far, or too
+# unsure to place, or not ranged): logged at debug, counted on the status (`refused`).
+ROUTINE_REFUSALS = frozenset({"out_of_range", "uncertain", "unranged"})
 MAX_RANGERS = 128
 MARKER_PERIOD_S = 0.5
 
@@ -420,7 +423,9 @@ class ObjectMemoryNode(Node):
         new = f"{reason}: {detail}"
         if new.split(":")[0] != self.last_refusal.split(":")[0]:
             self.last_refusal = new
-            self.log.throttled("warning", 5.0, f"refused: {new}", key=f"refused.{reason}")
+            # A normal event (the status counts it) is no warning: a warning is for a person to act on.
+            level = "debug" if reason in ROUTINE_REFUSALS else "warning"
+            self.log.throttled(level, 5.0, f"refused: {new}", key=f"refused.{reason}")
             self.publish_status()
         self.last_refusal = new
 
