@@ -78,6 +78,7 @@ class CommanderConfig:
     nav_min_speed: float = from_core(NavParams, "min_speed")
     nav_horizon_s: float = from_core(NavParams, "horizon_s")
     nav_progress_m: float = from_core(NavParams, "progress_m")
+    nav_progress_deg: float = from_core(NavParams, "progress_deg")
     nav_progress_s: float = from_core(NavParams, "progress_s")
     nav_spin_deg: float = from_core(NavParams, "spin_deg")
     nav_back_up_m: float = from_core(NavParams, "back_up_m")

@@ -7,7 +7,8 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
 - A carrot more than `rotate_to_heading_deg` off the heading: turn in place towards it first (a
   doorway is walked into square-on, not cut at a slant), as fast as the turn's sweep keeps its
   clearance (a slower turn needs less). With no room to turn at all: back along the route where the
-  carrot lies behind (`back_up_speed`), else creep along the arc through it (`min_speed`).
+  carrot lies behind (`back_up_speed`), else back (at half that) or creep on (`min_speed`) while
+  turning towards it, a driver's turn in a narrow lane.
 - Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
@@ -145,17 +146,17 @@ def pursue(
             # the whole turn to face the carrot must keep it, not only its first moments
             if rate > 0 and keeps(0.0, math.copysign(rate, alpha), max(p.horizon_s, abs(alpha) / rate)):
                 return Drive(0.0, math.copysign(rate, alpha), "rotate", "turning to the route", index, remaining)
-        # No room to turn where it stands: back along the route where it lies behind (a driver
-        # reversing out of a narrow lane), else creep along the arc that turns it.
-        v = -p.back_up_speed if abs(alpha) > math.pi / 2 else p.min_speed
-        wz = v * kappa
-        if abs(wz) > max_angular:
-            v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
-        for scale in (1.0, 0.5):
-            if v != 0.0 and keeps(v * scale, wz * scale):
-                how = "backing along the route" if v < 0 else "creeping along the route's arc"
-                return Drive(v * scale, wz * scale, "reverse" if v < 0 else "track", f"no room to turn: {how}",
-                             index, remaining)  # fmt: skip
+        # No room to turn where it stands: a driver's turn in a narrow lane. Back along the route where
+        # it lies behind; else back, or creep on, turning towards it (a few of these turn it round).
+        side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
+        moves = [(slow_back, slow_back * kappa, "backing along the route")] if abs(alpha) > math.pi / 2 else []
+        moves += [(slow_back / 2, side, "backing while it turns"),
+                  (min(p.min_speed, max_linear), side, "creeping while it turns")]  # fmt: skip
+        for v, wz, how in moves:
+            if abs(wz) > max_angular:
+                v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+            if keeps(v, wz):
+                return Drive(v, wz, "reverse" if v < 0 else "track", f"no room to turn: {how}", index, remaining)
         return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
     v, notes = max_linear, []
     if abs(kappa) > 1e-9 and 1.0 / abs(kappa) < p.min_radius_m:

@@ -119,7 +119,7 @@ class Navigator:
                 self._speed = abs(cmd[0])
                 return NavStep(cmd[0], cmd[1], "recovering", f"recovering: {self.recoveries.active}")
             self.progress.reset()
-        if self.progress.moved(x, y, now, p.progress_m):
+        if self.progress.moved(x, y, now, p.progress_m, yaw, math.radians(p.progress_deg)):
             self.recoveries.reset()
         if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
             tol = max(self.planner.goal_tolerance_m, tolerance)

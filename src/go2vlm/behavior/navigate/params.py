@@ -63,6 +63,10 @@ class NavParams:
     )  # fmt: skip
     # -- progress and recoveries ---------------------------------------------------------------
     progress_m: float = param(0.3, help="navigate: moving this far (m) ...", min=0.05, max=3.0, live=True)
+    progress_deg: float = param(
+        60.0, help="navigate: ... or turning this far (deg) from the heading it had there ...", min=5.0, max=360.0,
+        live=True,
+    )  # fmt: skip
     progress_s: float = param(
         10.0, help="navigate: ... within this long (s) is progress; else a recovery", min=1.0, max=120.0, live=True
     )
