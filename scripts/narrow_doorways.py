@@ -13,9 +13,8 @@ from collections import defaultdict
 from pathlib import Path
 
 WORLDS = Path(__file__).resolve().parents[1] / "src" / "go2vlm" / "sim" / "worlds"
-WALL = re.compile(
-    r'<body name="(wall_[a-z0-9_]+)" pos="([-\d.]+) ([-\d.]+) ([-\d.]+)"><geom type="box" size="([-\d.]+) ([-\d.]+) ([-\d.]+)"'
-)
+NUM = r"([-\d.]+)"
+WALL = re.compile(rf'<body name="(wall_[a-z0-9_]+)" pos="{NUM} {NUM} {NUM}"><geom type="box" size="{NUM} {NUM} {NUM}"')
 MAX_DOORWAY_M = 2.0  # a gap wider than this in a wall line is no doorway (an open side of a room)
 
 
@@ -30,7 +29,7 @@ def narrow(text: str, width: float) -> tuple[str, int]:
     doors = 0
     for (axis, _), names in lines.items():
         segs = sorted((walls[n][axis] - walls[n][3 + axis], walls[n][axis] + walls[n][3 + axis], n) for n in names)
-        for (_, a_hi, a), (b_lo, _, b) in zip(segs, segs[1:]):
+        for (_, a_hi, a), (b_lo, _, b) in zip(segs[:-1], segs[1:], strict=True):
             gap = b_lo - a_hi
             if width < gap <= MAX_DOORWAY_M:
                 d = (gap - width) / 2
