@@ -228,8 +228,12 @@ def bench_world(name: str, repeats: int) -> dict[str, float]:
     cm = Costmap(cost, RES, origin)
     from scipy import ndimage
 
-    labels, _ = ndimage.label((cost >= 0) & (cost < 99))
-    big = np.bincount(labels.ravel())[1:].argmax() + 1  # the house's free space, not a pocket behind a counter
+    from go2vlm.world.occupancy import CIRCUMSCRIBED
+
+    # the ends where the robot may stand turned any way (its disc fits), in the house's free space, not a
+    # pocket behind a counter
+    labels, _ = ndimage.label((cost >= 0) & (cost < CIRCUMSCRIBED))
+    big = np.bincount(labels.ravel())[1:].argmax() + 1
     free = np.argwhere(labels == big)
     a = free[np.argmin(free[:, 1] - 0.3 * free[:, 0])]  # far west (and north)
     b = free[np.argmax(free[:, 1] + 0.3 * free[:, 0])]  # far east
