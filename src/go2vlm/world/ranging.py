@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -45,10 +45,7 @@ from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.labels import label_fits
 from go2vlm.world.poses import Pose2D, wrap_angle
 
-if TYPE_CHECKING:  # objects_msg -> memory -> placement -> here: the type alone
-    from go2vlm.world.objects_msg import Remembered
-
-__all__ = ["SIZE_METHODS", "RangingParams", "Reading", "TargetRanging", "as_wide", "remembered_on"]
+__all__ = ["SIZE_METHODS", "MemoryEntry", "RangingParams", "Reading", "TargetRanging", "as_wide", "remembered_on"]
 
 SIZE_METHODS = ("size", "default_size")  # the tracker's methods that range by the object's size
 
@@ -67,6 +64,28 @@ class Reading(Protocol):
 
     @property
     def width(self) -> float: ...  # rad: the box's angular width; NaN: not known
+
+
+class MemoryEntry(Protocol):
+    """What the estimator reads of one remembered object (world/objects_msg.py's Remembered is one)."""
+
+    @property
+    def label(self) -> str: ...
+
+    @property
+    def x(self) -> float: ...  # its place (odometry frame, m)
+
+    @property
+    def y(self) -> float: ...
+
+    @property
+    def radius(self) -> float: ...  # m, from its centre to its surface
+
+    @property
+    def confidence(self) -> float: ...
+
+    @property
+    def last_seen(self) -> float: ...  # s, on the caller's clock
 
 
 @dataclass(frozen=True)
@@ -182,7 +201,7 @@ def remembered_on(
     s: Reading,
     now: float,
     pose: Pose2D,
-    memory: Sequence[Remembered],
+    memory: Sequence[MemoryEntry],
     label: str,
     min_confidence: float,
 ) -> float | None:
