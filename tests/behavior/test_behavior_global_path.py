@@ -20,6 +20,7 @@ from go2vlm.behavior.planner.global_path import (
     plan_path,
 )
 from go2vlm.behavior.planner.route import Route
+from go2vlm.world.occupancy import CIRCUMSCRIBED
 
 RES = 0.05
 P = GlobalParams()
@@ -119,7 +120,7 @@ def test_nearest_of_several_goals() -> None:
     st.lists(st.tuples(st.integers(5, 54), st.integers(5, 54), st.integers(1, 6), st.integers(1, 6)), max_size=8),
     st.tuples(st.integers(1, 58), st.integers(1, 58)),
     st.tuples(st.integers(1, 58), st.integers(1, 58)),
-    st.integers(0, 98),
+    st.integers(0, CIRCUMSCRIBED - 1),  # 90..98 mean "within the circumscribed radius of an obstacle"
 )
 def test_paths_are_safe_and_never_dearer_than_a_free_straight_line(boxes, a, b, floor) -> None:
     g = np.full((60, 60), floor, np.int8)
