@@ -70,6 +70,23 @@ def test_through_the_doorway() -> None:
     assert plan.length >= math.hypot(3.0 + 4.8, -2.0 + 2.6) - P.goal_tolerance_m
 
 
+@pytest.mark.parametrize("body", [0.0, 0.3])
+def test_near_enough_is_also_in_sight(body: float) -> None:
+    """A goal 0.4 m behind the middle wall with 1 m to spare: the cells on the near side of the wall
+    are within reach but do not see it, so the path goes round through the door to its side. An
+    object's own cells (`goal_body_m`) hide nothing: a goal inside a block is reached beside it."""
+    cm = two_rooms()
+    plan = plan_path(cm, (1.0, -2.5), [(-0.4, -2.5)], GlobalParams(goal_tolerance_m=1.0, goal_body_m=body))
+    assert plan.ok, plan.reason
+    end = plan.waypoints[-1]
+    assert end[0] < -0.05 and math.hypot(end[0] + 0.4, end[1] + 2.5) <= 1.0 + RES, plan.waypoints
+    g = cm.data.copy()
+    g[20:26, 100:106] = 100  # a block, centre (-0.85, -2.35), beside the wall
+    blocked = Costmap(g, RES, cm.origin, 1.0)
+    inside = plan_path(blocked, (1.0, -2.5), [(-0.85, -2.35)], GlobalParams(goal_tolerance_m=1.0, goal_body_m=0.25))
+    assert inside.ok and inside.waypoints[-1][0] < -0.05, inside.reason
+
+
 def test_refusals_say_why() -> None:
     cm = two_rooms(door=False)
     assert "unreachable" in plan_path(cm, (3.0, -2.0), [(-4.8, -2.6)], P).reason

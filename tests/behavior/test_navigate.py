@@ -170,3 +170,19 @@ def test_with_no_room_to_turn_it_backs_along_a_route_behind() -> None:
     behind = np.array([[0.0, 0.0], [-3.0, 0.0]])
     d = pursue(behind, (0.0, 0.0, 0.0), walls, 0.0, p, 0.5, 0.8)
     assert d.mode == "reverse" and d.vx < 0.0 and abs(d.wz) < 0.05, d
+
+
+def test_a_door_met_askew_is_lined_up_with_where_it_stands() -> None:
+    """The route runs straight through a 0.8 m door (jambs at x 0.6..0.7); the robot, its nose at the
+    door, faces 30 degrees off: every arc through the carrot sweeps its front corner into the jamb, so
+    it turns in place to face the route rather than stop."""
+    jamb = np.array([(x, s * y) for x in np.linspace(0.6, 0.7, 3) for y in np.linspace(0.4, 1.5, 12) for s in (1, -1)])
+    x0, yaw = 0.35, math.radians(30)
+    c, s = math.cos(yaw), math.sin(yaw)
+    rel = jamb - (x0, 0.0)
+    scan = np.column_stack((c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]))
+    d = pursue(np.array([[-1.0, 0.0], [3.0, 0.0]]), (x0, 0.0, yaw), scan, 0.0, NavParams(), 0.5, 0.8)
+    assert d.mode == "rotate" and d.vx == 0.0 and d.wz < 0.0, d
+    assert "does not keep its clearance" in d.note
+    ahead = pursue(np.array([[-1.0, 0.0], [3.0, 0.0]]), (x0, 0.0, 0.0), rel, 0.0, NavParams(), 0.5, 0.8)
+    assert ahead.mode == "track" and ahead.vx > 0.0  # square-on: straight through

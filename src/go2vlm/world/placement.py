@@ -14,13 +14,13 @@ Rules
 - Range, camera -> the object's near surface, horizontally: the ranging reading (a depth for the
   bottom edge of boxes and cylinders and for a box's width, a distance along the ray otherwise), or
   the nearest scan return within the box's bearings (the middle half of them) when it agrees with the
-  monocular range (nearer by at most `lidar_agree_m` or `lidar_agree_frac` of it, farther by at most
-  `lidar_past_m`: a return farther is the lidar seeing past the object, the wall behind a duck) or
-  when there is no monocular range and the return is within `lidar_only_max_m`; and only a return of
-  a surface as wide as the box: one that spans its share of it (world/ranging.py `as_wide`, the
-  tracked target's rule: not a table leg before a tray) and does not run on past either of its edges at
-  that range (`surface_m`, `past_rad`: the wall behind a small object, which a noisy bottom edge far
-  away may happen to agree with). Neither: a
+  monocular range (nearer or farther by at most `lidar_agree_m` or `lidar_agree_frac` of it: a
+  bottom edge drawn a few pixels low, as a model's box often is, reads a cylinder 2.5 m away half a
+  metre near) or when there is no monocular range and the return is within `lidar_only_max_m`; and
+  only a return of a surface as wide as the box: one that spans its share of it (world/ranging.py
+  `as_wide`, the tracked target's rule: not a table leg before a tray) and does not run on past
+  either of its edges at that range (`surface_m`, `past_rad`: the wall behind a small object below
+  the scan, which a noisy bottom edge may happen to agree with, nearer or farther). Neither: a
   bearing-only sighting (`range_m` None), which can confirm an object already remembered along that
   bearing but places nothing new. So is a
   box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
@@ -86,7 +86,6 @@ class PlacementParams:
     surface_m: float = 0.3  # returns this near the box's range are of the surface it hit ...
     past_rad: float = 0.1  # ... and looked for this far (or the box's width) beyond each of its edges ...
     past_gap_rad: float = 0.035  # ... past a gap of this (two of the scan's 2-degree bins: its edge's blur)
-    lidar_past_m: float = 0.15  # ... and farther than it by at most this (a scan bin, the near edge's error)
     lidar_only_max_m: float = 2.0  # without a monocular range, a scan return this close is the object
     max_range_m: float = 15.0  # a place farther than this is absurd
     ranging: RangingParams = field(default_factory=RangingParams)  # as_wide's scan_depth_m and scan_cover
@@ -219,10 +218,9 @@ def place(
     elif lidar is not None and scan_points is not None and not _fits_box(scan_points, mount, lidar, b_r, b_l, p):
         pass  # a surface narrower or wider than the box at that range (a leg, the wall behind): not the object
     elif lidar is not None:
-        # Nearer than the monocular range by up to the tolerance, or farther by at most lidar_past_m: a
-        # return farther is what the lidar sees past the object (a duck below its plane: the wall
-        # behind it), not the object; taking it put small objects on the walls behind them.
-        agree = mono is not None and -p.lidar_past_m <= mono - lidar <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
+        # Either side of the monocular range: the wall behind a small object is ruled out above (it runs
+        # on past the box's edges), and a model's bottom edge errs both ways.
+        agree = mono is not None and abs(mono - lidar) <= max(p.lidar_agree_m, p.lidar_agree_frac * mono)
         if agree or (mono is None and lidar <= p.lidar_only_max_m):
             rng, method = lidar, "lidar"
     if (x1 <= p.border_px) != (x2 >= cam.width - p.border_px):  # cut by one side of the image

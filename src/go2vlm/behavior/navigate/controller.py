@@ -16,8 +16,11 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
 - The arc for `horizon_s` ahead must keep the clearance that its speed needs (the one clearance rule
   that the planners and the guard keep, geometry/footprint.py `Clearance`: a few centimetres at a
   creep, more at speed, by the footprint's fastest point); if it does not, the same arc
-  is tried at half and a quarter of the speed, then the command is `blocked` (zero): the progress
-  checker and the recoveries take it from there. Where the footprint is already nearer than that
+  is tried at half and a quarter of the speed, then, the carrot more than `line_up_deg` off, it
+  lines up with the route where it stands (the turn above: a doorway met a little askew sweeps a
+  corner into the jamb on any arc), and only with no room for that either is the command `blocked`
+  (zero): the progress checker and the recoveries
+  take it from there. Where the footprint is already nearer than that
   (inside a doorway), an arc that brings it no nearer passes.
 
 The safety gate's collision guard still has the last word on every command.
@@ -26,7 +29,7 @@ The safety gate's collision guard still has the last word on every command.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -139,7 +142,9 @@ def pursue(
     def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
         return arc_clearance(pts, vx, wz, duration, fp) >= min(fp.need(rule, vx, wz), now_clear) - 1e-3
 
-    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
+    def turn() -> Drive:
+        """Face the carrot where it stands, when the whole turn keeps the clearance; no room: a driver's
+        turn in a narrow lane."""
         slow = min(p.min_turn_rate, max_angular)
         fast = min(max(p.rotate_gain * abs(alpha), slow), max_angular)
         for rate in sorted({fast, max(fast / 2, slow), slow}, reverse=True):  # slower needs less room
@@ -158,6 +163,9 @@ def pursue(
             if keeps(v, wz):
                 return Drive(v, wz, "reverse" if v < 0 else "track", f"no room to turn: {how}", index, remaining)
         return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
+
+    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
+        return turn()
     v, notes = max_linear, []
     if abs(kappa) > 1e-9 and 1.0 / abs(kappa) < p.min_radius_m:
         v *= (1.0 / abs(kappa)) / p.min_radius_m
@@ -177,4 +185,9 @@ def pursue(
             if scale < 1.0:
                 notes.append("clearance")
             return Drive(v * scale, wz * scale, "track", ", ".join(notes), index, remaining)
+    # The arc sweeps a corner into the jamb (a door met a little askew): turn square to the route
+    # first, where it stands, as a driver lines up with a narrow gate.
+    lined = turn() if abs(alpha) > math.radians(p.line_up_deg) else None
+    if lined is not None and lined.mode != "blocked":
+        return replace(lined, note=f"the route's arc does not keep its clearance: {lined.note}")
     return Drive(0.0, 0.0, "blocked", "the route's arc does not keep its clearance", index, remaining)

@@ -3,7 +3,7 @@ caller of the global planner in behavior/ for the places it is handed.
 
     nav = Navigator(NavParams(), GlobalParams())
     step = nav.step((x, y), tolerance, costmap, (px, py, yaw), scan_points, now,
-                    max_linear=0.4, max_angular=0.8)
+                    max_linear=0.4, max_angular=0.8, body=0.0)
     step.vx, step.wz, step.status  # moving | arrived | recovering | failed | waiting
 
 It owns, as Nav2 keeps them apart:
@@ -17,8 +17,10 @@ It owns, as Nav2 keeps them apart:
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
 `line_of_sight` asks the costmap whether a place is in plain view (a strategy that looks at a place
 rather than walks to it asks it first).
-`arrived`: within `tolerance` of the goal, or within `arrive_m` of the route's end (the passable cell
-the plan reached next to it). `failed` also when no route can be planned (the planner's reason).
+`arrived`: within `tolerance` of the goal and in sight of it on the map (no obstacle cell between but
+its own, within `body` of it: planner/global_path.py `in_sight`), or within `arrive_m` of the route's
+end (the passable cell in sight of it that the plan reached). `failed` also when no route can be
+planned (the planner's reason).
 """
 
 from __future__ import annotations
@@ -33,7 +35,15 @@ from go2vlm.behavior.navigate.controller import Rect, pursue
 from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.navigate.recovery import Recoveries
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable, plan_path
+from go2vlm.behavior.planner.global_path import (
+    Costmap,
+    GlobalParams,
+    Plan,
+    in_sight,
+    line_cells,
+    passable,
+    plan_path,
+)
 from go2vlm.behavior.planner.route import Route
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.occupancy import LETHAL
@@ -55,7 +65,6 @@ def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p
     near_a = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) <= p.escape_m) & (cm.data[line[:, 0], line[:, 1]] < LETHAL)
     check = ~near_a & (np.hypot(xy[:, 0] - b[0], xy[:, 1] - b[1]) > skip_m)
     return bool(passable(cm, line[check], replace(p, unknown_cost=math.inf)).all())
-
 
 
 @dataclass(frozen=True)
@@ -97,7 +106,7 @@ class Navigator:
 
     def step(
         self, goal: tuple[float, float], tolerance: float, cm: Costmap | None, pose: tuple[float, float, float] | None,
-        scan: np.ndarray | None, now: float, *, max_linear: float, max_angular: float,
+        scan: np.ndarray | None, now: float, *, max_linear: float, max_angular: float, body: float = 0.0,
     ) -> NavStep:  # fmt: skip
         p = self.params
         if cm is None or pose is None:
@@ -108,7 +117,8 @@ class Navigator:
         self.goal = goal
         x, y, yaw = pose
         end = self.route.plan.waypoints[-1] if self.route is not None else None
-        if math.hypot(goal[0] - x, goal[1] - y) <= tolerance or (
+        near = math.hypot(goal[0] - x, goal[1] - y) <= tolerance
+        if (near and in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution)[0]) or (
             end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m
         ):
             self._speed = 0.0
@@ -123,7 +133,7 @@ class Navigator:
             self.recoveries.reset()
         if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
             tol = max(self.planner.goal_tolerance_m, tolerance)
-            plan = plan_path(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol))
+            plan = plan_path(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol, goal_body_m=body))
             self.counters["plans"] += 1
             if not plan.ok:
                 self.counters["plan_failures"] += 1
@@ -143,8 +153,10 @@ class Navigator:
             if name == "replan":
                 self.route = None
                 self.recoveries.active = None
-                return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
-            return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular)
+                return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular,
+                                 body=body)  # fmt: skip
+            return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular,
+                             body=body)  # fmt: skip
         d = pursue(self.route.plan.waypoints, pose, scan, self._speed, p, max_linear, max_angular, self._index,
                    self.footprint, self.clearance)  # fmt: skip
         self._index, self._speed = d.index, d.vx

@@ -36,6 +36,10 @@ class NavParams:
         45.0, help="navigate: the lookahead point this far off the heading (deg): turn in place first",
         min=5.0, max=180.0, live=True,
     )  # fmt: skip
+    line_up_deg: float = param(
+        5.0, help="navigate: an arc that does not keep its clearance, with the lookahead point this far off "
+        "the heading (deg): turn in place to face it first", min=0.5, max=45.0, live=True,
+    )  # fmt: skip
     rotate_gain: float = param(
         1.5, help="navigate: turn rate (rad/s) per rad of heading error when turning in place", min=0.1, max=10.0,
         live=True,

@@ -36,9 +36,12 @@ known); a go to a remembered object prefers known free space (a high cost: unkno
 known way exists).
 
 Start and goal: a start on a lethal cell (the robot inside the inflation, by a wall) plans from the
-nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
-the goal (an object is itself an obstacle on the map: the path ends beside it). A refusal says why:
-outside the map, boxed in, the goal inside an obstacle, or cut off.
+nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal, in
+sight of it, is the goal (an object is itself an obstacle on the map: the path ends beside it). In
+sight: the straight line to the goal crosses no obstacle cell farther than `goal_body_m` from it (the
+object's own cells hide nothing); a cell near the goal but behind a wall from it is not there (a duck
+seen through a doorway from beside its jamb is within a metre of the jamb's far side). A refusal
+says why: outside the map, boxed in, the goal inside an obstacle, or cut off.
 
 Waypoints: the dense cell path pruned by line of sight: from each waypoint the next is the farthest
 path cell reachable in a straight line that crosses no cell costlier than the stretch of path it
@@ -57,7 +60,7 @@ import numpy as np
 
 from go2vlm.behavior.planner.by_heading import by_heading, footprint_fits, path_headings
 from go2vlm.behavior.planner.grid import Costmap, Found, GlobalParams, Plan
-from go2vlm.world.occupancy import CIRCUMSCRIBED, UNKNOWN
+from go2vlm.world.occupancy import CIRCUMSCRIBED, LETHAL, UNKNOWN
 
 __all__ = [
     "Costmap",
@@ -66,6 +69,7 @@ __all__ = [
     "cell_costs",
     "chain_cost",
     "footprint_fits",
+    "in_sight",
     "line_cells",
     "passable",
     "plan_path",
@@ -158,6 +162,24 @@ def _goal_cells(c: np.ndarray, rc: tuple[int, int], radius: int) -> np.ndarray:
     win = c[r0 : rc[0] + radius + 1, c0 : rc[1] + radius + 1]
     ok = np.argwhere(np.isfinite(win)) + (r0, c0)
     return ok[np.hypot(ok[:, 0] - rc[0], ok[:, 1] - rc[1]) <= radius + 1e-9]
+
+
+def in_sight(data: np.ndarray, cells: np.ndarray, goal: tuple[int, int], body: float) -> np.ndarray:
+    """bool per (row, col) of `cells`: does the straight line from it to cell `goal` cross no obstacle
+    cell (LETHAL) farther than `body` cells from `goal`? Cells outside the grid hide nothing (unknown)."""
+    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
+    if len(cells) == 0:
+        return np.zeros(0, bool)
+    d = cells - np.asarray(goal)
+    n = int(np.abs(d).max()) + 1
+    t = np.linspace(0.0, 1.0, n + 1)[None, :, None]
+    pts = np.floor(np.asarray(goal)[None, None, :] + t * d[:, None, :] + 0.5).astype(int)  # (M, n + 1, 2)
+    h, w = data.shape
+    inside = (pts[..., 0] >= 0) & (pts[..., 0] < h) & (pts[..., 1] >= 0) & (pts[..., 1] < w)
+    hit = np.zeros(inside.shape, bool)
+    hit[inside] = data[pts[..., 0][inside], pts[..., 1][inside]] == LETHAL
+    far = np.hypot(pts[..., 0] - goal[0], pts[..., 1] - goal[1]) > body
+    return np.asarray(~(hit & far).any(axis=1))
 
 
 def prune(c: np.ndarray, cells: np.ndarray, fits: Callable[[np.ndarray, float], bool] | None = None) -> list[int]:
@@ -259,12 +281,18 @@ def _search(
             outside += 1
             continue
         cells = _goal_cells(c, gc, radius)
+        if k == 1:  # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
+            cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res)]
         ends += [(int(a), int(b)) for a, b in cells]
         owner += [gi] * len(cells)
     if not ends:
         if outside == len(goal_list):
             return Plan(False, "the goal is outside the map")
-        return Plan(False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it")
+        return Plan(
+            False,
+            f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it "
+            "and in sight of it",
+        )
     from skimage.graph import MCP_Geometric  # the nav extra; imported here so a commander without a map needs none
 
     mcp = MCP_Geometric(c, fully_connected=True)

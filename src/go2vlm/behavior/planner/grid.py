@@ -58,7 +58,8 @@ class GlobalParams:
     cost_scale: float = 10.0  # a cell of cost v (0..98) costs 1 + cost_scale * v / 100 per cell crossed
     unknown_cost: float = math.inf  # per unknown cell crossed; inf: never
     max_cells: int = 160_000  # larger grids are planned coarse first, then at full resolution round that path
-    goal_tolerance_m: float = 0.6  # any passable cell this near the goal is the goal
+    goal_tolerance_m: float = 0.6  # any passable cell this near the goal, in sight of it, is the goal
+    goal_body_m: float = 0.0  # obstacle cells this near the goal are its own (an object's radius): they hide nothing
     escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
     off_path_m: float = 0.8  # the robot this far from the route: replan
     replan_period_s: float = 2.0  # a new costmap replans at most this often (a blocked route at once)
@@ -69,8 +70,8 @@ class GlobalParams:
     def __post_init__(self) -> None:
         if not 1 <= self.lethal <= 100:
             raise ValueError(f"lethal must be within 1..100, got {self.lethal}")
-        for name in ("cost_scale", "goal_tolerance_m", "escape_m", "off_path_m", "replan_period_s", "half_length",
-                     "half_width", "clearance_m"):  # fmt: skip
+        for name in ("cost_scale", "goal_tolerance_m", "goal_body_m", "escape_m", "off_path_m", "replan_period_s",
+                     "half_length", "half_width", "clearance_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v}")

@@ -4,15 +4,21 @@ after ALIGN_FOUND_S, the turn held by the gate in a doorway: `found` all the sam
 off), follow (keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
 (`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
 towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
-blocked; a free way turns back towards it. A go to without headway walks with the navigator to the
-target's place for a while (strategies/headway.py): the memory's place for it, else its last
-confirmed one. The laws are behavior/control.py's. Pure."""
+blocked; a free way turns back towards it.
+
+A go to hands the target's place (the memory's place for it, else its last confirmed one) to the
+navigator (behavior/navigate/) wherever the map knows more than the scan: while the straight way to
+it crosses a wall or unknown space on the costmap (seen through a doorway from a corridor, the way
+in is through the door, which a reactive steer towards its bearing does not find), and while the
+approach makes no headway (strategies/headway.py). Out of view on such a route, it walks on to the
+last confirmed place for up to `detour_memory_s`. The laws are behavior/control.py's. Pure."""
 
 from __future__ import annotations
 
 import math
 
 from go2vlm.behavior.control import align_command, approach_command
+from go2vlm.behavior.navigate import line_of_sight
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.behavior.strategies.headway import Headway
 
@@ -32,9 +38,11 @@ class Approach:
 
     def __init__(self) -> None:
         self.headway = Headway()  # its other state is the context's track
+        self.routed = False  # the navigator is walking the go to round what the map shows in the way
 
     def reset(self, now: float) -> None:
         self.headway.reset()
+        self.routed = False
 
     def step(self, ctx: Context, now: float) -> Command | None:
         if ctx.confirmed(now):
@@ -67,6 +75,9 @@ class Approach:
                 return Command.still("approaching", f"{dist:.2f} m from the {label} ({method}): just seen, "
                                      "waiting for the memory's place")  # fmt: skip
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
+        if not follow and (out := self._route(ctx, ap.stop_distance, f"target at {how}", now)) is not None:
+            return out
+        self.routed = False
         if not follow and (out := self._unstall(ctx, ap.stop_distance, f"target at {how}", now)) is not None:
             return out
         rel = ctx.seen_in_base(s)
@@ -80,24 +91,62 @@ class Approach:
             return Command(vx, wz, "tracking", "target in view: following")
         return Command(vx, wz, "approaching", f"target at {how}")
 
+    @staticmethod
+    def _place(ctx: Context, stop: float) -> tuple[tuple[float, float], float, float] | None:
+        """Where the go to goes, how near counts as there, and the target's own extent round it: the
+        memory's place for the target (its centre, within `stop` of its surface), else its last
+        confirmed place (its near side)."""
+        o = ctx.target_obj
+        if o is not None:
+            return (o.x, o.y), stop + o.radius, o.radius
+        if ctx.goal_xy is not None:
+            return ctx.goal_xy, stop, 0.0
+        return None
+
+    def _route(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
+        """The navigator's command towards the target's place while the costmap shows no straight way
+        to it; None: the way is straight (or no map, pose or place), the approach steers."""
+        place, pose = self._place(ctx, stop), ctx.fresh_pose(now)
+        if place is None or pose is None or ctx.costmap is None:
+            return None
+        xy, reach, body = place
+        if line_of_sight(ctx.costmap, (pose.x, pose.y), xy, ctx.place_planner, reach):
+            return None
+        nav = ctx.navigate(xy, reach, now, ctx.place_planner, body)
+        if nav.status not in ("moving", "recovering", "waiting"):
+            return None
+        self.routed = True
+        return Command(nav.vx, nav.wz, "approaching", f"{why}: no straight way on the map, with the navigator "
+                       f"({nav.reason})", note=nav.note, navigated=True)  # fmt: skip
+
     def _unstall(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
         """The headway watch's way out (strategies/headway.py), towards the memory's place for the
         target, else its last confirmed place."""
         o = ctx.target_obj
         if o is not None:
-            return self.headway.walk(ctx, (o.x, o.y), stop + o.radius, now, why)
+            return self.headway.walk(ctx, (o.x, o.y), stop + o.radius, now, why, body=o.radius)
         if ctx.goal_xy is not None:
             return self.headway.walk(ctx, ctx.goal_xy, stop, now, why)
         return None
 
-    @staticmethod
-    def detour_unseen(ctx: Context, now: float) -> Command | None:
+    def detour_unseen(self, ctx: Context, now: float) -> Command | None:
         """Out of view during a detour: on round the obstacle while the direct way stays blocked; a
-        free way turns back towards where it was. None: the detour is over (no detour, look for,
-        the track too old, no pose or no scan)."""
+        free way turns back towards where it was. On the navigator's route, on along it to where it
+        was. None: the detour is over (no detour, look for, the track too old, no pose or no scan)."""
         p, goal, last = ctx.params, ctx.goal, ctx.last_seen
         if goal is None or goal.kind == "look_for":
             return None
+        if self.routed:
+            self.routed = last is not None and now - last <= p.detour_memory_s
+            place = self._place(ctx, p.stop_distance_m) if self.routed else None
+            if place is None:
+                return None
+            nav = ctx.navigate(*place[:2], now, ctx.place_planner, place[2])
+            if nav.status not in ("moving", "recovering", "waiting"):
+                self.routed = False
+                return None
+            return Command(nav.vx, nav.wz, "approaching", f"the {ctx.label} is out of view: walking on to where "
+                           f"it was seen ({nav.reason})", note=nav.note, navigated=True)  # fmt: skip
         detour_t = ctx.avoider.detour_t
         if last is None or detour_t is None or detour_t < last - p.lost_timeout_s:
             return None

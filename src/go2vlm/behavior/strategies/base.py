@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -143,14 +143,24 @@ class Context:
         follow = self.goal is not None and self.goal.kind == "follow"
         return p.approach(p.follow_distance_m if follow else p.stop_distance_m)
 
-    def navigate(self, goal: tuple[float, float], tolerance: float, now: float, planner: GlobalParams) -> NavStep:
-        """The navigator's step towards `goal` (odometry frame; `tolerance` m counts as there), planning
-        with `planner` on the newest costmap, within the mission's speed limits; `route` is its route."""
+    @property
+    def place_planner(self) -> GlobalParams:
+        """The global planner's settings for a walk to a place (not a frontier): unknown space at
+        the navigator's `unknown_cost`."""
+        return replace(GlobalParams(), unknown_cost=self.params.nav.unknown_cost)
+
+    def navigate(
+        self, goal: tuple[float, float], tolerance: float, now: float, planner: GlobalParams, body: float = 0.0
+    ) -> NavStep:
+        """The navigator's step towards `goal` (odometry frame; `tolerance` m and in sight counts as there,
+        the obstacle cells within `body` m being the goal's own), planning with `planner` on the newest
+        costmap, within the mission's speed limits; `route` is its route."""
         nav, p = self.navigator, self.params
         nav.params, nav.planner, nav.clearance = p.nav, planner, p.planner.clearance
         pose = self.fresh_pose(now)
         out = nav.step(goal, tolerance, self.costmap, None if pose is None else (pose.x, pose.y, pose.yaw),
-                       self.fresh_scan(now), now, max_linear=p.max_linear, max_angular=p.max_angular)  # fmt: skip
+                       self.fresh_scan(now), now, max_linear=p.max_linear, max_angular=p.max_angular,
+                       body=body)  # fmt: skip
         self.route = nav.route
         return out
 

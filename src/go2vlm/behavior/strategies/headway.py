@@ -11,10 +11,8 @@ afresh too. Pure, timestamp-driven.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 from go2vlm.behavior.navigate.progress import Progress
-from go2vlm.behavior.planner.global_path import GlobalParams
 from go2vlm.behavior.strategies.base import Command, Context
 
 __all__ = ["Headway"]
@@ -34,10 +32,17 @@ class Headway:
         self.last = -math.inf
 
     def walk(
-        self, ctx: Context, target: tuple[float, float], reach_m: float, now: float, why: str, basis: str = ""
+        self,
+        ctx: Context,
+        target: tuple[float, float],
+        reach_m: float,
+        now: float,
+        why: str,
+        basis: str = "",
+        body: float = 0.0,
     ) -> Command | None:
-        """The navigator's command towards `target` (its surface `reach_m` from its centre) while
-        walking out of a stall; None: headway is fine (the approach steers as before)."""
+        """The navigator's command towards `target` (there within `reach_m` of it, its own cells within
+        `body`) while walking out of a stall; None: headway is fine (the approach steers as before)."""
         pose, p = ctx.fresh_pose(now), ctx.params
         if pose is None or ctx.costmap is None:
             return None
@@ -47,8 +52,7 @@ class Headway:
         if self.stalled is not None:
             sx, sy, st = self.stalled
             if math.hypot(pose.x - sx, pose.y - sy) < p.headway_out_m and now - st < p.nav.progress_s:
-                planner = replace(GlobalParams(), unknown_cost=p.nav.unknown_cost)
-                nav = ctx.navigate(target, reach_m, now, planner)
+                nav = ctx.navigate(target, reach_m, now, ctx.place_planner, body)
                 if nav.status in ("moving", "recovering", "waiting"):
                     return Command(nav.vx, nav.wz, "approaching", f"{why}: no headway, with the navigator "
                                    f"({nav.reason})", note=nav.note, basis=basis, navigated=True)  # fmt: skip
@@ -61,4 +65,4 @@ class Headway:
             return None
         self.stalled = (pose.x, pose.y, now)
         ctx.counters["stalled"] += 1
-        return self.walk(ctx, target, reach_m, now, why, basis)
+        return self.walk(ctx, target, reach_m, now, why, basis, body)

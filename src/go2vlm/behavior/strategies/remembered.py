@@ -22,13 +22,11 @@ view is. Pure, timestamp-driven.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
 from go2vlm.behavior.navigate import line_of_sight
-from go2vlm.behavior.planner.global_path import GlobalParams
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
@@ -131,7 +129,7 @@ class GoToRemembered:
         reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
         if goal.kind == "look_for" and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
             # out of sight on the map (another room): walk to where it is until it is in sight
-            planner = self._planner(ctx)
+            planner = ctx.place_planner
             if not line_of_sight(ctx.costmap, (ctx.pose.x, ctx.pose.y), (o.x, o.y), planner, reach):
                 out = self._walk(ctx, o, reach, now, "aligning", f"walking to where {where} can be seen")
                 if out is not None or ctx.target_obj is None:
@@ -164,14 +162,10 @@ class GoToRemembered:
         why = "confirming it is there" if at_place or goal.kind == "look_for" else "looking again before walking"
         return Command.still(state, f"holding still facing {where} ({surface:.2f} m): {why}")
 
-    @staticmethod
-    def _planner(ctx: Context) -> GlobalParams:
-        return replace(GlobalParams(), unknown_cost=ctx.params.nav.unknown_cost)
-
     def _walk(self, ctx: Context, o: Remembered, reach: float, now: float, state: str, why: str) -> Command | None:
         """The navigator's step to `o`'s place; None: it is there (the caller faces it and looks), or it
         gave the place up (`o` given up, `ctx.target_obj` None: the search goes on)."""
-        nav = ctx.navigate((o.x, o.y), reach, now, self._planner(ctx))
+        nav = ctx.navigate((o.x, o.y), reach, now, ctx.place_planner, o.radius)
         if nav.status == "arrived":
             return None
         if nav.status == "failed":
