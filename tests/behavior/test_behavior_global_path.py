@@ -76,14 +76,20 @@ def test_near_enough_is_also_in_sight(body: float) -> None:
     are within reach but do not see it, so the path goes round through the door to its side. An
     object's own cells (`goal_body_m`) hide nothing: a goal inside a block is reached beside it."""
     cm = two_rooms()
-    plan = plan_path(cm, (1.0, -2.5), [(-0.4, -2.5)], GlobalParams(goal_tolerance_m=1.0, goal_body_m=body))
+    plan = plan_path(
+        cm, (1.0, -2.5), [(-0.4, -2.5)], GlobalParams(goal_tolerance_m=1.0, goal_in_sight=True, goal_body_m=body)
+    )
     assert plan.ok, plan.reason
     end = plan.waypoints[-1]
     assert end[0] < -0.05 and math.hypot(end[0] + 0.4, end[1] + 2.5) <= 1.0 + RES, plan.waypoints
+    frontier = plan_path(cm, (1.0, -2.5), [(-0.4, -2.5)], GlobalParams(goal_tolerance_m=1.0))
+    assert frontier.ok and frontier.waypoints[-1][0] > 0.05  # not asked: the near side of the wall
     g = cm.data.copy()
     g[20:26, 100:106] = 100  # a block, centre (-0.85, -2.35), beside the wall
     blocked = Costmap(g, RES, cm.origin, 1.0)
-    inside = plan_path(blocked, (1.0, -2.5), [(-0.85, -2.35)], GlobalParams(goal_tolerance_m=1.0, goal_body_m=0.25))
+    inside = plan_path(
+        blocked, (1.0, -2.5), [(-0.85, -2.35)], GlobalParams(goal_tolerance_m=1.0, goal_in_sight=True, goal_body_m=0.25)
+    )
     assert inside.ok and inside.waypoints[-1][0] < -0.05, inside.reason
 
 

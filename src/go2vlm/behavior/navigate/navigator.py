@@ -17,10 +17,10 @@ It owns, as Nav2 keeps them apart:
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
 `line_of_sight` asks the costmap whether a place is in plain view (a strategy that looks at a place
 rather than walks to it asks it first).
-`arrived`: within `tolerance` of the goal and in sight of it on the map (no obstacle cell between but
-its own, within `body` of it: planner/global_path.py `in_sight`), or within `arrive_m` of the route's
-end (the passable cell in sight of it that the plan reached). `failed` also when no route can be
-planned (the planner's reason).
+`arrived`: within `tolerance` of the goal (and, for a planner with `goal_in_sight`, in sight of it on
+the map: no obstacle cell between but its own, within `body` of it, planner/global_path.py
+`in_sight`), or within `arrive_m` of the route's end (the passable cell the plan reached). `failed`
+also when no route can be planned (the planner's reason).
 """
 
 from __future__ import annotations
@@ -118,9 +118,9 @@ class Navigator:
         x, y, yaw = pose
         end = self.route.plan.waypoints[-1] if self.route is not None else None
         near = math.hypot(goal[0] - x, goal[1] - y) <= tolerance
-        if (near and in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution)[0]) or (
-            end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m
-        ):
+        if near and self.planner.goal_in_sight:
+            near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution)[0])
+        if near or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
             self._speed = 0.0
             return NavStep(0.0, 0.0, "arrived", "there")
         if self.recoveries.active is not None:

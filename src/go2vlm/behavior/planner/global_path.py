@@ -36,12 +36,14 @@ known); a go to a remembered object prefers known free space (a high cost: unkno
 known way exists).
 
 Start and goal: a start on a lethal cell (the robot inside the inflation, by a wall) plans from the
-nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal, in
-sight of it, is the goal (an object is itself an obstacle on the map: the path ends beside it). In
-sight: the straight line to the goal crosses no obstacle cell farther than `goal_body_m` from it (the
-object's own cells hide nothing); a cell near the goal but behind a wall from it is not there (a duck
-seen through a doorway from beside its jamb is within a metre of the jamb's far side). A refusal
-says why: outside the map, boxed in, the goal inside an obstacle, or cut off.
+nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
+the goal (an object is itself an obstacle on the map: the path ends beside it). With `goal_in_sight`
+(a place to look at: an object) only those in sight of it: the straight line to the goal crosses no
+obstacle cell farther than `goal_body_m` from it (the object's own cells hide nothing); a cell near
+the goal but behind a wall from it is not there (a duck seen through a doorway from beside its jamb
+is within a metre of the jamb's far side). A frontier is not asked: its goal often lies in a gap of
+a wall the map is still drawing, and which side sees it changes with each scan. A refusal says why:
+outside the map, boxed in, the goal inside an obstacle, or cut off.
 
 Waypoints: the dense cell path pruned by line of sight: from each waypoint the next is the farthest
 path cell reachable in a straight line that crosses no cell costlier than the stretch of path it
@@ -281,7 +283,9 @@ def _search(
             outside += 1
             continue
         cells = _goal_cells(c, gc, radius)
-        if k == 1:  # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
+        if (
+            k == 1 and p.goal_in_sight
+        ):  # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
             cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res)]
         ends += [(int(a), int(b)) for a, b in cells]
         owner += [gi] * len(cells)

@@ -58,8 +58,9 @@ class GlobalParams:
     cost_scale: float = 10.0  # a cell of cost v (0..98) costs 1 + cost_scale * v / 100 per cell crossed
     unknown_cost: float = math.inf  # per unknown cell crossed; inf: never
     max_cells: int = 160_000  # larger grids are planned coarse first, then at full resolution round that path
-    goal_tolerance_m: float = 0.6  # any passable cell this near the goal, in sight of it, is the goal
-    goal_body_m: float = 0.0  # obstacle cells this near the goal are its own (an object's radius): they hide nothing
+    goal_tolerance_m: float = 0.6  # any passable cell this near the goal (and in sight of it, if asked) is the goal
+    goal_in_sight: bool = False  # a place to look at (an object): only cells that see it are near it
+    goal_body_m: float = 0.0  # ... and obstacle cells this near it are its own (an object's radius): they hide nothing
     escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
     off_path_m: float = 0.8  # the robot this far from the route: replan
     replan_period_s: float = 2.0  # a new costmap replans at most this often (a blocked route at once)
