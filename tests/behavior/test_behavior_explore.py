@@ -166,7 +166,7 @@ def _explore_from_the_room() -> tuple[Any, Any]:
     """The Explore strategy and its context, the robot at (3, -2) in the toy house, its room sensed."""
     from go2vlm.behavior.goals import parse_goal
     from go2vlm.behavior.strategies.base import Context
-    from go2vlm.behavior.strategies.explore import Explore
+    from go2vlm.behavior.strategies.explore_search import Explore
     from go2vlm.behavior.strategies.params import MissionParams
 
     truth = house()
@@ -210,7 +210,7 @@ def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
     The look ends once it has gained nothing for LOOK_STALL_S, the place counts as visited, and the
     search goes on to the next frontier instead of waiting there until the goal times out."""
     from go2vlm.behavior.strategies.base import Pose
-    from go2vlm.behavior.strategies.explore import LOOK_STALL_S
+    from go2vlm.behavior.strategies.explore_search import LOOK_STALL_S
 
     s, ctx = _explore_from_the_room()
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
@@ -239,7 +239,7 @@ def test_a_look_rocking_in_place_turns_nothing_and_ends_held() -> None:
     """The gate holds the look's turn and the robot rocks: its yaw jitters +-0.1 rad. The jitter is no
     turn (it once added up to "looked all round"): the look ends held, having turned about nothing."""
     from go2vlm.behavior.strategies.base import Pose
-    from go2vlm.behavior.strategies.explore import LOOK_STALL_S
+    from go2vlm.behavior.strategies.explore_search import LOOK_STALL_S
 
     s, ctx = _explore_from_the_room()
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
@@ -377,3 +377,26 @@ def test_a_frontier_the_navigator_gives_up_comes_back_once_the_map_round_it_chan
     ex.set_map(costmap(known, 2.0))
     ex.step(3.0, -2.0, 0.0, 2.0)
     assert all(math.dist(g, goal) > 1e-9 for g, _ in ex.dropped)
+
+
+def test_gain_takes_the_room_through_the_door_over_a_nearer_corner() -> None:
+    """Known: the right room, but for a 1 m corner at its far end the scan has not reached, and the
+    doorway to the unknown left room. The corner is nearer; the door reveals a room. `gain` walks to
+    the door, `nearest` to the corner."""
+    known = np.full((140, 240), -1, np.int8)
+    known[2:-2, 121:-2] = 0
+    known[:2, 119:] = known[-2:, 119:] = 100
+    known[:, -2:] = 100
+    known[:, 119:121] = 100
+    known[58:82, 119:121] = 0  # the door, and the unknown room beyond it
+    known[2:22, 218:238] = -1  # the corner at (5, -3) the scan has not reached
+    cm = costmap(known, 1.0)
+    goals = {}
+    for choice in ("gain", "nearest"):
+        ex = Explorer(ExploreParams(frontier_choice=choice))
+        ex.set_map(cm)
+        step = ex.step(3.5, -1.5, 0.0, 0.0)
+        assert step.action == "walk", step
+        goals[choice] = step.goal
+    assert goals["gain"][0] < 0.5 and abs(goals["gain"][1]) < 1.0, goals  # the doorway (x = 0)
+    assert goals["nearest"][0] > 3.0 and goals["nearest"][1] < -1.8, goals  # the corner

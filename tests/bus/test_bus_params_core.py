@@ -89,11 +89,12 @@ def test_the_commander_builds_its_cores_from_its_public_names(
     cfg = build_config(
         CommanderConfig,
         {"planner_margin_m": margin, "explore_unknown_cost": unknown, "explore_timeout_s": timeout,
-         "stop_distance_m": stop, "robot": robot, "nav_progress_s": min(timeout / 10, 100.0)},
+         "stop_distance_m": stop, "robot": robot, "nav_progress_s": min(timeout / 10, 100.0),
+         "explore_gain_per_m": stop},
     )  # fmt: skip
     mp, ep = cfg.mission_params(), cfg.explore_params()
     assert (mp.planner.margin, mp.stop_distance_m, mp.nav.progress_s) == (margin, stop, min(timeout / 10, 100.0))
-    assert (ep.unknown_cost, ep.timeout_s, ep.frontier_choice) == (unknown, timeout, "nearest")
+    assert (ep.unknown_cost, ep.timeout_s, ep.frontier_choice, ep.gain_per_m) == (unknown, timeout, "gain", stop)
     assert mp.camera_forward_m == PROFILES[robot].head_camera.pos[0]
 
 

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from go2vlm.world.frontiers import FrontierParams, find_frontiers, frontier_cells
+from go2vlm.world.frontiers import FrontierParams, find_frontiers, frontier_cells, gains
 
 RES = 0.05
 
@@ -73,3 +73,15 @@ def test_a_doorway_frontier_counts_its_inflated_cells() -> None:
     fs = find_frontiers(g, RES, (0.0, 0.0), FrontierParams(min_size_m=0.5))
     assert len(fs) == 1 and fs[0].size_m >= 1.2 - 1e-9
     assert 28 <= fs[0].goal_cell[0] < 34 and fs[0].goal_cell[1] == 30
+
+
+@settings(max_examples=50)
+@given(seed=st.integers(0, 10_000), radius=st.floats(0.0, 1.0))
+def test_a_frontiers_gain_is_the_area_of_its_window(seed: int, radius: float) -> None:
+    """gains (an integral image) = the masked cells counted one by one in the square window, in m^2."""
+    rng = np.random.default_rng(seed)
+    mask, res = rng.random((30, 40)) < 0.3, 0.05
+    cells = np.column_stack((rng.integers(0, 30, 12), rng.integers(0, 40, 12)))
+    r = int(round(radius / res))
+    brute = [mask[max(0, a - r) : a + r + 1, max(0, b - r) : b + r + 1].sum() * res**2 for a, b in cells]
+    assert np.allclose(gains(mask, res, cells, radius), brute)

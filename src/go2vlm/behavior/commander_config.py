@@ -91,6 +91,8 @@ class CommanderConfig:
     explore_unknown_cost: float = from_core(ExploreParams, "unknown_cost")
     explore_timeout_s: float = from_core(ExploreParams, "timeout_s")
     explore_regrown_share: float = from_core(ExploreParams, "regrown_share")
+    explore_gain_radius_m: float = from_core(ExploreParams, "gain_radius_m")
+    explore_gain_per_m: float = from_core(ExploreParams, "gain_per_m")
     costmap_topic: str = param(MAP_COSTMAP.name, help="nav_msgs/OccupancyGrid: the inflated costmap (global planner)")
     control_rate_hz: float = param(20.0, help="control loop rate", min=2.0, max=100.0)
     status_period_s: float = param(1.0, help="/commander/status period besides on-change", min=0.1, max=60.0)

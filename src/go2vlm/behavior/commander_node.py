@@ -120,7 +120,7 @@ from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import sighting_of
 from go2vlm.behavior.strategies.base import SearchStrategy
-from go2vlm.behavior.strategies.explore import Explore
+from go2vlm.behavior.strategies.explore_search import Explore
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.behavior.view_scores import ViewAnswerRejected
 from go2vlm.bus import Node

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES
 from go2vlm.cli.args import add_dds_args, add_node_params, node_params
 
 
@@ -66,9 +67,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )
     p.add_argument(
         "--frontier",
-        choices=("nearest", "vlm"),
+        choices=FRONTIER_CHOICES,
         default=None,
-        help="the commander's frontier_choice while exploring (default: its own, nearest); vlm asks which way "
+        help="the commander's frontier_choice while exploring (default: its own, gain); vlm asks which way "
         "leads to the object (oracle: answered from the ground truth): a run of its own (its parameters differ)",
     )
     p.add_argument("--out", type=Path, default=None, help="the eval folder (results.jsonl, summary.json, report.md)")

@@ -23,7 +23,7 @@ import numpy as np
 
 from go2vlm.world.occupancy import INSCRIBED
 
-__all__ = ["Frontier", "FrontierParams", "clusters", "find_frontiers", "frontier_cells"]
+__all__ = ["Frontier", "FrontierParams", "clusters", "find_frontiers", "frontier_cells", "gains"]
 
 _EIGHT = np.ones((3, 3), bool)
 
@@ -143,3 +143,19 @@ def clusters(
         )
     out.sort(key=lambda f: -f.size)
     return [replace(f, id=i + 1) for i, f in enumerate(out)]
+
+
+def gains(mask: np.ndarray, resolution: float, cells: np.ndarray, radius_m: float) -> np.ndarray:
+    """m^2 of `mask` cells (unknown, or free space the camera has not looked at) within `radius_m` of
+    each (row, col) of `cells`, over a square window (an integral image: O(cells) for any number of
+    them): at most what walking there and looking round would reveal, its information gain."""
+    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
+    if len(cells) == 0:
+        return np.zeros(0)
+    h, w = mask.shape
+    r = max(0, int(round(radius_m / resolution)))
+    s = np.zeros((h + 1, w + 1), np.int64)
+    s[1:, 1:] = np.asarray(mask, bool).astype(np.int64).cumsum(0).cumsum(1)
+    r0, r1 = np.clip(cells[:, 0] - r, 0, h), np.clip(cells[:, 0] + r + 1, 0, h)
+    c0, c1 = np.clip(cells[:, 1] - r, 0, w), np.clip(cells[:, 1] + r + 1, 0, w)
+    return (s[r1, c1] - s[r0, c1] - s[r1, c0] + s[r0, c0]) * resolution**2

@@ -226,12 +226,16 @@ def as_wide(
     p: RangingParams, points: np.ndarray, origin: tuple[float, float], d: float, bearing: float, width: float
 ) -> bool:
     """Do the scan points `d`..`d` + scan_depth_m from `origin`, within the box's bearings, span at
-    least scan_cover of its angular `width` (rad)? A box no wider than the scan cone, or of unknown
-    width, passes."""
-    if not math.isfinite(width) or width <= 2.0 * math.radians(p.scan_cone_deg):
+    least scan_cover of its angular `width` (rad)? Each return stands for its bin (the scan's angular
+    step, from the points, at most the scan cone): far away one return may be all an object gives.
+    A box no wider than the scan cone, or of unknown width, passes."""
+    cone = 2.0 * math.radians(p.scan_cone_deg)
+    if not math.isfinite(width) or width <= cone:
         return True
     rel = np.asarray(points, dtype=float).reshape(-1, 2) - origin
     ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
     near = (rng >= d - 1e-6) & (rng <= d + p.scan_depth_m)
     hit = (np.abs(ang - bearing) <= width / 2.0) & near & (rel[:, 0] > 0.0)
-    return bool(hit.any() and float(ang[hit].max() - ang[hit].min()) >= p.scan_cover * width)
+    gaps = np.diff(np.unique(ang))
+    step = min(float(np.median(gaps[gaps > 1e-9])), cone) if (gaps > 1e-9).any() else 0.0
+    return bool(hit.any() and float(ang[hit].max() - ang[hit].min()) + step >= p.scan_cover * width)

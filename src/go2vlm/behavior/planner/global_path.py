@@ -71,6 +71,7 @@ __all__ = [
     "cell_costs",
     "chain_cost",
     "footprint_fits",
+    "goal_costs",
     "in_sight",
     "line_cells",
     "passable",
@@ -240,6 +241,7 @@ def plan_path(
     c = cell_costs(cm, p)
     if k > 1:  # a coarse guide first, then the fine grid round it
         guide = _search(cm, cell_costs(cm, p, k), k, start, goal_list, p)
+        assert not isinstance(guide, np.ndarray)
         if isinstance(guide, Plan):
             return replace(guide, stride=k)
         near = np.zeros((-(-cm.shape[0] // k), -(-cm.shape[1] // k)), bool)
@@ -252,6 +254,20 @@ def plan_path(
     return _fitting(cm, c, start, goal_list, p)
 
 
+def goal_costs(
+    cm: Costmap, start: tuple[float, float], goals: Sequence[tuple[float, float]], p: GlobalParams
+) -> np.ndarray:
+    """The path cost (m, weighted as a plan's) from world point `start` to each of `goals` (inf: no
+    way, or no passable cell near it): one search to them all, on the grid coarsened as plan_path's
+    guide is when it is large (a cost to choose by, not a path)."""
+    goal_list = list(goals)
+    if not goal_list:
+        return np.zeros(0)
+    k = stride_for(cm.shape, p.max_cells)
+    got = _search(cm, cell_costs(cm, p, k), k, start, goal_list, p, every=True)
+    return got if isinstance(got, np.ndarray) else np.full(len(goal_list), np.inf)
+
+
 def _search(
     cm: Costmap,
     c: np.ndarray,
@@ -259,8 +275,10 @@ def _search(
     start: tuple[float, float],
     goal_list: list[tuple[float, float]],
     p: GlobalParams,
-) -> Found | Plan:
-    """One search on cost grid `c` (the costmap coarsened by `k`): the cell path, or a refusal."""
+    every: bool = False,
+) -> Found | Plan | np.ndarray:
+    """One search on cost grid `c` (the costmap coarsened by `k`): the cell path, or a refusal; with
+    `every`, the cost (m, weighted) to each goal instead (inf: no way)."""
     res = cm.resolution * k
     cm_k = Costmap(np.zeros((1, 1), np.int8), res, cm.origin)
     s = cm_k.cell(*start)
@@ -283,26 +301,28 @@ def _search(
             outside += 1
             continue
         cells = _goal_cells(c, gc, radius)
-        if (
-            k == 1 and p.goal_in_sight
-        ):  # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
+        # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
+        if k == 1 and p.goal_in_sight:
             cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res)]
         ends += [(int(a), int(b)) for a, b in cells]
         owner += [gi] * len(cells)
     if not ends:
         if outside == len(goal_list):
             return Plan(False, "the goal is outside the map")
+        seen = " and in sight of it" if p.goal_in_sight else ""
         return Plan(
-            False,
-            f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it "
-            "and in sight of it",
+            False, f"the goal is inside an obstacle: no passable cell within {p.goal_tolerance_m:g} m of it{seen}"
         )
     from skimage.graph import MCP_Geometric  # the nav extra; imported here so a commander without a map needs none
 
     mcp = MCP_Geometric(c, fully_connected=True)
-    costs, _ = mcp.find_costs([s_from], ends, find_all_ends=False)
+    costs, _ = mcp.find_costs([s_from], ends, find_all_ends=every)
     end_arr = np.array(ends)
     end_costs = costs[end_arr[:, 0], end_arr[:, 1]]
+    if every:
+        per_goal = np.full(len(goal_list), np.inf)
+        np.minimum.at(per_goal, np.array(owner), np.where(np.isfinite(end_costs), end_costs, np.inf) * res)
+        return per_goal
     best = int(np.argmin(end_costs))
     if not np.isfinite(end_costs[best]):
         how = "obstacles and unknown space" if math.isinf(p.unknown_cost) else "obstacles"
@@ -320,6 +340,7 @@ def _fitting(
     """The search at full resolution; where its path's footprint touches in the band, the search by
     heading instead (module docstring); and the path's waypoints."""
     found = _search(cm, c, 1, start, goal_list, p)
+    assert not isinstance(found, np.ndarray)
     if isinstance(found, Plan):
         return found
     skip = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution))

@@ -12,16 +12,25 @@ from go2vlm.declare import param
 
 __all__ = ["FRONTIER_CHOICES", "ExploreParams"]
 
-FRONTIER_CHOICES = ("nearest", "vlm")
+FRONTIER_CHOICES = ("gain", "nearest", "vlm")
 
 
 @dataclass(frozen=True)
 class ExploreParams:
-    # nearest (by path cost) | vlm (a whitelisted model answer); declared with `param`, the commander's
-    # (behavior/commander_config.py: frontier_choice, explore_unknown_cost, explore_timeout_s)
+    # gain (what it would reveal against its path cost) | nearest (by path cost) | vlm (a whitelisted
+    # model answer); declared with `param`, the commander's (behavior/commander_config.py)
     frontier_choice: str = param(
-        "nearest", choices=FRONTIER_CHOICES,
-        help="explore: the frontier to walk to: nearest by path cost, or vlm (the best-scored way on /vlm/way first)",
+        "gain", choices=FRONTIER_CHOICES,
+        help="explore: the frontier to walk to: gain (the unknown and unseen area near it, less gain_per_m x its "
+        "path cost), nearest by path cost, or vlm (the best-scored way on /vlm/way first)",
+    )  # fmt: skip
+    gain_radius_m: float = param(
+        3.0, help="explore (gain): a frontier's gain counts the unknown and unseen area within this of it (m)",
+        min=0.5, max=20.0, live=True,
+    )  # fmt: skip
+    gain_per_m: float = param(
+        1.0, help="explore (gain): m^2 of area to reveal worth one metre more of path", min=0.0, max=100.0,
+        live=True,
     )  # fmt: skip
     unknown_cost: float = param(3.0, help="explore: cost per unknown cell crossed (free: 1)", min=1.0, max=1000.0,
                                 live=True)  # fmt: skip
@@ -44,7 +53,8 @@ class ExploreParams:
         if self.frontier_choice not in FRONTIER_CHOICES:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
         for name in ("min_frontier_m", "arrive_m", "visited_radius_m", "regrown_share", "map_timeout_s",
-                     "timeout_s", "min_view_m2", "look_done_m2", "second_pass_m"):  # fmt: skip
+                     "timeout_s", "min_view_m2", "look_done_m2", "second_pass_m", "gain_radius_m",
+                     "gain_per_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")
