@@ -186,3 +186,15 @@ def test_a_door_met_askew_is_lined_up_with_where_it_stands() -> None:
     assert "does not keep its clearance" in d.note
     ahead = pursue(np.array([[-1.0, 0.0], [3.0, 0.0]]), (x0, 0.0, 0.0), rel, 0.0, NavParams(), 0.5, 0.8)
     assert ahead.mode == "track" and ahead.vx > 0.0  # square-on: straight through
+
+
+def test_a_robot_in_a_doorway_walks_on_straight_before_it_turns() -> None:
+    """The rear half of the robot still in a 0.8 m door (a wall at x -0.12..0), the route turning
+    square to the left just past it: turning where it stands sweeps its rear into the jamb, so it
+    creeps straight on, out of the door, rather than back or stop."""
+    wall = np.array(
+        [(x, s * y) for x in np.linspace(-0.12, 0.0, 4) for y in np.linspace(0.4, 2.0, 33) for s in (1, -1)]
+    )
+    path = np.array([[0.1, 0.0], [0.3, 0.0], [0.3, 2.0]])
+    d = pursue(path, (0.1, 0.0, 0.0), wall - (0.1, 0.0), 0.0, NavParams(), 0.5, 0.8)
+    assert d.vx > 0.0 and d.wz == 0.0 and "on straight" in d.note, d

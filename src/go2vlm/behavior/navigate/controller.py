@@ -7,8 +7,9 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
 - A carrot more than `rotate_to_heading_deg` off the heading: turn in place towards it first (a
   doorway is walked into square-on, not cut at a slant), as fast as the turn's sweep keeps its
   clearance (a slower turn needs less). With no room to turn at all: back along the route where the
-  carrot lies behind (`back_up_speed`), else back (at half that) or creep on (`min_speed`) while
-  turning towards it, a driver's turn in a narrow lane.
+  carrot lies behind (`back_up_speed`); where it lies ahead, first creep straight on (`min_speed`:
+  out of the doorway it stands in, to turn where it is clear); else back (at half that speed) or
+  creep on while turning towards it, a driver's turn in a narrow lane.
 - Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
@@ -154,9 +155,12 @@ def pursue(
         # No room to turn where it stands: a driver's turn in a narrow lane. Back along the route where
         # it lies behind; else back, or creep on, turning towards it (a few of these turn it round).
         side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
-        moves = [(slow_back, slow_back * kappa, "backing along the route")] if abs(alpha) > math.pi / 2 else []
+        creep = min(p.min_speed, max_linear)
+        # the carrot ahead: first on straight, out of the doorway it stands in, to turn where it is clear
+        ahead = [(creep, 0.0, "on straight to turn where it is clear")] if abs(alpha) < math.pi / 2 else []
+        moves = [(slow_back, slow_back * kappa, "backing along the route")] if abs(alpha) > math.pi / 2 else ahead
         moves += [(slow_back / 2, side, "backing while it turns"),
-                  (min(p.min_speed, max_linear), side, "creeping while it turns")]  # fmt: skip
+                  (creep, side, "creeping while it turns")]  # fmt: skip
         for v, wz, how in moves:
             if abs(wz) > max_angular:
                 v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
