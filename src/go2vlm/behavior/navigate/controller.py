@@ -9,7 +9,8 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
   clearance (a slower turn needs less). With no room to turn at all: back along the route where the
   carrot lies behind (`back_up_speed`); where it lies ahead, first creep straight on (`min_speed`:
   out of the doorway it stands in, to turn where it is clear); else back (at half that speed) or
-  creep on while turning towards it, a driver's turn in a narrow lane.
+  creep on while turning towards it, a driver's turn in a narrow lane; and with the carrot behind,
+  last, straight on out of the doorway all the same.
 - Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
@@ -150,17 +151,20 @@ def pursue(
         fast = min(max(p.rotate_gain * abs(alpha), slow), max_angular)
         for rate in sorted({fast, max(fast / 2, slow), slow}, reverse=True):  # slower needs less room
             # the whole turn to face the carrot must keep it, not only its first moments
-            if rate > 0 and keeps(0.0, math.copysign(rate, alpha), max(p.horizon_s, abs(alpha) / rate)):
-                return Drive(0.0, math.copysign(rate, alpha), "rotate", "turning to the route", index, remaining)
+            w = math.copysign(rate, alpha)  # (the horizon checked at its own samples too)
+            if rate > 0 and keeps(0.0, w) and keeps(0.0, w, max(p.horizon_s, abs(alpha) / rate)):
+                return Drive(0.0, w, "rotate", "turning to the route", index, remaining)
         # No room to turn where it stands: a driver's turn in a narrow lane. Back along the route where
         # it lies behind; else back, or creep on, turning towards it (a few of these turn it round).
         side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
         creep = min(p.min_speed, max_linear)
-        # the carrot ahead: first on straight, out of the doorway it stands in, to turn where it is clear
-        ahead = [(creep, 0.0, "on straight to turn where it is clear")] if abs(alpha) < math.pi / 2 else []
-        moves = [(slow_back, slow_back * kappa, "backing along the route")] if abs(alpha) > math.pi / 2 else ahead
+        # on straight, out of the doorway it stands in, to turn where it is clear: first when the carrot
+        # lies ahead, last when behind (after backing along the route, and turning either way)
+        on = (creep, 0.0, "on straight to turn where it is clear")
+        behind = abs(alpha) > math.pi / 2
+        moves = [(slow_back, slow_back * kappa, "backing along the route")] if behind else [on]
         moves += [(slow_back / 2, side, "backing while it turns"),
-                  (creep, side, "creeping while it turns")]  # fmt: skip
+                  (creep, side, "creeping while it turns")] + ([on] if behind else [])  # fmt: skip
         for v, wz, how in moves:
             if abs(wz) > max_angular:
                 v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
