@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from go2vlm.apps.episodes.episode import Episode, graph_name, label_matches, node_overrides, target_body  # noqa: E402
-from go2vlm.apps.episodes.metrics import Context, compute_metrics, grounding_metrics  # noqa: E402
+from go2vlm.apps.episodes.metrics import Context, compute_metrics, flips, grounding_metrics  # noqa: E402
 from go2vlm.apps.episodes.outputs import append_jsonl, atomic, read_jsonl, write_json  # noqa: E402
 from go2vlm.apps.episodes.recorder import Recording  # noqa: E402
 from go2vlm.apps.episodes.report import bootstrap_ci, wilson  # noqa: E402
@@ -286,3 +286,11 @@ def test_the_memory_is_scored_against_its_bodies_and_summed_in_the_report() -> N
             "config": {"suite": "s", "perception": "oracle", "run_id": "r"}, "suite": "s"}  # fmt: skip
     [row] = summarize([line])
     assert (row["memory_objects"], row["memory_phantoms"], row["memory_mean_error_m"]) == (4, 2, 0.075)
+
+
+def test_flips_count_forward_back_turns_and_the_rocking_between_them() -> None:
+    """Forward, back 1 s later, forward 1 s later (rocking: 1 s between the two turns), then 5 s on, back
+    again (a turn, but no rocking); commands slower than a creep keep the last direction."""
+    cmds = [(0.0, 0.3), (0.5, 0.01), (1.0, -0.2), (1.5, -0.01), (2.0, 0.2), (7.0, 0.2), (7.1, -0.2)]
+    assert flips(cmds) == (3, 1.0)
+    assert flips([(0.0, 0.3), (1.0, 0.0), (2.0, 0.3)]) == (0, 0.0) and flips([]) == (0, 0.0)

@@ -138,6 +138,25 @@ def _dedupe(states: list[Any]) -> list[Any]:
     return out
 
 
+FLIP_SPEED = 0.05  # m/s: a command slower than this, either way, is neither forward nor back
+FLIP_WINDOW_S = 2.0  # a run of forward (or back) shorter than this, between two flips, is rocking
+
+
+def flips(cmds: Sequence[tuple[float, float]]) -> tuple[int, float]:
+    """(how many times /cmd_vel's vx turned from forward to back or back again, the seconds spent in
+    runs shorter than FLIP_WINDOW_S between two such turns: rocking) over (t, vx) samples in time
+    order; a command under FLIP_SPEED either way keeps the last direction."""
+    turns: list[float] = []
+    last = 0.0
+    for t, vx in cmds:
+        d = 1.0 if vx >= FLIP_SPEED else -1.0 if vx <= -FLIP_SPEED else 0.0
+        if d and last and d != last:
+            turns.append(t)
+        last = d or last
+    rocking = sum(b - a for a, b in zip(turns[:-1], turns[1:], strict=True) if b - a < FLIP_WINDOW_S)
+    return len(turns), round(rocking, 2)
+
+
 def _reasons(status: Sequence[tuple[float, Mapping[str, object]]]) -> list[list[object]]:
     """[t, state, reason] each time the commander's reason changes (its numbers included: a reason
     that counts down metres is a walk, one that stays is a stall)."""
@@ -577,6 +596,8 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
                 "max_abs_cmd_wz": round(max((abs(c[3]) for c in cmds), default=0.0), 3),
                 "max_behavior_vx": round(max((c[1] for c in rec.behavior), default=0.0), 3),
                 "final_cmd": [round(cmds[-1][1], 3), round(cmds[-1][3], 3)] if cmds else None,
+                "flips": (fl := flips([(c[0], c[1]) for c in cmds]))[0],
+                "flip_s": fl[1],
                 "commander_counters": final.get("counters", {}),
                 "goal_reached": success,
             }
