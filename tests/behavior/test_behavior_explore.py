@@ -207,12 +207,12 @@ def test_the_strategy_walks_then_looks_all_round_then_walks_on() -> None:
 
 def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
     """The robot at a frontier beside a wall: the safety gate holds its turn (the pose never turns).
-    The look ends once it has gained nothing for LOOK_STALL_S, the place counts as visited, and the
+    The look ends once it has gained nothing for look_stall_s, the place counts as visited, and the
     search goes on to the next frontier instead of waiting there until the goal times out."""
     from go2vlm.behavior.strategies.base import Pose
-    from go2vlm.behavior.strategies.explore_search import LOOK_STALL_S
 
     s, ctx = _explore_from_the_room()
+    stall_s = s.params.look_stall_s
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
     look_began: float | None = None
     reasons: list[str] = []
@@ -231,7 +231,7 @@ def test_a_look_the_gate_holds_ends_and_the_search_walks_on() -> None:
         x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
     assert look_began is not None, "it never looked"
     assert s.explorer.status()["visited"] == 1 and not s.looking
-    assert LOOK_STALL_S - 0.1 <= now - look_began <= 2 * LOOK_STALL_S + 0.1
+    assert stall_s - 0.1 <= now - look_began <= 2 * stall_s + 0.1
     assert "could not turn all round" in reasons[-1]
 
 
@@ -239,9 +239,9 @@ def test_a_look_rocking_in_place_turns_nothing_and_ends_held() -> None:
     """The gate holds the look's turn and the robot rocks: its yaw jitters +-0.1 rad. The jitter is no
     turn (it once added up to "looked all round"): the look ends held, having turned about nothing."""
     from go2vlm.behavior.strategies.base import Pose
-    from go2vlm.behavior.strategies.explore_search import LOOK_STALL_S
 
     s, ctx = _explore_from_the_room()
+    stall_s = s.params.look_stall_s
     x, y, yaw, now = 3.0, -2.0, 0.0, 0.0
     look_began: float | None = None
     reasons: list[str] = []
@@ -260,7 +260,7 @@ def test_a_look_rocking_in_place_turns_nothing_and_ends_held() -> None:
         yaw += cmd.wz * 0.05
         x, y = x + cmd.vx * 0.05 * math.cos(yaw), y + cmd.vx * 0.05 * math.sin(yaw)
     assert look_began is not None, "it never looked"
-    assert now - look_began <= 2 * LOOK_STALL_S + 0.1
+    assert now - look_began <= 2 * stall_s + 0.1
     assert "could not turn all round (turned 0 deg)" in reasons[-1], reasons[-1]
 
 

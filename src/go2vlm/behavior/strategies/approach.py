@@ -109,25 +109,29 @@ class Approach:
         place, pose = self._place(ctx, stop), ctx.fresh_pose(now)
         if place is None or pose is None or ctx.costmap is None:
             return None
-        xy, reach, body = place
-        if line_of_sight(ctx.costmap, (pose.x, pose.y), xy, ctx.place_planner, reach):
+        if line_of_sight(ctx.costmap, (pose.x, pose.y), place[0], ctx.place_planner, place[1]):
             return None
-        nav = ctx.navigate(xy, reach, now, ctx.place_planner, body)
-        if nav.status not in ("moving", "recovering", "waiting"):
+        return self._walk(ctx, place, now, f"{why}: no straight way on the map, with the navigator")
+
+    def _walk(
+        self, ctx: Context, place: tuple[tuple[float, float], float, float], now: float, why: str
+    ) -> Command | None:
+        """The navigator's step to `place` (`_place`'s); None (and not `routed`) once it is there or
+        gives the place up: the approach, or the search, has its turn."""
+        (xy, reach, body), planner = place, ctx.place_planner
+        nav = ctx.navigate(xy, reach, now, planner, body)
+        self.routed = nav.status in ("moving", "recovering", "waiting")
+        if not self.routed:
             return None
-        self.routed = True
-        return Command(nav.vx, nav.wz, "approaching", f"{why}: no straight way on the map, with the navigator "
-                       f"({nav.reason})", note=nav.note, navigated=True)  # fmt: skip
+        return Command(nav.vx, nav.wz, "approaching", f"{why} ({nav.reason})", note=nav.note, navigated=True)
 
     def _unstall(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
-        """The headway watch's way out (strategies/headway.py), towards the memory's place for the
-        target, else its last confirmed place."""
-        o = ctx.target_obj
-        if o is not None:
-            return self.headway.walk(ctx, (o.x, o.y), stop + o.radius, now, why, body=o.radius)
-        if ctx.goal_xy is not None:
-            return self.headway.walk(ctx, ctx.goal_xy, stop, now, why)
-        return None
+        """The headway watch's way out (strategies/headway.py), towards `_place`'s place."""
+        place = self._place(ctx, stop)
+        if place is None:
+            return None
+        xy, reach, body = place
+        return self.headway.walk(ctx, xy, reach, now, why, body=body)
 
     def detour_unseen(self, ctx: Context, now: float) -> Command | None:
         """Out of view during a detour: on round the obstacle while the direct way stays blocked; a
@@ -137,16 +141,11 @@ class Approach:
         if goal is None or goal.kind == "look_for":
             return None
         if self.routed:
-            self.routed = last is not None and now - last <= p.detour_memory_s
-            place = self._place(ctx, p.stop_distance_m) if self.routed else None
-            if place is None:
-                return None
-            nav = ctx.navigate(*place[:2], now, ctx.place_planner, place[2])
-            if nav.status not in ("moving", "recovering", "waiting"):
+            place = self._place(ctx, p.stop_distance_m)
+            if last is None or now - last > p.detour_memory_s or place is None:
                 self.routed = False
                 return None
-            return Command(nav.vx, nav.wz, "approaching", f"the {ctx.label} is out of view: walking on to where "
-                           f"it was seen ({nav.reason})", note=nav.note, navigated=True)  # fmt: skip
+            return self._walk(ctx, place, now, f"the {ctx.label} is out of view: walking on to where it was seen")
         detour_t = ctx.avoider.detour_t
         if last is None or detour_t is None or detour_t < last - p.lost_timeout_s:
             return None

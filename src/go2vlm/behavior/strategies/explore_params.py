@@ -45,6 +45,20 @@ class ExploreParams:
     min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
     look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left in sight, in range
     second_pass_m: float = 2.0  # all seen and time left: look at it all again, a frame counting out to this
+    # A look held by the safety gate (near a wall, in a corridor) ends: one that gains less than
+    # look_stall_rad in look_stall_s, or is not all round in look_slack whole turns' time (the net turn
+    # counts, so rocking in place is no turn).
+    look_stall_s: float = param(
+        4.0, help="explore: a look round that turns less than look_stall_rad in this long (s) is held, and ends",
+        min=0.5, max=60.0, live=True,
+    )  # fmt: skip
+    look_stall_rad: float = param(
+        0.2, help="explore: ... this much net turn (rad) in look_stall_s is headway", min=0.01, max=3.0, live=True
+    )
+    look_slack: float = param(
+        3.0, help="explore: a look round not done in this many whole turns' time at search_yaw_rate ends", min=1.0,
+        max=20.0, live=True,
+    )  # fmt: skip
     timeout_s: float = param(300.0, help="explore: give the goal up this long after it began (s)", min=10.0,
                              max=3600.0, live=True, bound="max")  # fmt: skip
     planner: GlobalParams = field(default_factory=GlobalParams)
@@ -54,7 +68,7 @@ class ExploreParams:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
         for name in ("min_frontier_m", "arrive_m", "visited_radius_m", "regrown_share", "map_timeout_s",
                      "timeout_s", "min_view_m2", "look_done_m2", "second_pass_m", "gain_radius_m",
-                     "gain_per_m"):  # fmt: skip
+                     "gain_per_m", "look_stall_s", "look_stall_rad", "look_slack"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"explore {name} must be a finite number >= 0, got {v}")

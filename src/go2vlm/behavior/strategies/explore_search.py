@@ -12,16 +12,9 @@ from go2vlm.behavior.strategies.explore import ExploreParams, Explorer
 from go2vlm.behavior.strategies.search import TurnAndLook
 from go2vlm.world.poses import wrap_angle
 
-__all__ = ["DEFAULT_VIEW", "LOOK_SLACK", "LOOK_STALL_RAD", "LOOK_STALL_S", "Explore"]
+__all__ = ["DEFAULT_VIEW", "Explore"]
 
 DEFAULT_VIEW = math.radians(73.0)  # the head camera's, until a tracker report has said
-
-# A continuous look not all round in LOOK_SLACK whole turns' time at search_yaw_rate, or gaining less
-# than LOOK_STALL_RAD in LOOK_STALL_S, is held by the gate (near a wall, in a corridor) and ends (rocking
-# in place, it once "turned all round" by its jitter in 48 s: rooms 18).
-LOOK_SLACK = 3.0
-LOOK_STALL_S = 4.0
-LOOK_STALL_RAD = 0.2
 
 
 # -- the search strategy ------------------------------------------------------------------------
@@ -32,7 +25,7 @@ class Explore:
     (search.TurnAndLook's stop and look with slow answers, else a continuous turn at
     `search_yaw_rate` the short way round to the free space in sight that the camera has not looked
     at; it ends when none is left, after a whole turn, or, held by the safety gate near a wall, when
-    it gains less than LOOK_STALL_RAD in LOOK_STALL_S, or after LOOK_SLACK times a whole turn's time),
+    it gains less than `look_stall_rad` in `look_stall_s`, or after `look_slack` times a whole turn's time),
     and repeats; ends the goal `not_found` with the explorer's reason when no frontier is left or none
     is reachable. State `exploring` throughout (`detouring` while the local planner steers)."""
 
@@ -128,9 +121,10 @@ class Explore:
                 self._turned += abs(wz) * max(0.0, now - self._t)
             self._t = now
             whole = 2 * math.pi - (ctx.view or 0.0)
-            held = now - self._look_t0 > LOOK_SLACK * 2 * math.pi / max(p.search_yaw_rate, 1e-3)
-            if now - self._mark[0] >= LOOK_STALL_S:  # its headway since the last check
-                held, self._mark = held or self._turned - self._mark[1] < LOOK_STALL_RAD, (now, self._turned)
+            ep = self.params
+            held = now - self._look_t0 > ep.look_slack * 2 * math.pi / max(p.search_yaw_rate, 1e-3)
+            if now - self._mark[0] >= ep.look_stall_s:  # its headway since the last check
+                held, self._mark = held or self._turned - self._mark[1] < ep.look_stall_rad, (now, self._turned)
             if self._turned < whole and not held:
                 return Command(0.0, wz, "exploring", reason)
             if self._turned < whole:
