@@ -152,8 +152,9 @@ def test_a_far_range_by_size_counts_once_it_has_held() -> None:
 def test_as_wide_says_whether_the_returns_span_the_share_of_the_box(cover: float, width: float, d: float) -> None:
     a = np.linspace(-cover * width / 2, cover * width / 2, 50)
     pts = np.column_stack([d * np.cos(a), d * np.sin(a)])
-    if abs(cover - P.scan_cover) > 1e-6:
-        assert as_wide(P, pts, (0.0, 0.0), d, 0.0, width) == (cover > P.scan_cover)
+    covered = cover * width + (a[1] - a[0])  # each return stands for its bin (the scan's step)
+    if abs(covered - P.scan_cover * width) > 1e-6:
+        assert as_wide(P, pts, (0.0, 0.0), d, 0.0, width) == (covered > P.scan_cover * width)
     behind = pts * (d + P.scan_depth_m + 0.05) / d  # wide, but beyond the depth behind the nearest return
     assert not as_wide(P, np.vstack([[d, 0.0], behind]), (0.0, 0.0), d, 0.0, width)
     assert as_wide(P, pts[:0], (0.0, 0.0), d, 0.0, math.nan)  # unknown width: passes
