@@ -15,7 +15,6 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import TERMINAL, ZERO_BURST_S, Mission, MissionParams, Sighting
 from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
-from go2vlm.behavior.strategies.approach import REACH_SETTLE_S
 
 GOALS = [
     "go to the blue cylinder",
@@ -189,7 +188,7 @@ def test_go_to_approaches_a_confirmed_target_and_stops_at_the_distance() -> None
     out = m.step(1.6)
     assert out.state == "approaching" and out.vx == out.wz == 0.0  # just seen again: held for the memory's say
     t = 1.6
-    while t < 1.6 + REACH_SETTLE_S:
+    while t < 1.6 + MissionParams().reach_settle_s:
         t += 0.25
         _seen(m, t, x=0.0, d=0.5)
     out = m.step(t)

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.control import CENTRED_X
 from go2vlm.behavior.goals import parse_goal
-from go2vlm.behavior.strategies.approach import ALIGN_FOUND_S, Approach
+from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Context, Pose, Sighting
 from go2vlm.behavior.strategies.params import MissionParams
 
@@ -64,7 +64,8 @@ def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
         if kind == "look_for":
             assert ctx.confirmed(now) and ctx.sighting is not None and cmd.vx == 0.0
             x_now, since = ctx.sighting.x, ctx.align_since
-            late = since is not None and now - since > ALIGN_FOUND_S and abs(x_now) < 1.0  # the turn held
+            wait = MissionParams().align_found_s
+            late = since is not None and now - since > wait and abs(x_now) < 1.0  # the turn held
             assert (cmd.state == "found") == (abs(x_now) < CENTRED_X or late)
         if cmd.state == "reached":
             d = ctx.base_distance(now)
@@ -144,7 +145,7 @@ def test_a_range_by_size_beyond_what_the_scan_shows_on_its_bearing_gives_way_to_
 
 def test_a_look_for_whose_turn_is_held_is_found_in_view_all_the_same() -> None:
     """In a doorway the gate held every turn to centre the green box, 25 deg off, until the goal timed
-    out (rooms 7): confirmed in view but not centred for ALIGN_FOUND_S, it is found, saying how far off."""
+    out: confirmed in view but not centred for `align_found_s`, it is found, saying how far off."""
     from go2vlm.behavior.goals import parse_goal
     from go2vlm.behavior.sighting import Sighting
     from go2vlm.behavior.strategies.base import Context
@@ -152,7 +153,7 @@ def test_a_look_for_whose_turn_is_held_is_found_in_view_all_the_same() -> None:
 
     ctx = Context(MissionParams(), goal=parse_goal("look for the green box"), view=math.radians(73))
     a, states = Approach(), []
-    for k in range(int((ALIGN_FOUND_S + 1.0) / 0.1)):
+    for k in range(int((MissionParams().align_found_s + 1.0) / 0.1)):
         now = 1.0 + 0.1 * k
         ctx.sighting = Sighting(now, "green box", "tracking", -0.7, 2.0, "bottom", math.radians(25), math.radians(73))
         ctx.last_seen = now
@@ -162,7 +163,7 @@ def test_a_look_for_whose_turn_is_held_is_found_in_view_all_the_same() -> None:
         if cmd.state == "found":
             break
     assert states[0] == "aligning" and states[-1] == "found", states
-    assert 0.1 * (len(states) - 1) == pytest.approx(ALIGN_FOUND_S, abs=0.15)
+    assert 0.1 * (len(states) - 1) == pytest.approx(MissionParams().align_found_s, abs=0.15)
     assert "25 deg to the left" in cmd.reason and "not centred" in cmd.reason
 
 
@@ -311,9 +312,8 @@ def test_a_range_by_size_beyond_the_go_to_cap_counts_only_once_it_has_held() -> 
 def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None:
     """Rooms 37 at d201535: the shelf, first seen through a doorway, was ranged 1.1 m on the blob's
     door leaf and `reached` 0.4 s later, 7.5 m short; the memory placed it right 0.3 s after. Within
-    REACH_SETTLE_S of the first confirmation it holds still; the memory's place, arriving then,
+    reach_settle_s of the first confirmation it holds still; the memory's place, arriving then,
     overrules the range and it walks on; with nothing against the range, it is reached after."""
-    from go2vlm.behavior.strategies.approach import REACH_SETTLE_S
     from go2vlm.world.objects_msg import Remembered
 
     p = MissionParams()
@@ -324,7 +324,7 @@ def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None
         ctx = Context(p, goal=parse_goal("go to the shelf"), view=math.radians(73))
         ctx.scan = None
         states, a, t = [], Approach(), 30.0
-        while t < 30.0 + REACH_SETTLE_S + 0.5:
+        while t < 30.0 + MissionParams().reach_settle_s + 0.5:
             ctx.pose = Pose(0.0, 0.0, 0.0, t)
             s = Sighting(t, "shelf", "tracking", 0.0, near, "bottom", 0.0, math.radians(73), math.radians(8))
             ctx.sighting = s
@@ -333,7 +333,7 @@ def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None
                 ctx.memory = [Remembered("s1", "shelf", 8.0, 0.0, 0.5, (1.0, 1.0, 1.0), 0.9, t, (0.01, 0.0, 0.01))]
             cmd = a.step(ctx, t)
             assert cmd is not None
-            if t - 30.0 < REACH_SETTLE_S - 1e-9:
+            if t - 30.0 < MissionParams().reach_settle_s - 1e-9:
                 assert cmd.state != "reached"
             states.append(cmd.state)
             if cmd.state == "reached":
@@ -349,3 +349,78 @@ def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None
     ctx.saw(Sighting(1.0, "shelf", "tracking", 0.0, 1.0, "bottom"))
     ctx.saw(Sighting(1.0 + p.lost_timeout_s + 0.1, "shelf", "tracking", 0.0, 1.0, "bottom"))
     assert ctx.seen_since == 1.0 + p.lost_timeout_s + 0.1  # a gap: the confirmation starts afresh
+
+
+def _tracked_walk(x: float, y: float, yaw: float, obj: tuple[float, float]) -> tuple[list, Context]:
+    """A tracked go to in test_strategy_route's two rooms, closed round a kinematic robot: the duck is
+    confirmed whenever it is within the camera's view and in plain sight on the map."""
+    from test_strategy_route import ctx_at, duck, two_rooms
+
+    from go2vlm.behavior.navigate import line_of_sight
+
+    cm, a, dt = two_rooms(), Approach(), 0.1
+    d = duck(*obj)
+    ctx = ctx_at(x, y, yaw, cm, now=0.0)
+    ctx.target_obj = d
+    hfov = math.radians(73)
+    cmds = []
+    for k in range(int(120 / dt)):
+        t = k * dt
+        ctx.pose = Pose(x, y, yaw, t)
+        cf = ctx.params.camera_forward_m
+        cx, cy = x + cf * math.cos(yaw), y + cf * math.sin(yaw)
+        bearing = math.atan2(d.y - cy, d.x - cx) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        if abs(bearing) < hfov / 2 and line_of_sight(cm, (x, y), (d.x, d.y), ctx.place_planner, d.radius + 0.3):
+            s = Sighting(t, "duck", "tracking", -bearing / (hfov / 2), math.hypot(d.x - cx, d.y - cy) - d.radius,
+                         "bottom", bearing, hfov)  # fmt: skip
+            ctx.sighting = s
+            ctx.saw(s)
+        cmd = a.step(ctx, t)
+        if cmd is None:
+            break
+        cmds.append(cmd)
+        if cmd.state == "reached":
+            break
+        x, y, yaw = x + cmd.vx * dt * math.cos(yaw), y + cmd.vx * dt * math.sin(yaw), yaw + cmd.wz * dt
+    return cmds, ctx
+
+
+def test_a_tracked_go_to_walks_with_the_navigator_the_whole_way_then_closes_in() -> None:
+    """The duck in plain view straight through the door: the navigator walks the go to all the way
+    (not the approach law with the local planner beside the jamb), through the door, and never backs
+    or rocks; once it is there, in sight, the approach law closes the last of the distance."""
+    cmds, ctx = _tracked_walk(2.5, 0.3, math.pi, (-2.5, -0.3))
+    assert cmds[-1].state == "reached", cmds[-1]
+    walked = [c for c in cmds if c.vx > 0.0]
+    assert walked and walked[0].navigated and "with the navigator" in walked[0].reason
+    assert all(c.vx >= 0.0 for c in cmds)  # never backs
+    first_law = next((i for i, c in enumerate(cmds) if c.vx > 0 and not c.navigated), len(cmds))
+    assert all(not c.navigated for c in cmds[first_law:] if c.vx > 0)  # no handover back and forth
+    assert ctx.pose is not None and ctx.pose.x < -1.0
+
+
+def test_a_target_seen_past_a_jamb_is_walked_to_through_the_door() -> None:
+    """The duck in view through the door from beside its jamb: the navigator walks the go to, through
+    the door, and on to where it was seen when the jamb hides it; the track too old: lost."""
+    from test_strategy_route import ctx_at, two_rooms
+
+    a, cm = Approach(), two_rooms()
+    ctx = ctx_at(0.5, -1.0, 2.6, cm, now=0.0)
+    s = Sighting(0.0, "duck", "tracking", 0.1, 1.2, "bottom", -0.1)
+    ctx.sighting = s
+    ctx.saw(s)
+    cmd = a.step(ctx, 0.0)
+    assert cmd is not None and cmd.navigated and "with the navigator" in cmd.reason, cmd
+    assert ctx.route is not None
+    w = ctx.route.plan.waypoints
+    crossings = [a[1] + (b[1] - a[1]) * (0 - a[0]) / (b[0] - a[0]) for a, b in zip(w[:-1], w[1:], strict=True)
+                 if a[0] * b[0] < 0]  # fmt: skip
+    end = w[-1]  # in the doorway or past it: where the duck is in sight
+    assert all(abs(y) < 0.6 for y in crossings) and end[0] < 0.3 and abs(end[1]) < 0.6, w
+    ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=1.0).pose
+    hidden = a.step(ctx, 1.0)  # no fresh sighting: out of view
+    assert hidden is not None and hidden.navigated and "out of view" in hidden.reason, hidden
+    late = 2.0 + MissionParams().detour_memory_s
+    ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=late).pose
+    assert a.step(ctx, late) is None  # the track is too old: lost, then the search

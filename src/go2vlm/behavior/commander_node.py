@@ -84,9 +84,9 @@ frontier of /map/costmap (`frontier_choice` nearest by path cost, or vlm: the be
 /vlm/way first), look all round there, and repeat, until the target is seen or remembered, no
 reachable frontier is left or explore_timeout_s has passed (not_found, with the reason).
 
-Places (a frontier, a remembered object, a stalled tracked go to's target) are walked to by the
-navigator (behavior/navigate/: route, regulated pure pursuit checked on the footprint, one progress
-checker, bounded recoveries; nav_*). A target in view is approached by the approach law, steering
+Places (a frontier, a remembered object, a tracked go to's target) are walked to by the navigator
+(behavior/navigate/: route, regulated pure pursuit checked on the footprint, one progress checker,
+bounded recoveries; nav_*). A followed target, or a go to's without a map, is approached by the approach law, steering
 round what a fresh /scan shows at the clearance of its speed (planner_margin_m at a creep, more at
 speed: geometry/footprint.py Clearance, the guard's rule too); a detour that hides it carries on
 towards its last confirmed place for up to detour_memory_s. The guard has the last word.

@@ -42,16 +42,17 @@ Rules
   |angle| / rate seconds, sit sends "sit" and ends the goal. Text never becomes a velocity.
 - Terminal states (idle, stopped, rejected, done, reached, found, not_found, sat) output zero: a
   burst of zeros for ZERO_BURST_S, then /behavior/cmd_vel goes quiet.
-- Obstacles (`avoid_obstacles`, behavior/planner/local.py): go to and follow steer round what the
-  newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
+- Places: with a map and a pose, a go to walks to the target's place with the navigator
+  (behavior/navigate/) all the way; the approach law closes the last of the distance once it is there
+  (strategies/approach.py). A go to is not `reached` within `reach_settle_s` of a confirmation.
+- Obstacles (`avoid_obstacles`, behavior/planner/local.py): follow, and a go to without a map, steer
+  round what the newest scan (`observe_scan`, base frame, fresh for `scan_timeout_s`) shows between the robot and
   the target (`detouring`). With the pose (`observe_pose`, odometry, fresh for `pose_timeout_s`) the
   target's last confirmed place is kept in the odometry frame; a detour that takes the target out of
   view carries on towards that place for up to `detour_memory_s` after the last confirmation, but only
   while the direct way is blocked: a free direct way with the target unseen turns in place towards
   where it was (no forward speed), and then the lost/search rules apply. No fresh scan: no planning,
-  the straight approach (the safety gate's collision guard still stops it short of anything). A go
-  to held near one spot walks the global route for a while (strategies/headway.py), and is not
-  `reached` in the first REACH_SETTLE_S of a confirmation (strategies/approach.py).
+  the straight approach (the safety gate's collision guard still stops it short of anything).
 - The world (`observe_memory`: the object memory's remembered objects from /objects, and the stamp
   of the newest answer it has taken in, on this clock): go to and look for use the most confident
   remembered object of the goal's label (at least `memory_min_confidence`) while the tracker does not

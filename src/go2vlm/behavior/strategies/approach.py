@@ -1,35 +1,28 @@
-"""Approach a target the tracker confirms: go to (turn, then walk, stop `stop_distance_m` from its
-surface: `reached`), look for (turn until it is centred: `found`; confirmed in view but not centred
-after ALIGN_FOUND_S, the turn held by the gate in a doorway: `found` all the same, saying how far
-off), follow (keep `follow_distance_m`); the local planner steers round what the fresh scan shows in the way
-(`detouring`). Out of view during a detour (go to, follow) it carries on round the obstacle
-towards the target's last confirmed place for up to `detour_memory_s`, only while the direct way is
-blocked; a free way turns back towards it.
+"""Approach a target the tracker confirms: go to (walk, stop `stop_distance_m` from its surface:
+`reached`), look for (turn until it is centred: `found`; confirmed in view but not centred after
+`align_found_s`, the turn held by the gate in a doorway: `found` all the same, saying how far off),
+follow (keep `follow_distance_m`).
 
 A go to hands the target's place (the memory's place for it, else its last confirmed one) to the
-navigator (behavior/navigate/) wherever the map knows more than the scan: while the straight way to
-it crosses a wall or unknown space on the costmap (seen through a doorway from a corridor, the way
-in is through the door, which a reactive steer towards its bearing does not find), and while the
-approach makes no headway (strategies/headway.py). Out of view on such a route, it walks on to the
-last confirmed place for up to `detour_memory_s`. The laws are behavior/control.py's. Pure."""
+navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
+controller, its progress checker and its recoveries, the same as for a remembered place or a
+frontier. The approach law closes the last of the distance only once the navigator is there (near
+the place and in sight of it on the map), or where there is no map. Out of view on the way, it walks
+on to the last confirmed place for up to `detour_memory_s`.
+
+Follow, and a go to without a map, steer with the approach law; the local planner steers round what
+the fresh scan shows in the way (`detouring`), and out of view during such a detour it carries on
+round the obstacle towards the target's last confirmed place for up to `detour_memory_s`, only while
+the direct way is blocked. The laws are behavior/control.py's. Pure."""
 
 from __future__ import annotations
 
 import math
 
 from go2vlm.behavior.control import align_command, approach_command
-from go2vlm.behavior.navigate import line_of_sight
 from go2vlm.behavior.strategies.base import Command, Context
-from go2vlm.behavior.strategies.headway import Headway
 
-__all__ = ["ALIGN_FOUND_S", "REACH_SETTLE_S", "Approach"]
-
-ALIGN_FOUND_S = 3.0  # look for: confirmed in view but not centred this long (the turn held): found all the same
-# go to: not `reached` in the first REACH_SETTLE_S of a confirmation: the object memory's place, which
-# overrules a range far too short (Context.base_distance), comes a moment after the tracker's. The
-# shelf, first seen through a doorway, was `reached` 0.4 s later on the blob's door leaf, 7.5 m short,
-# while the memory placed it right 0.3 s after (rooms 37)
-REACH_SETTLE_S = 2.0
+__all__ = ["Approach"]
 
 
 class Approach:
@@ -37,11 +30,9 @@ class Approach:
     hides it; None otherwise."""
 
     def __init__(self) -> None:
-        self.headway = Headway()  # its other state is the context's track
-        self.routed = False  # the navigator is walking the go to round what the map shows in the way
+        self.routed = False  # the navigator is walking the go to (its other state is the context's track)
 
     def reset(self, now: float) -> None:
-        self.headway.reset()
         self.routed = False
 
     def step(self, ctx: Context, now: float) -> Command | None:
@@ -59,10 +50,11 @@ class Approach:
             if centred:
                 return Command.still("found", f"the {label} is straight ahead{ctx.where()}")
             since = ctx.align_since = now if ctx.align_since is None else ctx.align_since
-            if now - since > ALIGN_FOUND_S and abs(s.x) < 1.0:  # the turn held (a doorway), or it flickers
+            wait = ctx.params.align_found_s
+            if now - since > wait and abs(s.x) < 1.0:  # the turn held (a doorway), or it flickers
                 off = math.degrees(s.bearing) if math.isfinite(s.bearing) else 0.0
                 return Command.still("found", f"the {label} is in view, {abs(off):.0f} deg to the "
-                                     f"{'left' if off > 0 else 'right'} (not centred in {ALIGN_FOUND_S:g} s)"
+                                     f"{'left' if off > 0 else 'right'} (not centred in {wait:g} s)"
                                      f"{ctx.where()}")  # fmt: skip
             return Command(0.0, wz, "aligning", "target in view: turning to face it")
         follow = goal.kind == "follow"
@@ -71,15 +63,13 @@ class Approach:
         method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
-            if ctx.seen_since is not None and now - ctx.seen_since < REACH_SETTLE_S:
+            if ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
                 return Command.still("approaching", f"{dist:.2f} m from the {label} ({method}): just seen, "
                                      "waiting for the memory's place")  # fmt: skip
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
         if not follow and (out := self._route(ctx, ap.stop_distance, f"target at {how}", now)) is not None:
             return out
         self.routed = False
-        if not follow and (out := self._unstall(ctx, ap.stop_distance, f"target at {how}", now)) is not None:
-            return out
         rel = ctx.seen_in_base(s)
         if method == "memory" and dist is not None:  # what the tracker ranged stands in the way: go round it
             rel = (dist * math.cos(s.bearing), dist * math.sin(s.bearing))
@@ -104,14 +94,12 @@ class Approach:
         return None
 
     def _route(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
-        """The navigator's command towards the target's place while the costmap shows no straight way
-        to it; None: the way is straight (or no map, pose or place), the approach steers."""
+        """The navigator's command towards the target's place; None: no map, pose or place, or the
+        navigator is there (or gave the place up): the approach law steers."""
         place, pose = self._place(ctx, stop), ctx.fresh_pose(now)
         if place is None or pose is None or ctx.costmap is None:
             return None
-        if line_of_sight(ctx.costmap, (pose.x, pose.y), place[0], ctx.place_planner, place[1]):
-            return None
-        return self._walk(ctx, place, now, f"{why}: no straight way on the map, with the navigator")
+        return self._walk(ctx, place, now, f"{why}, with the navigator")
 
     def _walk(
         self, ctx: Context, place: tuple[tuple[float, float], float, float], now: float, why: str
@@ -124,14 +112,6 @@ class Approach:
         if not self.routed:
             return None
         return Command(nav.vx, nav.wz, "approaching", f"{why} ({nav.reason})", note=nav.note, navigated=True)
-
-    def _unstall(self, ctx: Context, stop: float, why: str, now: float) -> Command | None:
-        """The headway watch's way out (strategies/headway.py), towards `_place`'s place."""
-        place = self._place(ctx, stop)
-        if place is None:
-            return None
-        xy, reach, body = place
-        return self.headway.walk(ctx, xy, reach, now, why, body=body)
 
     def detour_unseen(self, ctx: Context, now: float) -> Command | None:
         """Out of view during a detour: on round the obstacle while the direct way stays blocked; a

@@ -52,9 +52,15 @@ class MissionParams:
     detour_memory_s: float = param(
         8.0, help="a detour out of view lasts this long after the last sighting (s)", min=0.0, max=60.0, live=True
     )
-    headway_out_m: float = param(
-        1.5, help="go to: a tracked approach that stalls walks with the navigator this far (m) before it "
-        "approaches again", min=0.1, max=10.0, live=True,
+    # The object memory's place, which overrules a tracker's range far too short (a door leaf in front
+    # of the object, Context.base_distance), comes a moment after the tracker's first confirmation.
+    reach_settle_s: float = param(
+        2.0, help="go to: not reached within this long (s) of a confirmation", min=0.0, max=10.0, live=True
+    )
+    # The gate may hold the last of a turn in a doorway; a target that flickers at the edge never centres.
+    align_found_s: float = param(
+        3.0, help="look for: confirmed in view this long (s) but not centred is found all the same",
+        min=0.5, max=30.0, live=True,
     )  # fmt: skip
     planner: PlannerParams = field(default_factory=PlannerParams)
     nav: NavParams = field(default_factory=NavParams)  # the navigator's (behavior/navigate/params.py)
