@@ -78,8 +78,8 @@ def test_a_live_raise_of_the_goal_bounds_is_refused(procs: Procs) -> None:
         found["reason"] = reason
 
         # The same rule in the gate: a raise of a speed limit is refused with the same reason.
-        out = _param("set", "safety", "max_vx_forward", "1.0")
-        assert out.returncode == 2 and "loosening a safety limit at runtime is refused (max_vx_forward 0.5 -> 1)" in (
+        out = _param("set", "safety", "max_vx_forward", "2.0")
+        assert out.returncode == 2 and "loosening a safety limit at runtime is refused (max_vx_forward 1 -> 2)" in (
             out.stderr
         ), out.stderr
     print(f"a live raise of the goal bounds: {found}")

@@ -58,14 +58,19 @@ def scan_at(pts: np.ndarray, x: float, y: float, yaw: float, reach: float = 4.0)
 
 
 def drive(nav: Navigator, goal: tuple[float, float], start: tuple[float, float, float], walls: np.ndarray,
-          steps: int = 1500, dt: float = 0.1) -> tuple[str, list[tuple[float, float, float]], float]:  # fmt: skip
+          steps: int = 1500, dt: float = 0.1, top: float = 0.5, seen: list[tuple[float, float]] | None = None,
+          ) -> tuple[str, list[tuple[float, float, float]], float]:  # fmt: skip
+    """Drive to `goal` at up to `top` m/s; `seen` collects (speed, clearance of the footprint) each step."""
     cm, pts = costmap(walls), wall_points(walls)
     x, y, yaw = start
     poses, least = [start], math.inf
     for k in range(steps):
         scan = scan_at(pts, x, y, yaw)
-        least = min(least, arc_clearance(scan, 0.0, 0.0, 0.0, FP))
-        out = nav.step(goal, 0.3, cm, (x, y, yaw), scan, k * dt, max_linear=0.5, max_angular=0.8)
+        gap = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
+        least = min(least, gap)
+        out = nav.step(goal, 0.3, cm, (x, y, yaw), scan, k * dt, max_linear=top, max_angular=0.8)
+        if seen is not None:
+            seen.append((out.vx, gap))
         if out.status in ("arrived", "failed"):
             return out.status, poses, least
         yaw += out.wz * dt
@@ -84,6 +89,21 @@ def test_through_a_narrow_door_square_on_and_arrives(door: float) -> None:
     assert inside, "never crossed the wall"
     heading = [abs(math.remainder(yaw - math.pi, 2 * math.pi)) for yaw in inside]
     assert max(heading) < math.radians(25), [round(math.degrees(h)) for h in heading]  # square-on
+
+
+@pytest.mark.parametrize("door", [0.8, 0.9])
+def test_fast_in_the_open_slow_where_the_clearance_at_speed_does_not_hold(door: float) -> None:
+    """At the default top speed (`max_speed`, 1 m/s): well past 0.5 m/s in the rooms, and through the
+    door at no more than the clearance rule allows for the gap the footprint has there."""
+    nav, seen = Navigator(NavParams(), GlobalParams()), []
+    top = NavParams().max_speed
+    status, poses, least = drive(nav, (-3.0, 2.0), (3.0, -2.0, math.pi / 2), house(door), top=top, seen=seen)
+    assert status == "arrived" and least > 0.0, (status, poses[-1])
+    assert max(v for v, _ in seen) > 0.8
+    rule = Clearance()
+    assert all(v <= rule.speed_for(gap) + 0.1 for v, gap in seen if v > NavParams().min_speed), [
+        (round(v, 2), round(gap, 3)) for v, gap in seen if v > rule.speed_for(gap) + 0.1
+    ]
 
 
 def test_a_stalled_robot_tries_each_recovery_in_order_then_fails() -> None:

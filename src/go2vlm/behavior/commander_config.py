@@ -76,6 +76,7 @@ class CommanderConfig:
     nav_min_radius_m: float = from_core(NavParams, "min_radius_m")
     nav_slow_near_m: float = from_core(NavParams, "slow_near_m")
     nav_approach_gain: float = from_core(NavParams, "approach_gain")
+    nav_max_speed: float = from_core(NavParams, "max_speed")
     nav_min_speed: float = from_core(NavParams, "min_speed")
     nav_horizon_s: float = from_core(NavParams, "horizon_s")
     nav_progress_m: float = from_core(NavParams, "progress_m")

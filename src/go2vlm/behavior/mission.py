@@ -74,7 +74,8 @@ Rules
   `search_step_rate` and look again. A faster grounder (or no memory) turns continuously at
   `search_yaw_rate`, as before. With stop and look, `not_found` also needs one whole turn looked at.
   Once turn-and-look is exhausted the next search strategy in the chain is asked; none left: `not_found`.
-- Speeds stay within 0 <= vx <= max_linear and |wz| <= max_angular, with one exception: a turn in
+- Speeds stay within 0 <= vx <= max_linear (the navigator's commands: `nav.max_speed`, and back to
+  -`nav.back_up_speed` in its back-up) and |wz| <= max_angular, with one exception: a turn in
   place that the footprint cannot sweep (beside a table, facing a wall: the gate's guard would hold
   it at zero for ever) becomes a back-away at the local planner's BACK_SPEED, turning the way it
   wanted to where that is clear, while there is room behind, or towards a route's way on behind it at
@@ -328,7 +329,8 @@ class Mission:
             vx, wz, publish, toward, navigated = cmd.vx, cmd.wz, True, cmd.toward, cmd.navigated
         p = self.params
         back = p.nav.back_up_speed if navigated else 0.0  # only the navigator's back-up recovery reverses
-        vx = min(max(vx, -back), p.max_linear) if math.isfinite(vx) else 0.0
+        top = p.nav.max_speed if navigated else p.max_linear  # the navigator's own regulations slow it
+        vx = min(max(vx, -back), top) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
         if navigated:
             self.escape.reset()  # the navigator owns its recoveries

@@ -52,8 +52,9 @@ class Limits:
     """Velocity and acceleration limits; declared with `param`, they are the safety gate's parameters
     too (the gate's names: max_vx_forward, ...; live: they may be lowered while it runs)."""
 
+    # Above 0.5 m/s only where the guard's stopping envelope holds: it scales every command to that.
     vx_forward: float = param(
-        0.5, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True, bound="max"
+        1.0, help="forward speed limit (m/s)", min=0.0, max=CEILING_BOUND.vx_forward, live=True, bound="max"
     )
     vx_backward: float = param(
         0.5, help="backward speed limit (m/s, positive)", min=0.0, max=CEILING_BOUND.vx_backward, live=True, bound="max"

@@ -58,6 +58,11 @@ class NavParams:
         0.8, help="navigate: within reach of the end, speed <= this x the metres left (1/s)", min=0.1, max=5.0,
         live=True,
     )  # fmt: skip
+    max_speed: float = param(
+        1.0, help="navigate: top speed (m/s) in open space; the regulations here, the clearance at speed "
+        "(horizon_s) and the gate's guard (its stopping envelope, and max_vx_forward) slow it wherever they "
+        "do not hold", min=0.05, max=2.0, live=True, bound="max",
+    )  # fmt: skip
     min_speed: float = param(
         0.08, help="navigate: slowest walk (m/s) the regulations leave", min=0.0, max=0.5, live=True
     )

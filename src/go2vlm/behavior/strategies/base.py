@@ -154,12 +154,12 @@ class Context:
     ) -> NavStep:
         """The navigator's step towards `goal` (odometry frame; `tolerance` m and in sight counts as there,
         the obstacle cells within `body` m being the goal's own), planning with `planner` on the newest
-        costmap, within the mission's speed limits; `route` is its route."""
+        costmap, at up to `nav.max_speed` and the mission's turn rate; `route` is its route."""
         nav, p = self.navigator, self.params
         nav.params, nav.planner, nav.clearance = p.nav, planner, p.planner.clearance
         pose = self.fresh_pose(now)
         out = nav.step(goal, tolerance, self.costmap, None if pose is None else (pose.x, pose.y, pose.yaw),
-                       self.fresh_scan(now), now, max_linear=p.max_linear, max_angular=p.max_angular,
+                       self.fresh_scan(now), now, max_linear=p.nav.max_speed, max_angular=p.max_angular,
                        body=body)  # fmt: skip
         self.route = nav.route
         return out
