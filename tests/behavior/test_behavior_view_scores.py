@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.strategies.explore import ExploreParams, Explorer
-from go2vlm.behavior.view_scores import SCORES, ViewAnswerRejected, ViewScores, parse_view_answer
+from go2vlm.behavior.view_scores import SCORES, ViewAnswerRejected, parse_view_answer
 
 
 @pytest.mark.parametrize(
@@ -47,20 +47,6 @@ def test_free_text_never_becomes_more_than_a_whitelisted_score(text: str) -> Non
     assert text.strip().strip("`").lower().strip(" .!\"'") in SCORES or "way" in text
 
 
-def test_sectors_keep_the_newest_answer() -> None:
-    v = ViewScores(bin_deg=30.0)
-    assert v.score(0.3) == v.unscored
-    v.observe(0.1, 1.0, t=2.0)
-    v.observe(0.2, 0.0, t=1.0)  # older: ignored
-    assert v.score(0.05) == 1.0
-    v.observe(0.2, 0.0, t=3.0)
-    assert v.score(0.05) == 0.0
-    assert v.toward(0.0, 0.0, 1.0, 0.1) == 0.0 and v.toward(0.0, 0.0, -1.0, 0.0) == v.unscored
-    v.observe(math.nan, 1.0, 4.0)
-    v.observe(1.0, 7.0, 4.0)  # not a score
-    assert len(v.scores) == 1
-
-
 def corridor() -> Costmap:
     """A known 8 m corridor along x, open (unknown) at both ends; the robot 2 m from the east end."""
     g = np.full((40, 240), -1, np.int8)
@@ -81,7 +67,39 @@ def test_vlm_choice_takes_the_way_the_model_scored_likely() -> None:
     vlm.step(*robot, 0.0, 0.1)
     assert vlm.frontier is not None and vlm.frontier.centroid[0] > 8.0  # no answers yet: nearest
     vlm.reset(1.0)
-    vlm.views.observe(math.pi, 1.0, 1.0)  # looking west: likely
-    vlm.views.observe(0.0, 0.0, 1.0)  # east: unlikely
+    vlm.values.observe(*robot, math.pi, math.radians(73), 1.0, cm)  # looking west: likely
+    vlm.values.observe(*robot, 0.0, math.radians(73), 0.0, cm)  # east: unlikely
     vlm.step(*robot, 0.0, 1.1)
     assert vlm.frontier is not None and vlm.frontier.centroid[0] < 8.0
+
+
+def corridor_with_a_door() -> Costmap:
+    """A known corridor 12 x 2 m along x (walls at y = 0 and 2), open (unknown) at its east end, and a
+    door 1 m wide at x 5-6 in its north wall onto unknown space; its west end walled."""
+    g = np.full((120, 280), -1, np.int8)  # 14 x 6 m at 0.05 m, origin (0, 0)
+    g[0:40, 0:240] = 0
+    g[0, 0:240] = g[39, 0:240] = 100
+    g[0:40, 0] = 100
+    g[39, 100:120] = 0  # the door
+    return Costmap(g, 0.05, (0.0, 0.0), 1.0)
+
+
+def test_a_view_scored_likely_keeps_its_frontier_once_the_robot_walks_on() -> None:
+    """From the doorway the model says the way north, through the door, is likely; the robot then
+    walks 3.5 m east, nearer the corridor's open end, which no view has scored. The door's
+    frontier keeps its value where it is on the map: exploration still chooses it. (A score kept by
+    the heading it was given at, read back along the bearing from where the robot stands now, lost
+    the door as soon as the robot walked past it.)"""
+    cm = corridor_with_a_door()
+    vlm = Explorer(ExploreParams(frontier_choice="vlm"))
+    vlm.set_map(cm)
+    view = math.radians(73)
+    vlm.values.observe(5.5, 1.0, math.pi / 2, view, 1.0, cm)  # north through the door: likely
+    vlm.step(9.0, 1.0, 0.0, 1.1)
+    assert vlm.frontier is not None, vlm.reason
+    fx, fy = vlm.frontier.centroid
+    assert 4.5 < fx < 7.0 and fy > 1.5, vlm.frontier.centroid  # the door's, not the corridor's end (x = 12)
+    near = Explorer(ExploreParams(frontier_choice="nearest"))
+    near.set_map(cm)
+    near.step(9.0, 1.0, 0.0, 1.1)
+    assert near.frontier is not None and near.frontier.centroid[0] > 10.0  # nearest: the corridor's end

@@ -11,9 +11,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from go2vlm.behavior.view_scores import ViewScores, parse_view_answer
+from go2vlm.behavior.view_scores import parse_view_answer
 from go2vlm.perception.way import WayMessageRejected, oracle_way, parse_way_message, way_message
 from go2vlm.world.poses import PoseHistory
+from go2vlm.world.value_map import ValueMap
 
 finite = st.floats(-50, 50, allow_nan=False)
 angle = st.floats(-math.pi, math.pi, allow_nan=False)
@@ -52,14 +53,15 @@ def test_the_oracle_says_likely_within_the_view(x: float, y: float, yaw: float, 
 
 @given(angle, st.floats(0.2, 1.0), st.floats(0.0, 2.0))
 def test_an_answer_is_placed_at_its_frames_heading(yaw0: float, rate: float, when: float) -> None:
-    """The robot turns at `rate`; an answer about the frame at `when` arrives at the end of the turn."""
+    """The robot turns at `rate`; an answer about the frame at `when` arrives at the end of the turn:
+    its score lies on the value map ahead of the frame's heading, not where the robot faces now."""
     hist = PoseHistory()
     for k in range(61):
         hist.add(k * 0.05, 0.0, 0.0, yaw0 + rate * k * 0.05)
-    views = ViewScores()
-    at = hist.at(when).yaw
-    views.observe(at, parse_view_answer("likely"), 3.0)
-    assert views.toward(0.0, 0.0, math.cos(at), math.sin(at)) == 1.0
+    values = ValueMap()
+    at = hist.at(when)
+    values.observe(at.x, at.y, at.yaw, math.radians(73), parse_view_answer("likely"), None)
+    assert values.at(3 * math.cos(at.yaw), 3 * math.sin(at.yaw)) == 1.0
     end = hist.at(3.0).yaw
-    if views._sector(end) != views._sector(at):
-        assert views.score(end) == views.unscored  # not where the robot faces now
+    if abs(math.remainder(end - at.yaw, 2 * math.pi)) > math.radians(73) / 2 + 0.3:
+        assert values.at(3 * math.cos(end), 3 * math.sin(end)) == values.unscored  # not where it faces now

@@ -34,8 +34,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   30000 cells, no cells, a resolution not finite > 0: msgs/sizes.py)
                                   is dropped before it is decoded or allocated, the last good one stays
               /vlm/way            std_msgs/String       frontier_choice vlm: answers about camera frames
-                                  (perception/way.py); a whitelisted word's score is placed at the
-                                  heading the robot had at the frame's stamp (behavior/view_scores.py),
+                                  (perception/way.py); a whitelisted word's score goes on the value
+                                  map from the pose at the frame's stamp (world/value_map.py),
                                   anything else counted (way_rejected_*) and ignored
   publishes   /explore/way_query  std_msgs/String, latched: frontier_choice vlm: the goal's object while
                                   it searches or explores, else '': which way is likeliest to lead to it
@@ -281,16 +281,16 @@ class CommanderNode(Node):
         self._poses.add(stamp + now - self.clock.now() if stamp > 0 else now, pose.position.x, pose.position.y, yaw)
 
     def on_way(self, msg: String) -> None:
-        """An answer about one frame (perception/way.py): its whitelisted score at the frame's heading."""
+        """An answer about one frame (perception/way.py): its whitelisted score over what that frame saw."""
         try:
             stamp, score = way_answer(msg.data, self._way_query)
             now = self.clock.monotonic()
-            yaw = self._poses.at(stamp + now - self.clock.now()).yaw
+            at = self._poses.at(stamp + now - self.clock.now())
         except (WayMessageRejected, ViewAnswerRejected, PoseUnavailable) as exc:
             n = self.count(f"way_rejected_{getattr(exc, 'reason', 'bad')}")
             self.log.throttled("warning", 5.0, f"ignoring a /vlm/way answer ({n} so far): {exc}", key="way")
             return
-        self.explore.explorer.views.observe(yaw, score, now)
+        self.explore.scored(at.x, at.y, at.yaw, score, self.mission.ctx.view)
         self.count("way_answers")
 
     def _in_odom_frame(self, frame: str, topic: str, key: str) -> bool:

@@ -8,7 +8,7 @@ frames, one std_msgs/String on /vlm/way each:
     {"stamp": <the frame's stamp, s>, "object": <the object asked about>, "answer": <raw text>}
 
 The answer text stays untrusted: the commander keeps only a whitelisted word
-(behavior/view_scores.py) and places it at the heading the robot had at `stamp`. The envelope here
+(behavior/view_scores.py) and places it on its value map from the pose at `stamp`. The envelope here
 is checked as strictly: anything else is a WayMessageRejected with a reason, counted and ignored.
 
 `oracle_way` is the perfect answer from the sim's ground truth: `likely` when the object's bearing

@@ -18,9 +18,10 @@ Rules
   global planner to every goal, planner/global_path.py `goal_costs`), so a room through a door
   outranks a corner of this one the scan has not reached; `nearest` takes the nearest by
   path cost (one search of the global planner to all their goals at once, crossing unknown space at
-  `unknown_cost`); `vlm` takes, of the frontiers whose way from the robot the model scored highest
-  (behavior/view_scores.py: whitelisted answers about views, `views.observe(yaw, score, t)`), the
-  nearest by path cost; unscored ways count as maybe, so without answers it is `nearest`.
+  `unknown_cost`); `vlm` takes, of the frontiers the model's value map scores highest (VLFM:
+  world/value_map.py, each whitelisted answer about a view, behavior/view_scores.py, spread over
+  what that view could see, `values.observe(...)`; a frontier's value is the map's round it), the
+  nearest by path cost; a frontier no view covered counts as maybe, so without answers it is `nearest`.
 - Walk there: the chosen frontier's goal is handed to the navigator (behavior/navigate/: it follows
   the plan made to choose it, replans, checks progress and runs its recoveries). A frontier the
   lidar has seen past on the way is still walked to and looked from (the lidar reaches 10 m, the
@@ -44,10 +45,10 @@ import numpy as np
 
 from go2vlm.behavior.planner.global_path import Costmap, Plan, goal_costs, plan_path
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
-from go2vlm.behavior.view_scores import ViewScores
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_frontiers, gains
 from go2vlm.world.occupancy import UNKNOWN
+from go2vlm.world.value_map import ValueMap
 
 __all__ = ["FRONTIER_CHOICES", "ExploreParams", "ExploreStep", "Explorer"]
 
@@ -77,7 +78,7 @@ class Explorer:
         self.visited: list[tuple[float, float]] = []  # places looked from
         self.dropped: list[tuple[tuple[float, float], int]] = []  # given up: (goal, the map round it then)
         self.given_up = 0
-        self.views = ViewScores()  # vlm: the model's scores of the ways it looked (world yaw)
+        self.values = ValueMap()  # vlm: the model's scores of the views it was shown, placed in the world
         self.reveal: np.ndarray | None = None  # gain: the cells a look could reveal (unknown, or unseen free)
         self._frontier_stamp: float | None = None
         self.reason = ""
@@ -95,7 +96,7 @@ class Explorer:
             "unseen_left": sum(f.kind == "view" for f in self.frontiers),
             "visited": len(self.visited),
             "given_up": self.given_up,
-            "views_scored": len(self.views.scores),  # vlm: the 30-degree ways a model's answer scored
+            "views_scored": self.values.views,  # vlm: the scored views placed on the value map
         }
 
     # -- the search -----------------------------------------------------------------------------
@@ -201,7 +202,7 @@ class Explorer:
         cands = self.frontiers
         gp = p.global_params
         if p.frontier_choice == "vlm":
-            scored = [self.views.toward(x, y, *f.centroid) for f in cands]
+            scored = [self.values.at(*f.centroid) for f in cands]
             cands = [f for f, sc in zip(cands, scored, strict=True) if sc >= max(scored)]
         elif p.frontier_choice == "gain" and len(cands) > 1 and self.reveal is not None:
             cost = goal_costs(cm, (x, y), [f.goal for f in cands], gp)

@@ -57,6 +57,12 @@ class Explore:
     def status(self) -> dict[str, object]:
         return self.explorer.status()
 
+    def scored(self, x: float, y: float, yaw: float, score: float, view: float | None) -> None:
+        """The model's score of the view taken at (x, y) facing `yaw` (`frontier_choice: vlm`), placed
+        on the value map over what that view could see on the newest costmap."""
+        ex = self.explorer
+        ex.values.observe(x, y, yaw, view or DEFAULT_VIEW, score, ex.costmap)
+
     def step(self, ctx: Context, now: float) -> Command | None:
         goal = ctx.goal
         if goal is None or goal.kind not in ("go_to", "look_for"):
