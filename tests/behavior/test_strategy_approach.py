@@ -6,6 +6,7 @@ while the planner says the direct way is blocked, and never for look for or the 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -351,7 +352,7 @@ def test_a_go_to_is_not_reached_on_the_moment_it_first_sees_the_target() -> None
     assert ctx.seen_since == 1.0 + p.lost_timeout_s + 0.1  # a gap: the confirmation starts afresh
 
 
-def _tracked_walk(x: float, y: float, yaw: float, obj: tuple[float, float]) -> tuple[list, Context]:
+def _tracked_walk(x: float, y: float, yaw: float, obj: tuple[float, float], sure: float = 0.95) -> tuple[list, Context]:
     """A tracked go to in test_strategy_route's two rooms, closed round a kinematic robot: the duck is
     confirmed whenever it is within the camera's view and in plain sight on the map."""
     from test_strategy_route import ctx_at, duck, two_rooms
@@ -359,7 +360,7 @@ def _tracked_walk(x: float, y: float, yaw: float, obj: tuple[float, float]) -> t
     from go2vlm.behavior.navigate import line_of_sight
 
     cm, a, dt = two_rooms(), Approach(), 0.1
-    d = duck(*obj)
+    d = replace(duck(*obj), confidence=sure)
     ctx = ctx_at(x, y, yaw, cm, now=0.0)
     ctx.target_obj = d
     hfov = math.radians(73)
@@ -386,12 +387,16 @@ def _tracked_walk(x: float, y: float, yaw: float, obj: tuple[float, float]) -> t
     return cmds, ctx
 
 
-def test_a_tracked_go_to_walks_with_the_navigator_the_whole_way_then_closes_in() -> None:
+@pytest.mark.parametrize("sure", [0.95, 0.5])
+def test_a_tracked_go_to_walks_with_the_navigator_the_whole_way_then_closes_in(sure: float) -> None:
     """The duck in plain view straight through the door: the navigator walks the go to all the way
     (not the approach law with the local planner beside the jamb), through the door, and never backs
-    or rocks; once it is there, in sight, the approach law closes the last of the distance."""
-    cmds, ctx = _tracked_walk(2.5, 0.3, math.pi, (-2.5, -0.3))
+    or rocks. Once it is there, in sight: reached by the memory's place where the memory is sure of
+    it; else the approach law closes the last of the distance."""
+    cmds, ctx = _tracked_walk(2.5, 0.3, math.pi, (-2.5, -0.3), sure)
     assert cmds[-1].state == "reached", cmds[-1]
+    by_memory = "the memory's place" in cmds[-1].reason
+    assert by_memory == (sure >= MissionParams().memory_confirm_confidence), cmds[-1]
     walked = [c for c in cmds if c.vx > 0.0]
     assert walked and walked[0].navigated and "with the navigator" in walked[0].reason
     assert all(c.vx >= 0.0 for c in cmds)  # never backs

@@ -6,9 +6,10 @@ follow (keep `follow_distance_m`).
 A go to hands the target's place (the memory's place for it, else its last confirmed one) to the
 navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
 controller, its progress checker and its recoveries, the same as for a remembered place or a
-frontier. The approach law closes the last of the distance only once the navigator is there (near
-the place and in sight of it on the map), or where there is no map. Out of view on the way, it walks
-on to the last confirmed place for up to `detour_memory_s`.
+frontier. Once the navigator is there (near the place and in sight of it on the map), the go to is
+`reached` by the memory's place when the memory is sure of it (`memory_confirm_confidence`);
+else the approach law closes the last of the distance, as it does where there is no map. Out of
+view on the way, it walks on to the last confirmed place for up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
 the fresh scan shows in the way (`detouring`), and out of view during such a detour it carries on
@@ -31,9 +32,10 @@ class Approach:
 
     def __init__(self) -> None:
         self.routed = False  # the navigator is walking the go to (its other state is the context's track)
+        self.arrived = False  # ... and said it is there, on its last step
 
     def reset(self, now: float) -> None:
-        self.routed = False
+        self.routed = self.arrived = False
 
     def step(self, ctx: Context, now: float) -> Command | None:
         if ctx.confirmed(now):
@@ -99,7 +101,14 @@ class Approach:
         place, pose = self._place(ctx, stop), ctx.fresh_pose(now)
         if place is None or pose is None or ctx.costmap is None:
             return None
-        return self._walk(ctx, place, now, f"{why}, with the navigator")
+        out = self._walk(ctx, place, now, f"{why}, with the navigator")
+        o = ctx.target_obj
+        if out is None and self.arrived and o is not None and o.confidence >= ctx.params.memory_confirm_confidence:
+            # there by the memory's place (many answers), in view: not by one frame's range, which
+            # a low object's box can put metres off as the robot closes in
+            d = math.hypot(o.x - pose.x, o.y - pose.y) - o.radius
+            return Command.still("reached", f"{d:.2f} m from the {ctx.label} (the memory's place, in view)")
+        return out
 
     def _walk(
         self, ctx: Context, place: tuple[tuple[float, float], float, float], now: float, why: str
@@ -109,6 +118,7 @@ class Approach:
         (xy, reach, body), planner = place, ctx.place_planner
         nav = ctx.navigate(xy, reach, now, planner, body)
         self.routed = nav.status in ("moving", "recovering", "waiting")
+        self.arrived = nav.status == "arrived"
         if not self.routed:
             return None
         return Command(nav.vx, nav.wz, "approaching", f"{why} ({nav.reason})", note=nav.note, navigated=True)
