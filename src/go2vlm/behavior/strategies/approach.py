@@ -6,9 +6,9 @@ follow (keep `follow_distance_m`).
 A go to hands the target's place (the memory's place for it, else its last confirmed one) to the
 navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
 controller, its progress checker and its recoveries, the same as for a remembered place or a
-frontier. Once the navigator is there (near the place and in sight of it on the map), the go to is
-`reached` by the memory's place when the memory is sure of it (`memory_confirm_confidence`);
-else the approach law closes the last of the distance, as it does where there is no map. Out of
+frontier. Once the navigator is there (near the place and in sight of it on the map), the approach
+law closes the last of the distance, ranged by the memory's place when the memory is sure of it
+(`memory_confirm_confidence`), else by the frame's range, as it is where there is no map. Out of
 view on the way, it walks on to the last confirmed place for up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
@@ -60,12 +60,16 @@ class Approach:
                                      f"{ctx.where()}")  # fmt: skip
             return Command(0.0, wz, "aligning", "target in view: turning to face it")
         follow = goal.kind == "follow"
-        dist = ctx.base_distance(now)
+        # Once the navigator is there, the memory's place (many answers), when it is sure of it, ranges
+        # the last of the way: not one frame's range, which a low object's box can put metres off.
+        mem = None if follow else self._memory_range(ctx, now)
+        dist = ctx.base_distance(now) if mem is None else mem
         vx, wz, reached = approach_command(s.x, dist, ap)
-        method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
+        # the tracker's, or what ctx.base_distance took instead (lidar, memory)
+        method = ctx.ranged_by if mem is None else "the memory's place"
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
-            if ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
+            if mem is None and ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
                 return Command.still("approaching", f"{dist:.2f} m from the {label} ({method}): just seen, "
                                      "waiting for the memory's place")  # fmt: skip
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
@@ -101,14 +105,15 @@ class Approach:
         place, pose = self._place(ctx, stop), ctx.fresh_pose(now)
         if place is None or pose is None or ctx.costmap is None:
             return None
-        out = self._walk(ctx, place, now, f"{why}, with the navigator")
-        o = ctx.target_obj
-        if out is None and self.arrived and o is not None and o.confidence >= ctx.params.memory_confirm_confidence:
-            # there by the memory's place (many answers), in view: not by one frame's range, which
-            # a low object's box can put metres off as the robot closes in
-            d = math.hypot(o.x - pose.x, o.y - pose.y) - o.radius
-            return Command.still("reached", f"{d:.2f} m from the {ctx.label} (the memory's place, in view)")
-        return out
+        return self._walk(ctx, place, now, f"{why}, with the navigator")
+
+    def _memory_range(self, ctx: Context, now: float) -> float | None:
+        """Base -> the target's surface by the memory's place, once the navigator is there and the
+        memory is sure of it; None otherwise (the frame's range stands)."""
+        o, pose = ctx.target_obj, ctx.fresh_pose(now)
+        if not self.arrived or o is None or pose is None or o.confidence < ctx.params.memory_confirm_confidence:
+            return None
+        return math.hypot(o.x - pose.x, o.y - pose.y) - o.radius
 
     def _walk(
         self, ctx: Context, place: tuple[tuple[float, float], float, float], now: float, why: str
