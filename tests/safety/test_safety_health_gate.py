@@ -76,7 +76,7 @@ def test_health_caps_stops_and_downs_through_the_gate() -> None:
     def drive_until(pred: object, timeout: float = 10.0) -> bool:
         return wait_for(lambda: (teleop.publish(Twist(linear=Vector3(x=0.4))), pred())[1], timeout, 0.05)  # type: ignore[operator]
 
-    params = {"health_clear_s": 0.3, "accel_linear": 100.0, "guard": False}  # health alone: no lidar here
+    params = {"health_clear_s": 0.3, "accel_linear": 100.0, "guard": False, "max_vx_forward": 0.5}  # health alone
     with running(io), Robot(io) as robot:
         gate = make_node("safety", params=params)
         with running(gate):

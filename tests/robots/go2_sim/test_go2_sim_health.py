@@ -22,7 +22,7 @@ from go2vlm.msgs.std_msgs import String
 from go2vlm.msgs.unitree import LowState
 
 SIM = ["run", "sim", *("--param", "mode=kinematic", "--param", "camera=false", "--param", "world_camera=false")]
-GATE = ["run", "safety", "--param", "health_clear_s=0.5"]
+GATE = ["run", "safety", "--param", "health_clear_s=0.5", "--param", "max_vx_forward=0.5"]  # the cap halves 0.5
 
 pytestmark = pytest.mark.slow
 
