@@ -121,6 +121,11 @@ def _goal(probe: Probe, text: str) -> None:
     pub.publish(String(data=text))
 
 
+def remembers(probe: Probe) -> bool:
+    """The commander's status says the object memory holds an object (the cylinder, in this world)."""
+    return (last_status(probe).get("memory") or {}).get("objects", 0) >= 1
+
+
 @pytest.mark.parametrize("victim", ["commander", "target_tracker", "object_memory"])
 def test_kill_9_a_node_mid_go_to(procs: Procs, victim: str) -> None:
     graph = Graph(procs)
@@ -128,7 +133,8 @@ def test_kill_9_a_node_mid_go_to(procs: Procs, victim: str) -> None:
     try:
         assert wait_for(lambda: len(probe.poses) > 20, 120), "no ground truth from the sim"
         _goal(probe, "go to the blue cylinder")
-        assert wait_for(lambda: moving(probe), 120), last_status(probe)
+        # mid go to: walking, with the cylinder in the object memory (what the rest may go on)
+        assert wait_for(lambda: moving(probe) and remembers(probe), 120), last_status(probe)
         t_kill = probe.sim_time
         graph.kill9(victim)
         if victim == "object_memory":
@@ -174,7 +180,7 @@ def test_kill_9_the_vlm_mid_go_to(procs: Procs, tmp_path: Path) -> None:
     try:
         assert wait_for(lambda: len(probe.poses) > 20, 180), "no ground truth from the sim"
         _goal(probe, "go to the blue cylinder")
-        walking = lambda: moving(probe, 0.1) and last_status(probe).get("state") == "approaching"  # noqa: E731
+        walking = lambda: moving(probe, 0.1) and last_status(probe).get("state") == "approaching" and remembers(probe)  # noqa: E731
         assert wait_for(walking, 300), last_status(probe)
         t_kill = probe.sim_time
         graph.kill9("vlm")

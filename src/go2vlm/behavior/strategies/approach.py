@@ -7,8 +7,8 @@ A go to hands the target's place (the memory's place for it, else its last confi
 navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
 controller, its progress checker and its recoveries, the same as for a remembered place or a
 frontier. Once the navigator is there (near the place and in sight of it on the map), the approach
-law closes the last of the distance, ranged by the memory's place when the memory is sure of it
-(`memory_confirm_confidence`), else by the frame's range, as it is where there is no map. Out of
+law closes the last of the distance by the frame's range; a range by the box's size alone gives way
+to the memory's place when the memory is sure of it (`memory_confirm_confidence`). Out of
 view on the way, it walks on to the last confirmed place for up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
@@ -23,7 +23,9 @@ import math
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
 
-__all__ = ["Approach"]
+__all__ = ["WEAK_RANGES", "Approach"]
+
+WEAK_RANGES = ("size", "default_size", "fills_view", "none", "")  # the tracker's ranges that size a box only
 
 
 class Approach:
@@ -60,13 +62,15 @@ class Approach:
                                      f"{ctx.where()}")  # fmt: skip
             return Command(0.0, wz, "aligning", "target in view: turning to face it")
         follow = goal.kind == "follow"
-        # Once the navigator is there, the memory's place (many answers), when it is sure of it, ranges
-        # the last of the way: not one frame's range, which a low object's box can put metres off.
-        mem = None if follow else self._memory_range(ctx, now)
-        dist = ctx.base_distance(now) if mem is None else mem
+        dist = ctx.base_distance(now)
+        method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
+        # Once the navigator is there, a range by the box's size alone (the weakest: a low object's
+        # box can put it metres off as the robot closes in) gives way to the memory's place, when the
+        # memory is sure of it; a bottom edge or the scan still ranges the last of the way.
+        mem = None if follow or method not in WEAK_RANGES else self._memory_range(ctx, now)
+        if mem is not None:
+            dist, method = mem, "the memory's place"
         vx, wz, reached = approach_command(s.x, dist, ap)
-        # the tracker's, or what ctx.base_distance took instead (lidar, memory)
-        method = ctx.ranged_by if mem is None else "the memory's place"
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
             if mem is None and ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
