@@ -392,7 +392,7 @@ def test_a_tracked_go_to_walks_with_the_navigator_the_whole_way_then_closes_in(s
     """The duck in plain view straight through the door: the navigator walks the go to all the way
     (not the approach law with the local planner beside the jamb), through the door, and never backs
     or rocks. Once it is there, in sight, the approach law closes the last of the distance (ranged
-    by the memory's place where the memory is sure of it) and stops at the stop distance."""
+    by the frame's range) and stops at the stop distance."""
     cmds, ctx = _tracked_walk(2.5, 0.3, math.pi, (-2.5, -0.3), sure)
     assert cmds[-1].state == "reached", cmds[-1]
     if sure < MissionParams().memory_confirm_confidence:
@@ -434,29 +434,3 @@ def test_a_target_seen_past_a_jamb_is_walked_to_through_the_door() -> None:
     late = 2.0 + MissionParams().detour_memory_s
     ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=late).pose
     assert a.step(ctx, late) is None  # the track is too old: lost, then the search
-
-
-def test_once_the_navigator_is_there_the_memory_ranges_the_last_of_the_way() -> None:
-    """A low tray's box, ranged by its size, put it 4.1 m off as the robot closed in, and the approach
-    walked on into it. Once the navigator is there and the memory is sure of the place, the memory
-    ranges the last of the way, whatever one frame's range says: on while the surface is 1.0 m off,
-    reached at the stop distance."""
-    frame_m = 4.1
-    from test_strategy_route import ctx_at, duck, two_rooms
-
-    a, cm, o = Approach(), two_rooms(), duck(3.0, 1.0)
-    p = MissionParams()
-    ctx = ctx_at(0.0, 0.0, 0.0, cm, now=0.0)
-    ctx.target_obj = o
-    ctx.saw(Sighting(0.0, "duck", "tracking", 0.0, frame_m, "size", 0.0))
-    cmds = []
-    for k, surface in enumerate([1.0] * 5 + [p.stop_distance_m] * 2):
-        t = p.reach_settle_s + 0.1 * k  # confirmed since 0
-        ctx.pose = Pose(3.0 - o.radius - surface, 1.0, 0.0, t)
-        s = Sighting(t, "duck", "tracking", 0.0, frame_m, "size", 0.0)
-        ctx.sighting = s
-        ctx.saw(s)
-        cmds.append(a.step(ctx, t))
-    states = [(c.state, c.reason) if c is not None else None for c in cmds]
-    assert states[-1] is not None and states[-1][0] == "reached" and "the memory's place" in states[-1][1], states
-    assert all(st is not None and st[0] == "approaching" for st in states[1:5]), states

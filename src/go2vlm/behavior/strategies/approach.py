@@ -7,8 +7,7 @@ A go to hands the target's place (the memory's place for it, else its last confi
 navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
 controller, its progress checker and its recoveries, the same as for a remembered place or a
 frontier. Once the navigator is there (near the place and in sight of it on the map), the approach
-law closes the last of the distance by the frame's range; a range by the box's size alone gives way
-to the memory's place when the memory is sure of it (`memory_confirm_confidence`). Out of
+law closes the last of the distance by the frame's range. Out of
 view on the way, it walks on to the last confirmed place for up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
@@ -23,9 +22,7 @@ import math
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
 
-__all__ = ["WEAK_RANGES", "Approach"]
-
-WEAK_RANGES = ("size", "default_size", "fills_view", "none", "")  # the tracker's ranges that size a box only
+__all__ = ["Approach"]
 
 
 class Approach:
@@ -34,10 +31,9 @@ class Approach:
 
     def __init__(self) -> None:
         self.routed = False  # the navigator is walking the go to (its other state is the context's track)
-        self.arrived = False  # ... and said it is there, on its last step
 
     def reset(self, now: float) -> None:
-        self.routed = self.arrived = False
+        self.routed = False
 
     def step(self, ctx: Context, now: float) -> Command | None:
         if ctx.confirmed(now):
@@ -64,16 +60,10 @@ class Approach:
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)
         method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
-        # Once the navigator is there, a range by the box's size alone (the weakest: a low object's
-        # box can put it metres off as the robot closes in) gives way to the memory's place, when the
-        # memory is sure of it; a bottom edge or the scan still ranges the last of the way.
-        mem = None if follow or method not in WEAK_RANGES else self._memory_range(ctx, now)
-        if mem is not None:
-            dist, method = mem, "the memory's place"
         vx, wz, reached = approach_command(s.x, dist, ap)
         how = "unknown" if dist is None else f"{dist:.2f} m ({method})"
         if reached and not follow:
-            if mem is None and ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
+            if ctx.seen_since is not None and now - ctx.seen_since < ctx.params.reach_settle_s:
                 return Command.still("approaching", f"{dist:.2f} m from the {label} ({method}): just seen, "
                                      "waiting for the memory's place")  # fmt: skip
             return Command.still("reached", f"{dist:.2f} m from the {label} ({method})")
@@ -111,14 +101,6 @@ class Approach:
             return None
         return self._walk(ctx, place, now, f"{why}, with the navigator")
 
-    def _memory_range(self, ctx: Context, now: float) -> float | None:
-        """Base -> the target's surface by the memory's place, once the navigator is there and the
-        memory is sure of it; None otherwise (the frame's range stands)."""
-        o, pose = ctx.target_obj, ctx.fresh_pose(now)
-        if not self.arrived or o is None or pose is None or o.confidence < ctx.params.memory_confirm_confidence:
-            return None
-        return math.hypot(o.x - pose.x, o.y - pose.y) - o.radius
-
     def _walk(
         self, ctx: Context, place: tuple[tuple[float, float], float, float], now: float, why: str
     ) -> Command | None:
@@ -127,7 +109,6 @@ class Approach:
         (xy, reach, body), planner = place, ctx.place_planner
         nav = ctx.navigate(xy, reach, now, planner, body)
         self.routed = nav.status in ("moving", "recovering", "waiting")
-        self.arrived = nav.status == "arrived"
         if not self.routed:
             return None
         return Command(nav.vx, nav.wz, "approaching", f"{why} ({nav.reason})", note=nav.note, navigated=True)
