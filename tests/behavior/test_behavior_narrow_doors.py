@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, footprint_fits, line_cells, plan_path
+from go2vlm.behavior.strategies.explore_params import ExploreParams
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 from go2vlm.world.occupancy import CIRCUMSCRIBED, FREE, INSCRIBED, LETHAL, CostmapParams, inflate
 
@@ -149,3 +150,30 @@ def test_through_rooms_every_door_is_crossed_square_on(door: float) -> None:
     along_y = np.abs(90 - np.abs(heads))
     assert (along_x[crossing & near[:, 0]] <= 10).all() and (along_y[crossing & near[:, 1]] <= 10).all()
     assert crossing.sum() >= 4 * 8, "four doors crossed"
+
+
+def recorded_doorway() -> tuple[Costmap, tuple[float, float]]:
+    """A costmap the map node drew (tests/data/doorway_costmap.npz: 4 x 4 m of house 1002's, the houses
+    suite's episode 2), and where the Go2 stood in it: at the kitchen's mouth of its 0.8 m door to the
+    living room, 0.15 m off the door's middle, turned 40 degrees off its axis, the jamb's inscribed
+    cells beside it."""
+    from pathlib import Path
+
+    z = np.load(Path(__file__).parents[1] / "data" / "doorway_costmap.npz")
+    x, y, _ = (float(v) for v in z["start"])
+    return Costmap(z["data"], float(z["resolution"]), (float(z["origin"][0]), float(z["origin"][1]))), (x, y)
+
+
+@pytest.mark.parametrize("goal", [(4.89, 4.77), (5.5, 4.8), (6.0, 4.8)])
+def test_a_robot_standing_in_a_doorway_off_its_middle_plans_on(goal: tuple[float, float]) -> None:
+    """Where the robot stands, at whatever heading, neither search checks the rectangle within its
+    turn_reach (by_heading.py): the search by heading once held it to its own cell, where no line
+    fits, and a frontier round the corner beyond the door was 'unreachable'."""
+    cm, start = recorded_doorway()
+    p = ExploreParams().global_params  # as the explorer plans
+    assert not footprint_fits(cm, np.array([cm.cell(*start)]), np.array([math.pi / 2]), p).any(), "off the middle"
+    plan = plan_path(cm, start, [goal], p)
+    assert plan.ok, plan.reason
+    assert (cm.data[plan.cells[:, 0], plan.cells[:, 1]] < INSCRIBED).all()
+    xy = cm.world(plan.cells[:, 0], plan.cells[:, 1])
+    assert xy[-1, 1] > 4.2, "through the door into the living room"

@@ -14,7 +14,15 @@ from go2vlm.behavior.planner.grid import Costmap, Found, GlobalParams
 from go2vlm.geometry.footprint import rect_distance
 from go2vlm.world.occupancy import CIRCUMSCRIBED, LETHAL
 
-__all__ = ["LINES", "by_heading", "footprint_fits", "footprint_free", "path_headings"]
+__all__ = ["LINES", "by_heading", "footprint_fits", "footprint_free", "path_headings", "turn_reach"]
+
+
+def turn_reach(p: GlobalParams, res: float) -> int:
+    """Cells round the start, and before the goal, where neither search checks the rectangle: the
+    footprint's circumscribed radius and its clearance. The robot stands at the start at whatever
+    heading it has (in a doorway too, off its middle) and stops short of the goal to turn and look;
+    the controller and the guard move it there."""
+    return int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / res))
 
 
 def footprint_fits(cm: Costmap, cells: np.ndarray, headings: np.ndarray, p: GlobalParams) -> np.ndarray:
@@ -94,7 +102,8 @@ def by_heading(cm: Costmap, c: np.ndarray, found: Found, p: GlobalParams) -> Fou
     doorway is crossed square-on). Dijkstra (scipy's csgraph) on that graph, over the box of the
     cells that may be entered (a corridor round a coarse guide); None: no way."""
     rows, cols = np.nonzero(np.isfinite(c))
-    pad = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution)) + 1
+    reach = turn_reach(p, cm.resolution)
+    pad = reach + 1
     r0, c0 = max(0, int(rows.min()) - pad), max(0, int(cols.min()) - pad)
     r1, c1 = min(c.shape[0], int(rows.max()) + pad + 1), min(c.shape[1], int(cols.max()) + pad + 1)
     if (r0, c0, r1, c1) != (0, 0, *c.shape):
@@ -121,10 +130,11 @@ def by_heading(cm: Costmap, c: np.ndarray, found: Found, p: GlobalParams) -> Fou
     free = ok & ~band
     fit = footprint_free(cm, p)
     # a goal cell is where the path ends, at whatever line it arrives (the approach stops short of the
-    # goal, and turns where it stands); the robot's own cell too (it turns out of it first)
+    # goal, and turns where it stands); round the robot's own cell, as the path's own check (turn_reach)
     first = found.dense[1] if found.escaped else found.dense[0]
     fit[:, found.ends[:, 0], found.ends[:, 1]] = True
-    fit[:, int(first[0]), int(first[1])] = True
+    rr, cc = np.ogrid[:h, :w]
+    fit[:, (rr - int(first[0])) ** 2 + (cc - int(first[1])) ** 2 <= reach**2] = True
     fit &= band[None]
     flat = np.arange(n).reshape(h, w)
     src: list[np.ndarray] = []

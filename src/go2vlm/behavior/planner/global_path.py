@@ -60,7 +60,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from go2vlm.behavior.planner.by_heading import by_heading, footprint_fits, path_headings
+from go2vlm.behavior.planner.by_heading import by_heading, footprint_fits, path_headings, turn_reach
 from go2vlm.behavior.planner.grid import Costmap, Found, GlobalParams, Plan
 from go2vlm.world.occupancy import CIRCUMSCRIBED, LETHAL, UNKNOWN
 
@@ -343,7 +343,7 @@ def _fitting(
     assert not isinstance(found, np.ndarray)
     if isinstance(found, Plan):
         return found
-    skip = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / cm.resolution))
+    skip = turn_reach(p, cm.resolution)
     dense = found.dense
     v = cm.data[dense[:, 0], dense[:, 1]]
     check = (v >= CIRCUMSCRIBED) & (v < p.lethal)
