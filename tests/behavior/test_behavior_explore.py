@@ -401,3 +401,29 @@ def test_gain_takes_the_room_through_the_door_over_a_nearer_corner() -> None:
         goals[choice] = step.goal
     assert goals["gain"][0] < 0.5 and abs(goals["gain"][1]) < 1.0, goals  # the doorway (x = 0)
     assert goals["nearest"][0] > 3.0 and goals["nearest"][1] < -1.8, goals  # the corner
+
+
+def test_a_door_seen_from_beside_it_is_still_walked_through() -> None:
+    """The robot looked around 1 m from a doorway, beside its jamb, and the room past it stayed unknown:
+    the door's frontier is not 'looked at' (its goal is not where the robot stood), so the search walks
+    through the door rather than ending with a room it never saw."""
+    known = np.full((140, 240), -1, np.int8)
+    known[2:-2, 121:-2] = 0
+    known[:2, 119:] = known[-2:, 119:] = 100
+    known[:, -2:] = 100
+    known[:, 119:121] = 100
+    known[58:82, 119:121] = 0  # the door, and the unknown room beyond it
+    ex = Explorer(ExploreParams())
+    ex.set_map(costmap(known, 1.0))
+    first = ex.step(3.5, -1.5, 0.0, 0.0)
+    assert first.action == "walk" and abs(first.goal[0]) < 0.5, first
+    door = first.goal
+    ex.reset(0.0)
+    ex.visited.append((door[0] + 0.5, door[1] + 0.8))  # looked from beside the jamb, 0.94 m from its goal
+    step = ex.step(3.5, -1.5, 0.0, 0.0)
+    assert step.action == "walk" and math.dist(step.goal, door) < 0.2, step
+    ex.visited.append(step.goal)  # looked from the door itself, and the room stayed unknown: done with it
+    ex.phase, ex.frontier = "choose", None
+    ex._frontier_stamp = None
+    end = ex.step(3.5, -1.5, 0.0, 1.0)
+    assert end.action != "walk" or math.dist(end.goal, door) >= ex.params.arrive_m, end

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from go2vlm.behavior.control import CENTRED_X
 from go2vlm.behavior.goals import parse_goal
 from go2vlm.behavior.strategies.approach import Approach
-from go2vlm.behavior.strategies.base import Context, Pose, Sighting
+from go2vlm.behavior.strategies.base import Command, Context, Pose, Sighting
 from go2vlm.behavior.strategies.params import MissionParams
 
 GOALS = ["go to the blue cylinder", "look for the blue cylinder", "follow the blue cylinder"]
@@ -434,3 +434,36 @@ def test_a_target_seen_past_a_jamb_is_walked_to_through_the_door() -> None:
     late = 2.0 + MissionParams().detour_memory_s
     ctx.pose = ctx_at(0.5, -1.0, 2.6, cm, now=late).pose
     assert a.step(ctx, late) is None  # the track is too old: lost, then the search
+
+
+def test_a_go_to_whose_last_bit_is_blocked_is_reached_as_near_as_the_way_lets_it() -> None:
+    """The duck against a box the map does not hold, the memory's place for it 0.2 m short (the
+    navigator is there), the frame's range 0.15 m more than the stop distance: the approach law's
+    last bit is blocked on the scan. Within reach_slack_m of the stop distance the go to is reached,
+    saying so; where the navigator is not there yet, or without a map, it goes round."""
+    from test_strategy_route import ctx_at, duck, two_rooms
+
+    p = MissionParams()
+    d = duck(-3.0, -2.0)
+    cf = p.camera_forward_m
+
+    def at(gap: float, cm: object) -> Command | None:
+        x = d.x + d.radius + p.stop_distance_m + gap  # east of the duck, facing it
+        ctx = ctx_at(x, d.y, math.pi, cm, now=10.0)  # type: ignore[arg-type]
+        ctx.target_obj = replace(d, x=d.x + 0.2)  # the memory's place, 0.2 m short
+        rng = x - cf - d.x - d.radius  # the frame's range, from the camera
+        s = Sighting(10.0, "duck", "tracking", 0.0, rng, "bottom", 0.0, math.radians(73))
+        ctx.sighting = s
+        ctx.saw(s)
+        ctx.last_seen = ctx.seen_since = 0.0  # seen a while: not "just seen"
+        ys = np.linspace(-0.3, 0.3, 13)  # a box face 0.4 m ahead, across the way
+        ctx.scan = (np.column_stack([np.full_like(ys, 0.4), ys]), 10.0)
+        a = Approach()
+        return a.step(ctx, 10.0)
+
+    near = at(0.15, two_rooms())
+    assert near is not None and near.state == "reached" and "as near as the way lets it" in near.reason, near
+    far = at(0.6, two_rooms())
+    assert far is not None and far.state != "reached", far
+    no_map = at(0.15, None)
+    assert no_map is not None and no_map.state == "detouring", no_map

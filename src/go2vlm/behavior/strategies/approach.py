@@ -7,8 +7,11 @@ A go to hands the target's place (the memory's place for it, else its last confi
 navigator (behavior/navigate/) all the way wherever there is a map and a pose: its route, its
 controller, its progress checker and its recoveries, the same as for a remembered place or a
 frontier. Once the navigator is there (near the place and in sight of it on the map), the approach
-law closes the last of the distance by the frame's range. Out of
-view on the way, it walks on to the last confirmed place for up to `detour_memory_s`.
+law closes the last of the distance by the frame's range; where the fresh scan shows that last bit
+blocked (the object against furniture or a wall), the go to is `reached` as near as the way lets it,
+within `reach_slack_m` of the stop distance (the remembered place's rule), rather than going round
+an obstacle it is already beside. Out of view on the way, it walks on to the last confirmed place for
+up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
 the fresh scan shows in the way (`detouring`), and out of view during such a detour it carries on
@@ -31,9 +34,10 @@ class Approach:
 
     def __init__(self) -> None:
         self.routed = False  # the navigator is walking the go to (its other state is the context's track)
+        self.there = False  # ... and it said it is there: the approach law closes the rest
 
     def reset(self, now: float) -> None:
-        self.routed = False
+        self.routed = self.there = False
 
     def step(self, ctx: Context, now: float) -> Command | None:
         if ctx.confirmed(now):
@@ -76,6 +80,10 @@ class Approach:
         if rel is not None and not reached:
             st = ctx.avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
             if st is not None and st.blocked:
+                slack = ap.tolerance + ctx.params.reach_slack_m
+                if not follow and self.there and dist is not None and dist - ap.stop_distance <= slack:
+                    return Command.still("reached", f"{dist:.2f} m from the {label} ({method}): as near as the "
+                                         f"way lets it ({st.note})")  # fmt: skip
                 return Command.detour(st, f"target at {how}: {st.note}")
         if follow:
             return Command(vx, wz, "tracking", "target in view: following")
@@ -109,6 +117,7 @@ class Approach:
         (xy, reach, body), planner = place, ctx.place_planner
         nav = ctx.navigate(xy, reach, now, planner, body)
         self.routed = nav.status in ("moving", "recovering", "waiting")
+        self.there = nav.status == "arrived"
         if not self.routed:
             return None
         return Command(nav.vx, nav.wz, "approaching", f"{why} ({nav.reason})", note=nav.note, navigated=True)

@@ -11,8 +11,10 @@ mission asks once turn-and-look is exhausted (Mission.searches).
     ex.looked(now)                      # the host's look-around at the frontier is over
 
 Rules
-- Frontiers (world/frontiers.py) of the newest costmap, less those within `visited_radius_m` of a
-  frontier already looked from or given up on. `frontier_choice`: `gain` (the default) takes the one
+- Frontiers (world/frontiers.py) of the newest costmap, less those given up on (within
+  `visited_radius_m`) and those looked at: a map frontier where the robot stood to look (within
+  `arrive_m`), unseen free space within `visited_radius_m` of a place looked from.
+  `frontier_choice`: `gain` (the default) takes the one
   that reveals most for its walk: its gain (world/frontiers.py `gains`: the unknown and the unseen
   free area within `gain_radius_m` of it) less `gain_per_m` times its path cost (one search of the
   global planner to every goal, planner/global_path.py `goal_costs`), so a room through a door
@@ -51,7 +53,6 @@ from go2vlm.world.occupancy import UNKNOWN
 from go2vlm.world.value_map import ValueMap
 
 __all__ = ["FRONTIER_CHOICES", "ExploreParams", "ExploreStep", "Explorer"]
-
 
 
 @dataclass(frozen=True)
@@ -125,9 +126,16 @@ class Explorer:
         return int((win >= 0).sum())
 
     def _skip(self, f: Frontier) -> bool:
-        r = self.params.visited_radius_m
-        return any(math.hypot(f.goal[0] - gx, f.goal[1] - gy) < r
-                   for gx, gy in (*self.visited, *(g for g, _ in self.dropped)))  # fmt: skip
+        """Given up near its goal (until the map round it grows), or looked at: a map frontier where the
+        robot stood to look (within `arrive_m` of its goal: that look showed nothing past it, no look
+        will), unseen free space within `visited_radius_m` of a place looked from (the look covered it).
+        A map frontier only near a place looked from stays: a room seen past its door's jamb from
+        beside the door is still unknown."""
+        p = self.params
+        near = p.arrive_m if f.kind == "map" else p.visited_radius_m
+        return any(math.dist(f.goal, g) < near for g in self.visited) or any(
+            math.dist(f.goal, g) < p.visited_radius_m for g, _ in self.dropped
+        )
 
     def _refresh(self) -> None:
         cm = self.costmap

@@ -36,7 +36,8 @@ class ExploreParams:
                                 live=True)  # fmt: skip
     min_frontier_m: float = 0.5  # a shorter frontier is dropped
     arrive_m: float = 0.5  # this near the frontier's goal: look around
-    visited_radius_m: float = 1.0  # frontiers this near a visited or given-up place are skipped
+    # unseen regions this near a place looked from, frontiers this near a given-up one: skipped
+    visited_radius_m: float = 1.0
     regrown_share: float = param(
         0.2, help="explore: a frontier given up comes back once this share more of the map round it is known",
         min=0.0, max=10.0, live=True,
