@@ -209,6 +209,17 @@ def test_the_demo_spawn_is_a_room_or_a_pose() -> None:
         demo_spawn("household", "nan,0,0")
 
 
+def test_a_goal_in_a_generated_house_has_the_houses_suite_s_time() -> None:
+    """`go2vlm demo --world house:3 --goal "look for the teddy bear"` searches several rooms: 60 s ended
+    it while it was still exploring; it runs as long as a houses episode does."""
+    from go2vlm.apps.episodes.demo import DEMO_S, demo_duration
+    from go2vlm.apps.episodes.suites import load_suite
+
+    houses = {t["duration_s"] for t in load_suite("houses").tasks}
+    assert demo_duration("house:3", "look for the teddy bear") == max(houses) > DEMO_S
+    assert demo_duration("household", "go to the duck") == demo_duration("house:3", None) == DEMO_S
+
+
 def test_a_bad_demo_spawn_is_refused_before_anything_starts(tmp_path: object) -> None:
     import subprocess
 

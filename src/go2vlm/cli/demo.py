@@ -23,7 +23,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         ),
     )
     p.add_argument(
-        "--duration", type=float, default=60.0, help="sim seconds to run; with --goal, the timeout (default 60)"
+        "--duration",
+        type=float,
+        default=None,
+        help="sim seconds to run; with --goal, the timeout (default 60; a goal in a generated house: the houses "
+        "suite's, 240, time to search several rooms)",
     )
     speed = p.add_mutually_exclusive_group()
     speed.add_argument("--rtf", type=float, default=1.0, help="target real-time factor (default 1.0)")
@@ -93,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
     from go2vlm.apps.episodes import Episode, RunOptions
     from go2vlm.apps.episodes.demo import (
         default_out_dir,
+        demo_duration,
         demo_spawn,
         demo_world,
         goal_summary,
@@ -105,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
     from go2vlm.bus import ShutdownRequested
     from go2vlm.launch.launcher import LaunchError
 
-    if args.duration <= 0:
+    if args.duration is not None and args.duration <= 0:
         print("go2vlm demo: --duration must be positive", file=sys.stderr)
         return 2
     if not args.fast and args.rtf <= 0:
@@ -121,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"go2vlm demo: {exc}", file=sys.stderr)
             return 2
     world = args.world or demo_world(goal)
+    duration = args.duration if args.duration is not None else demo_duration(world, goal)
     try:
         house_note(world, "demo")
         spawn = None if args.spawn is None else demo_spawn(world, args.spawn)
@@ -135,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
             perception=args.perception,
             mode=args.mode,
             ball_speed=args.ball_speed,
-            duration_s=args.duration,
+            duration_s=duration,
             robot=args.robot,
             transport=args.transport,
             params=vlm_node_params(args.perception, args.model, args.base_url, node_params(args.param)),

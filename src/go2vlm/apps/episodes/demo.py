@@ -28,6 +28,7 @@ from go2vlm.bus import ShutdownRequested
 
 __all__ = [
     "default_out_dir",
+    "demo_duration",
     "demo_spawn",
     "demo_world",
     "goal_episode",
@@ -52,6 +53,20 @@ def demo_world(goal: str | None) -> str:
     if g.kind == "follow" and g.target is not None and g.target.shape in (None, "ball"):
         return "follow_ball"
     return "vision_test"
+
+
+DEMO_S = 60.0  # sim seconds a demo runs without --duration
+
+
+def demo_duration(world: str, goal: str | None) -> float:
+    """The demo's length without --duration: DEMO_S, or for a goal in a generated house the houses
+    suite's own timeout (a search through several rooms takes minutes)."""
+    if goal is None or not world.startswith("house:"):
+        return DEMO_S
+    from go2vlm.apps.episodes.suites import load_suite
+
+    durations = [float(t["duration_s"]) for t in load_suite("houses").tasks if "duration_s" in t]
+    return max(durations, default=DEMO_S)
 
 
 def demo_spawn(world: str, text: str) -> tuple[float, float, float]:
