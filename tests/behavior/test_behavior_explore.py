@@ -380,16 +380,22 @@ def test_a_frontier_the_navigator_gives_up_comes_back_once_the_map_round_it_chan
     assert all(math.dist(g, goal) > 1e-9 for g, _ in ex.dropped)
 
 
-def test_gain_takes_the_room_through_the_door_over_a_nearer_corner() -> None:
-    """Known: the right room, but for a 1 m corner at its far end the scan has not reached, and the
-    doorway to the unknown left room. The corner is nearer; the door reveals a room. `gain` walks to
-    the door, `nearest` to the corner."""
+def right_room_known() -> np.ndarray:
+    """The toy house's map with the right room known and its door open onto the unknown left room."""
     known = np.full((140, 240), -1, np.int8)
     known[2:-2, 121:-2] = 0
     known[:2, 119:] = known[-2:, 119:] = 100
     known[:, -2:] = 100
     known[:, 119:121] = 100
     known[58:82, 119:121] = 0  # the door, and the unknown room beyond it
+    return known
+
+
+def test_gain_takes_the_room_through_the_door_over_a_nearer_corner() -> None:
+    """Known: the right room, but for a 1 m corner at its far end the scan has not reached, and the
+    doorway to the unknown left room. The corner is nearer; the door reveals a room. `gain` walks to
+    the door, `nearest` to the corner."""
+    known = right_room_known()
     known[2:22, 218:238] = -1  # the corner at (5, -3) the scan has not reached
     cm = costmap(known, 1.0)
     goals = {}
@@ -407,12 +413,7 @@ def test_a_door_seen_from_beside_it_is_still_walked_through() -> None:
     """The robot looked around 1 m from a doorway, beside its jamb, and the room past it stayed unknown:
     the door's frontier is not 'looked at' (its goal is not where the robot stood), so the search walks
     through the door rather than ending with a room it never saw."""
-    known = np.full((140, 240), -1, np.int8)
-    known[2:-2, 121:-2] = 0
-    known[:2, 119:] = known[-2:, 119:] = 100
-    known[:, -2:] = 100
-    known[:, 119:121] = 100
-    known[58:82, 119:121] = 0  # the door, and the unknown room beyond it
+    known = right_room_known()
     ex = Explorer(ExploreParams())
     ex.set_map(costmap(known, 1.0))
     first = ex.step(3.5, -1.5, 0.0, 0.0)
