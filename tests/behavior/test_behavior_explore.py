@@ -428,3 +428,33 @@ def test_a_door_seen_from_beside_it_is_still_walked_through() -> None:
     ex._frontier_stamp = None
     end = ex.step(3.5, -1.5, 0.0, 1.0)
     assert end.action != "walk" or math.dist(end.goal, door) >= ex.params.arrive_m, end
+
+
+def test_no_reachable_frontier_ends_the_search_only_once_it_has_held() -> None:
+    """One failed plan is not the last word (a plan from a doorway at an angle, a scan that shut a gap):
+    with the door shut on the map the explorer holds still and plans again on each new map; the door
+    open again within explore_unreachable_wait_s, it walks through; shut all along, it ends not_found
+    with how long it held."""
+    known = right_room_known()
+    shut = known.copy()
+    shut[58:82, 119:121] = 100  # the door shut on the map, with what the lidar saw past it before
+    shut[50:90, 100:119] = known[50:90, 100:119] = 0
+    wait = ExploreParams().unreachable_wait_s
+    for opens in (True, False):
+        ex = Explorer(ExploreParams())
+        ex.reset(0.0)
+        ex.set_map(costmap(shut, 0.0))
+        first = ex.step(3.5, -1.5, 0.0, 0.0)
+        assert first.action == "wait" and "planning again" in first.reason, first
+        assert ex.step(3.5, -1.5, 0.0, 0.5).action == "wait"  # no new map: no new plan
+        ex.set_map(costmap(known if opens else shut, wait / 2))
+        mid = ex.step(3.5, -1.5, 0.0, wait / 2)
+        if opens:
+            assert mid.action == "walk" and mid.goal[0] < 0.0, mid  # past the door
+            continue
+        assert mid.action == "wait", mid
+        ex.set_map(costmap(shut, wait + 1.0))
+        end = ex.step(3.5, -1.5, 0.0, wait + 1.0)
+        assert (
+            end.action == "done" and "no reachable frontier" in end.reason and f"for {wait + 1.0:.0f} s" in end.reason
+        )

@@ -93,6 +93,7 @@ class CommanderConfig:
     explore_unknown_cost: float = from_core(ExploreParams, "unknown_cost")
     explore_timeout_s: float = from_core(ExploreParams, "timeout_s")
     explore_regrown_share: float = from_core(ExploreParams, "regrown_share")
+    explore_unreachable_wait_s: float = from_core(ExploreParams, "unreachable_wait_s")
     explore_gain_radius_m: float = from_core(ExploreParams, "gain_radius_m")
     explore_gain_per_m: float = from_core(ExploreParams, "gain_per_m")
     explore_look_stall_s: float = from_core(ExploreParams, "look_stall_s")

@@ -33,8 +33,9 @@ Rules
   than `regrown_share` more cells known within `visited_radius_m`), or when no other is reachable.
 - Within `arrive_m` of the goal (or the navigator arrived): `look` (the host turns and looks), then
   `looked()`: that place is visited, and the next frontier is chosen.
-- `done` (the goal ends not_found, with the reason) when no frontier is left, or none is reachable,
-  or `timeout_s` after the goal began (an open world has frontiers without end).
+- `done` (the goal ends not_found, with the reason) when no frontier is left, or none has been
+  reachable for `unreachable_wait_s` (planned again on each new map meanwhile, holding still), or
+  `timeout_s` after the goal began (an open world has frontiers without end).
   `wait` (hold still) without a map or a pose; after `map_timeout_s` without any map: done.
 """
 
@@ -82,6 +83,7 @@ class Explorer:
         self.values = ValueMap()  # vlm: the model's scores of the views it was shown, placed in the world
         self.reveal: np.ndarray | None = None  # gain: the cells a look could reveal (unknown, or unseen free)
         self._frontier_stamp: float | None = None
+        self._no_way: tuple[float, float] | None = None  # no frontier reachable: since when, on which map
         self.reason = ""
 
     def set_map(self, cm: Costmap) -> None:
@@ -188,7 +190,7 @@ class Explorer:
         win = cm.data[max(0, row - r) : row + r + 1, max(0, col - r) : col + r + 1]
         return bool(((win >= 0) & (win < self.params.planner.lethal)).any())
 
-    def _choose(self, x: float, y: float) -> ExploreStep | None:
+    def _choose(self, x: float, y: float, now: float) -> ExploreStep | None:
         cm = self.costmap
         assert cm is not None
         p = self.params
@@ -229,9 +231,15 @@ class Explorer:
                 return ExploreStep(
                     "wait", f"no reachable frontier of those left: trying the given-up again ({plan.reason})"
                 )
+            since = now if self._no_way is None else self._no_way[0]
+            if now - since < p.unreachable_wait_s:  # one plan is not the last word: plan again on new maps
+                self._no_way = (since, cm.stamp)
+                self.reason = f"no reachable frontier now ({plan.reason}): planning again on new maps"
+                return ExploreStep("wait", self.reason)
             self.phase = "done"
-            self.reason = f"no reachable frontier ({len(self.frontiers)} left): {plan.reason}"
+            self.reason = f"no reachable frontier ({len(self.frontiers)} left) for {now - since:.0f} s: {plan.reason}"
             return ExploreStep("done", self.reason)
+        self._no_way = None
         self.frontier, self.plan = cands[plan.goal_index], plan
         self.phase = "walk"
         return None
@@ -256,10 +264,14 @@ class Explorer:
             return ExploreStep("wait", "no fresh pose: holding still")
         if self.phase == "look":
             return ExploreStep("look", self.where())
+        if self._no_way is not None and self.phase == "choose" and self._no_way[1] == cm.stamp:
+            since = self._no_way[0]
+            if now - since < p.unreachable_wait_s:
+                return ExploreStep("wait", self.reason)  # no new map yet: nothing to plan again on
         self._refresh()
         for _ in range(8):  # a few frontiers may be dropped in one step (gone, seen on the way)
             if self.phase == "choose":
-                done = self._choose(x, y)
+                done = self._choose(x, y, now)
                 if done is not None:
                     return done
             f = self.frontier

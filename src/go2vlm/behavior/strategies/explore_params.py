@@ -42,6 +42,11 @@ class ExploreParams:
         0.2, help="explore: a frontier given up comes back once this share more of the map round it is known",
         min=0.0, max=10.0, live=True,
     )  # fmt: skip
+    unreachable_wait_s: float = param(
+        8.0, help="explore: 'no reachable frontier' ends the search only once it has held this long (s), "
+        "planned again on each new map (a plan from a doorway at an angle, a scan that closed a gap)",
+        min=0.0, max=120.0, live=True,
+    )  # fmt: skip
     map_timeout_s: float = 10.0  # no map at all this long after the search began: done
     min_view_m2: float = 1.0  # a region of free space the camera has not looked at, smaller than this, is dropped
     look_done_m2: float = 0.5  # a look ends once less unlooked free space than this is left in sight, in range
@@ -68,7 +73,7 @@ class ExploreParams:
         if self.frontier_choice not in FRONTIER_CHOICES:
             raise ValueError(f"frontier_choice {self.frontier_choice!r} is not one of {list(FRONTIER_CHOICES)}")
         for name in ("min_frontier_m", "arrive_m", "visited_radius_m", "regrown_share", "map_timeout_s",
-                     "timeout_s", "min_view_m2", "look_done_m2", "second_pass_m", "gain_radius_m",
+                     "timeout_s", "unreachable_wait_s", "min_view_m2", "look_done_m2", "second_pass_m", "gain_radius_m",
                      "gain_per_m", "look_stall_s", "look_stall_rad", "look_slack"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
