@@ -45,7 +45,11 @@ FOLLOW_TOLERANCE: dict[str, float] = {
     "mean_cmd_vx": 0.03,  # m/s
 }
 GOAL_TOLERANCE: dict[str, float] = {
-    "time_to_goal_s": 1.5,  # sim seconds, of ~9.5
+    # Sim seconds, of ~9.5. At --rtf 1 too the sim does not wait for the detector and the commander, so
+    # a loaded host delays them in sim time: on the CI host (the suite's other worker beside) rtf 1
+    # took 10.23 s against 8.58 s fast, same course, 0.16 m more walked (58c4293). Nodes on wall time
+    # at --fast took twice as long (19.1 s), which this still catches.
+    "time_to_goal_s": 3.0,
     "final_distance_m": 0.1,  # the commander stops within 0.05 m of its 0.8 m stop distance
     "min_clearance_m": 0.1,
     "robot_distance_travelled_m": 0.3,  # of ~1.4 m

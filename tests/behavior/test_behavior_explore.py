@@ -458,3 +458,20 @@ def test_no_reachable_frontier_ends_the_search_only_once_it_has_held() -> None:
         assert (
             end.action == "done" and "no reachable frontier" in end.reason and f"for {wait + 1.0:.0f} s" in end.reason
         )
+
+
+def test_the_last_frontier_given_up_is_tried_again_rather_than_ending_the_search() -> None:
+    """The door is the only frontier and the navigator gave it up (a person stood in it, say): the search
+    does not end "no frontier left" with a reachable room unseen; it brings the door back and walks to it."""
+    ex = Explorer(ExploreParams())
+    ex.reset(0.0)
+    ex.set_map(costmap(right_room_known(), 1.0))
+    first = ex.step(3.5, -1.5, 0.0, 0.0)
+    assert first.action == "walk" and abs(first.goal[0]) < 0.5, first
+    ex.give_up("no progress after every recovery")
+    ex.set_map(costmap(right_room_known(), 2.0))
+    steps = [ex.step(3.5, -1.5, 0.0, 2.0 + k) for k in range(3)]
+    assert all(s.action != "done" for s in steps), steps
+    assert "trying the given-up again" in steps[0].reason, steps[0]
+    assert steps[-1].action == "walk" and math.dist(steps[-1].goal, first.goal) < 0.2, steps
+    assert ex.status()["retried_given_up"] == 1

@@ -7,10 +7,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.goals import parse_goal
+from go2vlm.behavior.navigate.params import NavParams
+from go2vlm.behavior.planner.grid import Costmap
 from go2vlm.behavior.strategies.base import Context, Pose
 from go2vlm.behavior.strategies.params import MissionParams
 from go2vlm.behavior.strategies.remembered import GoToRemembered
@@ -136,3 +139,33 @@ def test_answered_looks_without_it_give_it_up_until_it_is_seen_again(looks: int,
     assert nav.pick(ctx) is None  # given up ...
     ctx.memory = [obj(0, "blue cylinder", 2.0, 0.0, 0.5, now)]  # ... until an answer sees it again
     assert nav.pick(ctx) is not None
+
+
+@settings(max_examples=30)
+@given(arrive=st.floats(0.25, 1.0), latency=st.floats(0.1, 3.0), x0=st.floats(-1.0, 0.5))
+def test_a_go_to_the_navigator_calls_there_short_of_the_stop_walks_the_last_bit(
+    arrive: float, latency: float, x0: float
+) -> None:
+    """The navigator's "there" (within `arrive_m` of its route's end) may leave the robot farther from a
+    confirmed place than the stop distance and its slack. It walks the last bit straight and ends
+    reached on an answer about a frame taken there; before, it held still, looking, for good."""
+    p = MissionParams(nav=NavParams(arrive_m=arrive))
+    ctx = Context(p, goal=parse_goal("go to the blue cylinder"), view=1.27)
+    ctx.costmap = Costmap(np.zeros((80, 120), np.int8), 0.05, (-1.5, -2.0), 0.0)  # open and known
+    nav = GoToRemembered()
+    x, now, dt, last_seen = x0, 0.0, 0.05, 0.0
+    while now < 120.0:
+        now += dt
+        last_seen = now - latency  # every answer sees it straight ahead
+        ctx.answers.take(now - latency, now)
+        ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, last_seen)]
+        ctx.pose = Pose(x, 0.0, 0.0, now)
+        ctx.target_obj = nav.pick(ctx)
+        cmd = nav.step(ctx, now)
+        assert cmd is not None
+        if cmd.state == "reached":
+            break
+        x += cmd.vx * dt
+    else:
+        raise AssertionError(f"not reached in 120 s at {3.5 - 0.3 - x:.2f} m: {cmd.reason}")
+    assert 3.5 - 0.3 - x - p.stop_distance_m <= p.distance_tolerance_m + 0.05, cmd.reason

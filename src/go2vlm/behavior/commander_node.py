@@ -53,8 +53,8 @@ Topics (QoS: reliable, volatile, keep-last 10 unless noted)
                                   basis (tracker | memory | ''), remembered (the goal's remembered object:
                                   id, x, y, confidence, distance_m), memory (objects, answer latency),
                                   explore (exploring, phase, frontier, frontiers_left, visited,
-                                  given_up, views_scored), plan (length_m, waypoints, reason), navigate
-                                  (goal, route_m, recovering, recoveries, plans, failures), lease
+                                  given_up, retried_given_up, views_scored), plan (length_m, waypoints,
+                                  reason), navigate (goal, route_m, recovering, recoveries, plans, failures), lease
                                   (left_s, renewals; never its key; null when none), refused_inputs
                                   (topic -> refused, last: inputs dropped for their size,
                                   msgs/sizes.py); on change and each status_period_s

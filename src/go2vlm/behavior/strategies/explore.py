@@ -80,6 +80,7 @@ class Explorer:
         self.visited: list[tuple[float, float]] = []  # places looked from
         self.dropped: list[tuple[tuple[float, float], int]] = []  # given up: (goal, the map round it then)
         self.given_up = 0
+        self.retried = 0  # times the given-up frontiers were brought back
         self.values = ValueMap()  # vlm: the model's scores of the views it was shown, placed in the world
         self.reveal: np.ndarray | None = None  # gain: the cells a look could reveal (unknown, or unseen free)
         self._frontier_stamp: float | None = None
@@ -99,6 +100,7 @@ class Explorer:
             "unseen_left": sum(f.kind == "view" for f in self.frontiers),
             "visited": len(self.visited),
             "given_up": self.given_up,
+            "retried_given_up": self.retried,
             "views_scored": self.values.views,  # vlm: the scored views placed on the value map
         }
 
@@ -198,6 +200,8 @@ class Explorer:
         if cov is not None and not cov.frames and cov.params != cov.base:
             return ExploreStep("wait", self.reason)  # the second pass begins with its first answered frame
         if not self.frontiers:
+            if self.dropped:  # nothing else left: those given up may be reachable now
+                return self._retry_given_up("no other frontier left")
             if cov is not None and cov.frames and cov.params.range_m > p.second_pass_m:
                 # Everything seen from up to range_m, and time left: a small object is missed at
                 # that range (a duck at 4 m is 15 pixels), so look at it all again from closer.
@@ -226,11 +230,7 @@ class Explorer:
             cands = self.frontiers
         if not plan.ok:
             if self.dropped:  # none reachable now: those given up may be, from here
-                self.dropped.clear()
-                self._frontier_stamp = None
-                return ExploreStep(
-                    "wait", f"no reachable frontier of those left: trying the given-up again ({plan.reason})"
-                )
+                return self._retry_given_up(f"no reachable frontier of those left ({plan.reason})")
             since = now if self._no_way is None else self._no_way[0]
             if now - since < p.unreachable_wait_s:  # one plan is not the last word: plan again on new maps
                 self._no_way = (since, cm.stamp)
@@ -243,6 +243,14 @@ class Explorer:
         self.frontier, self.plan = cands[plan.goal_index], plan
         self.phase = "walk"
         return None
+
+    def _retry_given_up(self, why: str) -> ExploreStep:
+        """Bring back every frontier given up (the search never ends while one may be reachable)."""
+        self.dropped.clear()
+        self.retried += 1
+        self._frontier_stamp = None
+        self.reason = f"{why}: trying the given-up again"
+        return ExploreStep("wait", self.reason)
 
     def step(self, x: float | None, y: float | None, yaw: float | None, now: float) -> ExploreStep:
         """What to do now: walk to `goal` (the navigator's job), look there, wait, or done."""

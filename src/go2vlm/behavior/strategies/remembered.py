@@ -137,15 +137,19 @@ class GoToRemembered:
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
             ctx.look.forget()
             self.failed_looks = 0
-            if ctx.costmap is not None:
+            mapped = ctx.costmap is not None
+            if mapped:
                 out = self._walk(ctx, o, reach, now, "approaching", f"{where} (memory, confidence {o.confidence:.2f})")
                 if out is not None or ctx.target_obj is None:
                     return out
-            else:  # no map: turn, then walk straight; the planner steers round what the scan shows
-                st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
-                if st is not None and st.blocked:
-                    return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
-                reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); no map"
+            # No map, or the navigator is there (near its route's end) short of the stop distance: turn,
+            # then walk the last bit straight; the local planner steers round what the scan shows.
+            st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
+            if st is not None and st.blocked and not mapped:
+                return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
+            if st is None or not st.blocked:  # blocked with a map: as near as the way lets it, look (below)
+                why = "the last bit" if mapped else "no map"
+                reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); {why}"
                 return Command(vx, wz, "approaching", reason, basis="memory")
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
