@@ -2,9 +2,11 @@
 
 - every door is wider than the robot plus a margin on each side;
 - nothing overlaps: no piece of furniture or object overlaps a wall, another piece or another object;
-- every room is reachable by the Go2's footprint: the robot turns in place, so its centre may be where
-  the clearance exceeds the inscribed half width (0.155 m) plus a margin, and every room's spawn is one
-  connected floor with every other's; the spawn itself clears the whole footprint at any heading;
+- every room is reachable by the Go2's footprint as the navigator plans it: the robot turns in place and
+  crosses a gap square-on, so its centre may be where the clearance exceeds the half width (0.155 m)
+  plus the gap the planners keep at a creep (geometry/footprint.Clearance, 0.16 m): 0.63 m between
+  two obstacles; every room's spawn is one connected floor with every other's; the spawn itself
+  clears the whole footprint at any heading;
 - every object is reachable (a reachable cell within REACH_M of its footprint) and visible from
   somewhere (a reachable cell within SIGHT_M with a line of sight to it past walls and solid furniture;
   tables and chairs on legs do not hide what is behind them).
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.robot_profile.go2 import SIM
 from go2vlm.sim.houses.furniture import overlaps
 from go2vlm.sim.houses.plan import House, Rect
@@ -27,11 +30,12 @@ from go2vlm.sim.houses.plan import House, Rect
 __all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns", "unreachable_rooms"]
 
 GRID_M = 0.05
-MARGIN_M = 0.05  # beyond the footprint's half width (reachability) and its circle (spawns)
+MARGIN_M = 0.05  # beyond the footprint's circle (spawns)
 REACH_M = 0.8  # the commander's stop distance: how close a go-to comes
 SIGHT_M = 4.0
 INSCRIBED = SIM.footprint_width / 2
 CIRCUMSCRIBED = math.hypot(SIM.footprint_length / 2, SIM.footprint_width / 2)
+PASSAGE = INSCRIBED + Clearance().creep  # the centre's clearance where the planners let it stand
 
 
 @dataclass
@@ -86,7 +90,7 @@ def floor_grid(house: House) -> Floor:
     for it in house.items:
         _fill(blocked, x0, y0, Rect(it.cx - it.radius, it.cy - it.radius, it.cx + it.radius, it.cy + it.radius))
     clearance = ndimage.distance_transform_edt(~(blocked | outside)) * GRID_M
-    reach, _ = ndimage.label(clearance > INSCRIBED + MARGIN_M)
+    reach, _ = ndimage.label(clearance > PASSAGE)
     return Floor(x0, y0, blocked, opaque, clearance, reach)
 
 
@@ -122,7 +126,7 @@ def check_house(house: House, floor: Floor | None = None) -> list[str]:
     """What is wrong with a house (module docstring); empty when it passes."""
     floor = floor or floor_grid(house)
     problems: list[str] = []
-    need = SIM.footprint_width + 2 * MARGIN_M
+    need = 2 * PASSAGE
     for door in house.doors:
         if door.width < need:
             problems.append(f"the door between {door.a} and {door.b} is {door.width:.2f} m wide, under {need:.2f} m")
