@@ -145,12 +145,13 @@ class GoToRemembered:
             # No map, or the navigator is there (near its route's end) short of the stop distance: turn,
             # then walk the last bit straight; the local planner steers round what the scan shows.
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
-            if st is not None and st.blocked and not mapped:
-                return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
-            if st is None or not st.blocked:  # blocked with a map: as near as the way lets it, look (below)
+            if st is None or not st.blocked:
                 why = "the last bit" if mapped else "no map"
                 reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); {why}"
                 return Command(vx, wz, "approaching", reason, basis="memory")
+            if not mapped:
+                return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
+            # blocked with a map: as near as the way lets it; look (below)
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)

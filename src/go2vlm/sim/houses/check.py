@@ -1,6 +1,6 @@
 """The check a house passes before use, on a floor grid (GRID_M cells):
 
-- every door is wider than the robot plus a margin on each side;
+- every door is wider than the robot plus the planners' clearance at a creep on each side (2 x PASSAGE);
 - nothing overlaps: no piece of furniture or object overlaps a wall, another piece or another object;
 - every room is reachable by the Go2's footprint as the navigator plans it: the robot turns in place and
   crosses a gap square-on, so its centre may be where the clearance exceeds the half width (0.155 m)
