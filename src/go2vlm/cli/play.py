@@ -61,6 +61,10 @@ def run(args: argparse.Namespace) -> int:
         "wait_timeout_s": args.wait_timeout,
         "delay_s": args.delay,
     }
+    # Before the node exists: its publishers are visible on the bus at once, and a Ctrl-C from then
+    # on must stop it cleanly (exit 0), never as a bare KeyboardInterrupt (130).
+    stop = ShutdownRequested()
+    stop.install()
     try:
         config = build_config(PlayerConfig, params, node="player")
         # wait_for names the published (remapped) topics; the node knows them by their bag names
@@ -81,8 +85,6 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
         flush=True,
     )
-    stop = ShutdownRequested()
-    stop.install()
     node.start()
     try:
         while not stop.event.wait(0.1):
