@@ -64,9 +64,6 @@ def walk(ex: Explorer, nav: Navigator, step: ExploreStep, pose: tuple[float, flo
     """The navigator's command towards the explorer's frontier, moved exactly (as the Explore strategy does)."""
     cm = ex.costmap
     assert cm is not None
-    plan = ex.take_plan()
-    if plan is not None:
-        nav.follow(plan, step.goal, cm, now)
     out = nav.step(step.goal, ex.params.arrive_m, cm, pose, None, now, max_linear=0.8, max_angular=1.0)
     if out.status == "arrived":
         ex.arrived()
@@ -83,7 +80,8 @@ def walk(ex: Explorer, nav: Navigator, step: ExploreStep, pose: tuple[float, flo
 def run(x: float, y: float, steps: int = 3000) -> tuple[Explorer, list[tuple[float, float]], list[str]]:
     truth = house()
     known = np.full(truth.shape, -1, np.int8)
-    ex, nav = Explorer(ExploreParams()), Navigator()
+    nav = Navigator()
+    ex = Explorer(ExploreParams(), nav)
     ex.reset(0.0)
     yaw, path, actions = 0.0, [(x, y)], []
     for k in range(steps):

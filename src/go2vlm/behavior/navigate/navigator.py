@@ -15,6 +15,8 @@ It owns, as Nav2 keeps them apart:
 - one progress checker (navigate/progress.py: `progress_m` within `progress_s`);
 - the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
+A caller choosing among places (the explorer, among frontiers) asks the navigator too: `costs`
+(the path cost to each, one search) and `choose` (a plan to the nearest, which becomes the route).
 `line_of_sight` asks the costmap whether a place is in plain view (a strategy that looks at a place
 rather than walks to it asks it first).
 `arrived`: within `tolerance` of the goal (and, for a planner with `goal_in_sight`, in sight of it on
@@ -39,6 +41,7 @@ from go2vlm.behavior.planner.global_path import (
     Costmap,
     GlobalParams,
     Plan,
+    goal_costs,
     in_sight,
     line_cells,
     passable,
@@ -97,12 +100,25 @@ class Navigator:
         self.progress.reset()
         self.recoveries.reset()
 
-    def follow(self, plan: Plan, goal: tuple[float, float], cm: Costmap, now: float) -> None:
-        """Take `plan` (made by the caller to choose its goal, e.g. the nearest frontier) as the route to `goal`."""
-        self.reset()
-        self.goal = goal
-        self.route = Route(plan, goal, now, cm.stamp)
+    def costs(self, cm: Costmap, start: tuple[float, float], goals: list[tuple[float, float]],
+              planner: GlobalParams) -> np.ndarray:  # fmt: skip
+        """The path cost from `start` to each of `goals` (inf: no way there), in one search."""
+        self.counters["cost_searches"] += 1
+        return goal_costs(cm, start, goals, planner)
+
+    def choose(self, cm: Costmap, start: tuple[float, float], goals: list[tuple[float, float]],
+               planner: GlobalParams, now: float) -> Plan:  # fmt: skip
+        """A plan to the nearest of `goals` by path cost (`plan.goal_index` says which). When there is
+        one, it becomes the route: the next `step` towards that goal follows it, unplanned again."""
+        plan = plan_path(cm, start, goals, planner)
         self.counters["plans"] += 1
+        if not plan.ok:
+            self.counters["plan_failures"] += 1
+            return plan
+        self.reset()
+        self.goal = goals[plan.goal_index]
+        self.route = Route(plan, self.goal, now, cm.stamp)
+        return plan
 
     def step(
         self, goal: tuple[float, float], tolerance: float, cm: Costmap | None, pose: tuple[float, float, float] | None,

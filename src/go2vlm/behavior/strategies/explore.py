@@ -17,7 +17,7 @@ Rules
   `frontier_choice`: `gain` (the default) takes the one
   that reveals most for its walk: its gain (world/frontiers.py `gains`: the unknown and the unseen
   free area within `gain_radius_m` of it) less `gain_per_m` times its path cost (one search of the
-  global planner to every goal, planner/global_path.py `goal_costs`), so a room through a door
+  global planner to every goal, the navigator's `costs`), so a room through a door
   outranks a corner of this one the scan has not reached; `nearest` takes the nearest by
   path cost (one search of the global planner to all their goals at once, crossing unknown space at
   `unknown_cost`); `vlm` takes, of the frontiers the model's value map scores highest (VLFM:
@@ -25,7 +25,7 @@ Rules
   what that view could see, `values.observe(...)`; a frontier's value is the map's round it), the
   nearest by path cost; a frontier no view covered counts as maybe, so without answers it is `nearest`.
 - Walk there: the chosen frontier's goal is handed to the navigator (behavior/navigate/: it follows
-  the plan made to choose it, replans, checks progress and runs its recoveries). A frontier the
+  the plan it made to choose it, `choose`, replans, checks progress and runs its recoveries). A frontier the
   lidar has seen past on the way is still walked to and looked from (the lidar reaches 10 m, the
   camera's answers less: the look is what finds the object); one whose goal is no place to stand on
   the new map, or that the navigator gives up on (`failed`: no route, or no progress after every
@@ -46,7 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from go2vlm.behavior.planner.global_path import Costmap, Plan, goal_costs, plan_path
+from go2vlm.behavior.navigate import Navigator
+from go2vlm.behavior.planner.global_path import Costmap
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_frontiers, gains
@@ -64,8 +65,9 @@ class ExploreStep:
 
 
 class Explorer:
-    def __init__(self, params: ExploreParams | None = None) -> None:
+    def __init__(self, params: ExploreParams | None = None, navigator: Navigator | None = None) -> None:
         self.params = params or ExploreParams()
+        self.navigator = navigator or Navigator()  # plans and costs every way (the host's, which walks it)
         self.costmap: Costmap | None = None
         self.coverage: Coverage | None = None  # where the camera has looked (the host's; None: the map only)
         self.reset(0.0)
@@ -76,7 +78,6 @@ class Explorer:
         self.phase = "choose"  # choose | walk | look | done
         self.frontier: Frontier | None = None
         self.frontiers: list[Frontier] = []  # the newest map's, less the visited
-        self.plan: Plan | None = None  # the chosen frontier's plan, until the navigator takes it (`take_plan`)
         self.visited: list[tuple[float, float]] = []  # places looked from
         self.dropped: list[tuple[tuple[float, float], int]] = []  # given up: (goal, the map round it then)
         self.given_up = 0
@@ -105,11 +106,6 @@ class Explorer:
         }
 
     # -- the search -----------------------------------------------------------------------------
-    def take_plan(self) -> Plan | None:
-        """The plan `_choose` made to the chosen frontier, once (the navigator follows it)."""
-        self.plan, plan = None, self.plan
-        return plan
-
     def arrived(self) -> None:
         """The navigator is at the chosen frontier: look around there."""
         if self.phase == "walk":
@@ -119,7 +115,7 @@ class Explorer:
         """The look-around at the chosen frontier is over: that place is visited."""
         if self.phase == "look" and self.frontier is not None:
             self.visited.append(self.frontier.goal)
-        self.frontier, self.plan, self.phase = None, None, "choose"
+        self.frontier, self.phase = None, "choose"
         self._frontier_stamp = None  # what the look saw changes the unseen regions
 
     def _known_round(self, cm: Costmap, xy: tuple[float, float]) -> int:
@@ -183,7 +179,7 @@ class Explorer:
             self.frontiers = [f for f in self.frontiers if not self._skip(f)]
         self.given_up += 1
         self.reason = why
-        self.frontier, self.plan, self.phase = None, None, "choose"
+        self.frontier, self.phase = None, "choose"
 
     def _standable(self, cm: Costmap, xy: tuple[float, float]) -> bool:
         """Is there a cell within `arrive_m` of `xy` that the robot may stand on, on `cm`?"""
@@ -219,14 +215,14 @@ class Explorer:
             scored = [self.values.at(*f.centroid) for f in cands]
             cands = [f for f, sc in zip(cands, scored, strict=True) if sc >= max(scored)]
         elif p.frontier_choice == "gain" and len(cands) > 1 and self.reveal is not None:
-            cost = goal_costs(cm, (x, y), [f.goal for f in cands], gp)
+            cost = self.navigator.costs(cm, (x, y), [f.goal for f in cands], gp)
             gain = gains(self.reveal, cm.resolution, np.array([f.goal_cell for f in cands]), p.gain_radius_m)
             worth = np.where(np.isfinite(cost), gain - p.gain_per_m * cost, -np.inf)
             if np.isfinite(worth).any():
                 cands = [cands[int(np.argmax(worth))]]
-        plan = plan_path(cm, (x, y), [f.goal for f in cands], gp)
+        plan = self.navigator.choose(cm, (x, y), [f.goal for f in cands], gp, now)
         if not plan.ok and cands is not self.frontiers:
-            plan = plan_path(cm, (x, y), [f.goal for f in self.frontiers], gp)
+            plan = self.navigator.choose(cm, (x, y), [f.goal for f in self.frontiers], gp, now)
             cands = self.frontiers
         if not plan.ok:
             if self.dropped:  # none reachable now: those given up may be, from here
@@ -240,7 +236,7 @@ class Explorer:
             self.reason = f"no reachable frontier ({len(self.frontiers)} left) for {now - since:.0f} s: {plan.reason}"
             return ExploreStep("done", self.reason)
         self._no_way = None
-        self.frontier, self.plan = cands[plan.goal_index], plan
+        self.frontier = cands[plan.goal_index]
         self.phase = "walk"
         return None
 
@@ -287,7 +283,7 @@ class Explorer:
             if self.seen(f):  # the camera saw that region on the way: nothing to walk there for
                 self.visited.append(f.goal)
                 self.frontiers = [g for g in self.frontiers if not self._skip(g)]
-                self.frontier, self.plan, self.phase = None, None, "choose"
+                self.frontier, self.phase = None, "choose"
                 continue
             if not self._standable(cm, f.goal):
                 self.give_up(f"the frontier at ({f.goal[0]:.1f}, {f.goal[1]:.1f}) is no place to stand on the new map")

@@ -70,13 +70,11 @@ class Explore:
         if ctx.costmap is not None and ctx.costmap is not self.explorer.costmap:
             self.explorer.set_map(ctx.costmap)
         self.explorer.coverage = ctx.coverage
+        self.explorer.navigator = ctx.navigator
         pose = ctx.fresh_pose(now)
         x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
         st = self.explorer.step(x, y, yaw, now)
         if st.action == "walk":
-            plan = self.explorer.take_plan()
-            if plan is not None and ctx.costmap is not None:
-                ctx.navigator.follow(plan, st.goal, ctx.costmap, now)
             nav = ctx.navigate(st.goal, self.params.arrive_m, now, self.params.global_params)
             if nav.status == "arrived":
                 self.explorer.arrived()
