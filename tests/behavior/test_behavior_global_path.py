@@ -16,6 +16,7 @@ from go2vlm.behavior.planner.global_path import (
     GlobalParams,
     cell_costs,
     chain_cost,
+    in_sight,
     line_cells,
     plan_path,
 )
@@ -91,6 +92,28 @@ def test_near_enough_is_also_in_sight(body: float) -> None:
         blocked, (1.0, -2.5), [(-0.85, -2.35)], GlobalParams(goal_tolerance_m=1.0, goal_in_sight=True, goal_body_m=0.25)
     )
     assert inside.ok and inside.waypoints[-1][0] < -0.05, inside.reason
+
+
+@settings(max_examples=60, deadline=None)
+@given(off=st.floats(0.1, 0.3), side=st.floats(-0.05, 0.05))
+def test_a_remembered_place_off_its_object_is_in_sight_past_the_object_but_never_through_a_wall(
+    off: float, side: float
+) -> None:
+    """The memory places a mug `off` metres past where its cells are on the map (its ranging erred):
+    from a stand 1 m before it the line to the place crosses the mug's own cells, a piece lying wholly
+    within its radius plus `goal_own_m`, so the stand sees it; without `goal_own_m` it does not. A wall
+    as near the place hides it all the same: it runs on past that reach."""
+    g = np.zeros((80, 80), np.int8)
+    place = (40, 40)
+    mug = (40 - round(off / RES), 40 + round(side / RES))  # rows: y; the stand lies at lower rows
+    g[mug[0] - 1 : mug[0] + 2, mug[1] - 1 : mug[1] + 2] = 100  # 0.15 m across
+    stand = np.array([[20, 40]])
+    body, own = 0.08 / RES, 0.3 / RES
+    assert not in_sight(g, stand, place, body)[0]
+    assert in_sight(g, stand, place, body, own)[0]
+    walled = g.copy()
+    walled[mug[0], :] = 100  # a wall through the mug's row, across the room
+    assert not in_sight(walled, stand, place, body, own)[0]
 
 
 def test_refusals_say_why() -> None:

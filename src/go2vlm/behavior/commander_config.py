@@ -67,6 +67,7 @@ class CommanderConfig:
     )
     nav_goal_moved_m: float = from_core(NavParams, "goal_moved_m")
     nav_arrive_m: float = from_core(NavParams, "arrive_m")
+    nav_place_error_m: float = from_core(NavParams, "place_error_m")
     nav_lookahead_s: float = from_core(NavParams, "lookahead_s")
     nav_lookahead_min_m: float = from_core(NavParams, "lookahead_min_m")
     nav_lookahead_max_m: float = from_core(NavParams, "lookahead_max_m")

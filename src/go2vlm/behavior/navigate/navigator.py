@@ -135,7 +135,8 @@ class Navigator:
         end = self.route.plan.waypoints[-1] if self.route is not None else None
         near = math.hypot(goal[0] - x, goal[1] - y) <= tolerance
         if near and self.planner.goal_in_sight:
-            near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution)[0])
+            own = self.planner.goal_own_m / cm.resolution
+            near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution, own)[0])
         if near or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
             self._speed = 0.0
             return NavStep(0.0, 0.0, "arrived", "there")

@@ -26,6 +26,11 @@ class NavParams:
         min=1.0, max=1000.0, live=True,
     )  # fmt: skip
     arrive_m: float = param(0.25, help="navigate: this near the route's end (m) is there", min=0.05, max=2.0, live=True)
+    place_error_m: float = param(
+        0.3, help="navigate: a remembered place may be this far (m) off its object: a piece of obstacle wholly within "
+        "the object's radius plus this of the place is the object itself, and does not hide it from a stand",
+        min=0.0, max=2.0, live=True,
+    )  # fmt: skip
     # -- the controller (regulated pure pursuit) -----------------------------------------------
     lookahead_s: float = param(
         1.5, help="navigate: lookahead = this x speed (s), within the two bounds below", min=0.1, max=5.0, live=True

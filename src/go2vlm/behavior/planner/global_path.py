@@ -39,7 +39,9 @@ Start and goal: a start on a lethal cell (the robot inside the inflation, by a w
 nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
 the goal (an object is itself an obstacle on the map: the path ends beside it). With `goal_in_sight`
 (a place to look at: an object) only those in sight of it: the straight line to the goal crosses no
-obstacle cell farther than `goal_body_m` from it (the object's own cells hide nothing); a cell near
+obstacle cell farther than `goal_body_m` from it, or that belongs to a piece of obstacle lying wholly
+within `goal_body_m + goal_own_m` of it (the object's own cells hide nothing, where a remembered
+place is off by up to `goal_own_m`; a wall running past is no such piece); a cell near
 the goal but behind a wall from it is not there (a duck seen through a doorway from beside its jamb
 is within a metre of the jamb's far side). A frontier is not asked: its goal often lies in a gap of
 a wall the map is still drawing, and which side sees it changes with each scan. A refusal says why:
@@ -62,7 +64,8 @@ import numpy as np
 
 from go2vlm.behavior.planner.by_heading import by_heading, footprint_fits, path_headings, turn_reach
 from go2vlm.behavior.planner.grid import Costmap, Found, GlobalParams, Plan
-from go2vlm.world.occupancy import CIRCUMSCRIBED, LETHAL, UNKNOWN
+from go2vlm.behavior.planner.sight import in_sight
+from go2vlm.world.occupancy import CIRCUMSCRIBED, UNKNOWN
 
 __all__ = [
     "Costmap",
@@ -165,24 +168,6 @@ def _goal_cells(c: np.ndarray, rc: tuple[int, int], radius: int) -> np.ndarray:
     win = c[r0 : rc[0] + radius + 1, c0 : rc[1] + radius + 1]
     ok = np.argwhere(np.isfinite(win)) + (r0, c0)
     return ok[np.hypot(ok[:, 0] - rc[0], ok[:, 1] - rc[1]) <= radius + 1e-9]
-
-
-def in_sight(data: np.ndarray, cells: np.ndarray, goal: tuple[int, int], body: float) -> np.ndarray:
-    """bool per (row, col) of `cells`: does the straight line from it to cell `goal` cross no obstacle
-    cell (LETHAL) farther than `body` cells from `goal`? Cells outside the grid hide nothing (unknown)."""
-    cells = np.asarray(cells, dtype=int).reshape(-1, 2)
-    if len(cells) == 0:
-        return np.zeros(0, bool)
-    d = cells - np.asarray(goal)
-    n = int(np.abs(d).max()) + 1
-    t = np.linspace(0.0, 1.0, n + 1)[None, :, None]
-    pts = np.floor(np.asarray(goal)[None, None, :] + t * d[:, None, :] + 0.5).astype(int)  # (M, n + 1, 2)
-    h, w = data.shape
-    inside = (pts[..., 0] >= 0) & (pts[..., 0] < h) & (pts[..., 1] >= 0) & (pts[..., 1] < w)
-    hit = np.zeros(inside.shape, bool)
-    hit[inside] = data[pts[..., 0][inside], pts[..., 1][inside]] == LETHAL
-    far = np.hypot(pts[..., 0] - goal[0], pts[..., 1] - goal[1]) > body
-    return np.asarray(~(hit & far).any(axis=1))
 
 
 def prune(c: np.ndarray, cells: np.ndarray, fits: Callable[[np.ndarray, float], bool] | None = None) -> list[int]:
@@ -303,7 +288,7 @@ def _search(
         cells = _goal_cells(c, gc, radius)
         # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
         if k == 1 and p.goal_in_sight:
-            cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res)]
+            cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res, p.goal_own_m / res)]
         ends += [(int(a), int(b)) for a, b in cells]
         owner += [gi] * len(cells)
     if not ends:

@@ -61,6 +61,7 @@ class GlobalParams:
     goal_tolerance_m: float = 0.6  # any passable cell this near the goal (and in sight of it, if asked) is the goal
     goal_in_sight: bool = False  # a place to look at (an object): only cells that see it are near it
     goal_body_m: float = 0.0  # ... and obstacle cells this near it are its own (an object's radius): they hide nothing
+    goal_own_m: float = 0.0  # ... and a piece of obstacle wholly within goal_body_m plus this (the place's error)
     escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
     off_path_m: float = 0.8  # the robot this far from the route: replan
     replan_period_s: float = 2.0  # a new costmap replans at most this often (a blocked route at once)
@@ -71,8 +72,8 @@ class GlobalParams:
     def __post_init__(self) -> None:
         if not 1 <= self.lethal <= 100:
             raise ValueError(f"lethal must be within 1..100, got {self.lethal}")
-        for name in ("cost_scale", "goal_tolerance_m", "goal_body_m", "escape_m", "off_path_m", "replan_period_s",
-                     "half_length", "half_width", "clearance_m"):  # fmt: skip
+        for name in ("cost_scale", "goal_tolerance_m", "goal_body_m", "goal_own_m", "escape_m", "off_path_m",
+                     "replan_period_s", "half_length", "half_width", "clearance_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v}")

@@ -146,8 +146,10 @@ class Context:
     @property
     def place_planner(self) -> GlobalParams:
         """The global planner's settings for a walk to a place (not a frontier): unknown space at
-        the navigator's `unknown_cost`, and there only where it is in sight."""
-        return replace(GlobalParams(), unknown_cost=self.params.nav.unknown_cost, goal_in_sight=True)
+        the navigator's `unknown_cost`, and there only where it is in sight (the obstacle within
+        `place_error_m` of the place being the object's own)."""
+        nav = self.params.nav
+        return replace(GlobalParams(), unknown_cost=nav.unknown_cost, goal_in_sight=True, goal_own_m=nav.place_error_m)
 
     def navigate(
         self, goal: tuple[float, float], tolerance: float, now: float, planner: GlobalParams, body: float = 0.0
