@@ -31,8 +31,10 @@ Rules
   the new map, or that the navigator gives up on (`failed`: no route, or no progress after every
   recovery), is given up. A frontier given up comes back once the map round it has changed (more
   than `regrown_share` more cells known within `visited_radius_m`), or when no other is reachable.
-- Within `arrive_m` of the goal (or the navigator arrived): `look` (the host turns and looks), then
-  `looked()`: that place is visited, and the next frontier is chosen.
+- Within `arrive_m` of the goal (or the navigator arrived: its route ends within `arrive_m` less the
+  navigator's own `arrive_m` of the goal, `route_params`, so the robot stands within `arrive_m` of
+  it): `look` (the host turns and looks), then `looked(at)`: where it stood is a place looked from,
+  and the next frontier is chosen.
 - `done` (the goal ends not_found, with the reason) when no frontier is left, or none has been
   reachable for `unreachable_wait_s` (planned again on each new map meanwhile, holding still), or
   `timeout_s` after the goal began (an open world has frontiers without end).
@@ -42,12 +44,12 @@ Rules
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from go2vlm.behavior.navigate import Navigator
-from go2vlm.behavior.planner.global_path import Costmap
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.behavior.strategies.explore_params import FRONTIER_CHOICES, ExploreParams
 from go2vlm.world.coverage import Coverage
 from go2vlm.world.frontiers import Frontier, FrontierParams, clusters, find_frontiers, gains
@@ -111,10 +113,11 @@ class Explorer:
         if self.phase == "walk":
             self.phase = "look"
 
-    def looked(self, now: float) -> None:
-        """The look-around at the chosen frontier is over: that place is visited."""
+    def looked(self, now: float, at: tuple[float, float] | None = None) -> None:
+        """The look-around at the chosen frontier is over: where the robot stood, `at` (else the
+        frontier's goal), is a place looked from."""
         if self.phase == "look" and self.frontier is not None:
-            self.visited.append(self.frontier.goal)
+            self.visited.append(at if at is not None else self.frontier.goal)
         self.frontier, self.phase = None, "choose"
         self._frontier_stamp = None  # what the look saw changes the unseen regions
 
@@ -181,6 +184,14 @@ class Explorer:
         self.reason = why
         self.frontier, self.phase = None, "choose"
 
+    def route_params(self) -> GlobalParams:
+        """The planner's settings for a walk to a frontier: its route ends within `arrive_m` less the
+        navigator's own `arrive_m` of the goal, so that wherever the navigator calls it there the
+        robot stands within `arrive_m` of the goal, which is where a look counts for a map frontier."""
+        p = self.params
+        end = max(p.arrive_m - self.navigator.params.arrive_m, 0.0)
+        return replace(p.global_params, goal_tolerance_m=end)
+
     def _standable(self, cm: Costmap, xy: tuple[float, float]) -> bool:
         """Is there a cell within `arrive_m` of `xy` that the robot may stand on, on `cm`?"""
         r = max(1, int(math.ceil(self.params.arrive_m / cm.resolution)))
@@ -210,7 +221,7 @@ class Explorer:
             self.reason = "no frontier left: every reachable part of the map has been looked at"
             return ExploreStep("done", self.reason)
         cands = self.frontiers
-        gp = p.global_params
+        gp = self.route_params()
         if p.frontier_choice == "vlm":
             scored = [self.values.at(*f.centroid) for f in cands]
             cands = [f for f, sc in zip(cands, scored, strict=True) if sc >= max(scored)]

@@ -75,7 +75,8 @@ class Explore:
         x, y, yaw = (pose.x, pose.y, pose.yaw) if pose is not None else (None, None, None)
         st = self.explorer.step(x, y, yaw, now)
         if st.action == "walk":
-            nav = ctx.navigate(st.goal, self.params.arrive_m, now, self.params.global_params)
+            gp = self.explorer.route_params()
+            nav = ctx.navigate(st.goal, gp.goal_tolerance_m, now, gp)
             if nav.status == "arrived":
                 self.explorer.arrived()
             elif nav.status == "failed":
@@ -93,6 +94,12 @@ class Explore:
             return Command.still("exploring", st.reason)
         return self._look(ctx, now, st.reason if st.action == "look" else self.explorer.where())
 
+    @staticmethod
+    def _stand(ctx: Context, now: float) -> tuple[float, float] | None:
+        """Where the robot stands (the place looked from), or None without a fresh pose."""
+        pose = ctx.fresh_pose(now)
+        return None if pose is None else (pose.x, pose.y)
+
     def _look(self, ctx: Context, now: float, reason: str) -> Command:
         """A whole turn where it stands, then the explorer is told (looked)."""
         p = ctx.params
@@ -105,7 +112,7 @@ class Explore:
             area, left, right = self.explorer.unseen_visible(pose.x, pose.y, pose.yaw, ctx.view or DEFAULT_VIEW)
             if area < self.params.look_done_m2:
                 self.looking = False  # the camera has looked at all it can see from here (on the way, or now)
-                self.explorer.looked(now)
+                self.explorer.looked(now, self._stand(ctx, now))
                 return Command.still("exploring", f"{reason}: nothing in sight left unseen")
             if self._dir == 0.0 and math.isfinite(area):  # the short way round to what is left, kept
                 self._dir = 1.0 if left <= right else -1.0
@@ -133,9 +140,9 @@ class Explore:
                 return Command(0.0, wz, "exploring", reason)
             if self._turned < whole:
                 self.looking = False
-                self.explorer.looked(now)
+                self.explorer.looked(now, self._stand(ctx, now))
                 return Command.still("exploring", f"{reason}: could not turn all round (turned "
                                      f"{math.degrees(self._turned):.0f} deg), going on")  # fmt: skip
         self.looking = False
-        self.explorer.looked(now)
+        self.explorer.looked(now, self._stand(ctx, now))
         return Command.still("exploring", f"{reason}: looked all round")
