@@ -110,14 +110,21 @@ class Navigator:
                planner: GlobalParams, now: float) -> Plan:  # fmt: skip
         """A plan to the nearest of `goals` by path cost (`plan.goal_index` says which). When there is
         one, it becomes the route: the next `step` towards that goal follows it, unplanned again."""
-        plan = plan_path(cm, start, goals, planner)
-        self.counters["plans"] += 1
+        plan = self._plan(cm, start, goals, planner)
         if not plan.ok:
-            self.counters["plan_failures"] += 1
             return plan
         self.reset()
         self.goal = goals[plan.goal_index]
         self.route = Route(plan, self.goal, now, cm.stamp)
+        return plan
+
+    def _plan(self, cm: Costmap, start: tuple[float, float], goals: list[tuple[float, float]],
+              planner: GlobalParams) -> Plan:  # fmt: skip
+        """The global planner's plan, counted (`plans`, `plan_failures`: the commander's status)."""
+        plan = plan_path(cm, start, goals, planner)
+        self.counters["plans"] += 1
+        if not plan.ok:
+            self.counters["plan_failures"] += 1
         return plan
 
     def step(
@@ -150,10 +157,8 @@ class Navigator:
             self.recoveries.reset()
         if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
             tol = max(self.planner.goal_tolerance_m, tolerance)
-            plan = plan_path(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol, goal_body_m=body))
-            self.counters["plans"] += 1
+            plan = self._plan(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol, goal_body_m=body))
             if not plan.ok:
-                self.counters["plan_failures"] += 1
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
             self.route, self._index = Route(plan, goal, now, cm.stamp), 0
