@@ -109,6 +109,23 @@ class Harness:
     def sent(self, api: int, since: float = 0.0) -> int:
         return sum(1 for t, r in self.wire.items if t >= since and r.header.identity.api_id == api)
 
+    def stop_moves(self, since: float) -> int:
+        """The StopMoves on the wire since `since`, checked to be one per transition to zero: a
+        StopMove follows a Move, or repeats one whose answer was not ok. On a loaded host the gate's
+        own command timeout can zero a teleop stream mid-drive, which is a transition of its own."""
+        answers = {r.header.identity.id: r.header.status.code for r in self.responses.msgs()}
+        seq = [r for t, r in self.wire.items if t >= since and r.header.identity.api_id in (p.MOVE, p.STOP_MOVE)]
+        stops, prev = 0, None
+        for r in seq:
+            if r.header.identity.api_id == p.STOP_MOVE:
+                if prev is not None and prev.header.identity.api_id == p.STOP_MOVE:
+                    code = answers.get(prev.header.identity.id)
+                    assert code != 0, f"StopMove {r.header.identity.id} repeats one answered ok: {len(seq)} requests"
+                stops += 1
+            prev = r
+        assert prev is None or prev.header.identity.api_id == p.STOP_MOVE, "the last sport request was a Move"
+        return stops
+
     def call_raw(self, service: str, req: Request, timeout: float = 5.0) -> Response | None:
         rid = req.header.identity.id
         self.raw[service].publish(req)
@@ -163,10 +180,11 @@ def test_stand_move_stop(go2: tuple[Harness, Procs]) -> None:
     moves = h.sent(p.MOVE, t0)
     assert 10 <= moves <= 20 * (t_stop - t0) + 5, why  # Moves while driving, at no more than move_rate_hz
     assert h.sent(p.MOVE, t_stop + 0.5) == 0
-    assert h.sent(p.STOP_MOVE, t0) == 1, "StopMove must be sent once per transition to zero"
+    stops = h.stop_moves(t0)
+    assert stops >= 1, "no StopMove after the drive"
     x1 = h.x()
     h.drive(0.0, 1.0)
-    assert h.sent(p.STOP_MOVE, t0) == 1 and abs(h.x() - x1) < 0.01
+    assert h.sent(p.STOP_MOVE, t0) == stops and abs(h.x() - x1) < 0.01, "a held zero sent StopMove again"
 
 
 def test_camera_frames_decode(go2: tuple[Harness, Procs]) -> None:
