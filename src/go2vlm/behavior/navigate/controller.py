@@ -35,29 +35,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from go2vlm.behavior.navigate.manoeuvre import Leg, first_leg
 from go2vlm.behavior.navigate.params import NavParams
-from go2vlm.geometry.footprint import Clearance, rect_distance
-from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
+from go2vlm.behavior.navigate.sweep import Rect, arc_clearance, fits
+from go2vlm.geometry.footprint import Clearance
 
-__all__ = ["Drive", "Rect", "arc_clearance", "project", "pursue"]
-
-ARC_SAMPLES = 12  # poses checked along a command's arc
-
-
-@dataclass(frozen=True)
-class Rect:
-    """The robot's rectangle (half sizes, m) about its base centre."""
-
-    half_length: float = FOOTPRINT_LENGTH / 2
-    half_width: float = FOOTPRINT_WIDTH / 2
-
-    @property
-    def corner(self) -> float:
-        return math.hypot(self.half_length, self.half_width)
-
-    def need(self, rule: Clearance, vx: float, wz: float) -> float:
-        """The gap (m) a command (vx, wz) keeps: the rule at the footprint's fastest point."""
-        return rule.at(abs(vx) + abs(wz) * self.corner)
+__all__ = ["Drive", "Leg", "Rect", "arc_clearance", "project", "pursue"]
 
 
 @dataclass(frozen=True)
@@ -68,6 +51,7 @@ class Drive:
     note: str  # what regulated or held it ("" = nothing)
     index: int  # the path segment the robot is on
     remaining: float  # m along the path to its end
+    leg: Leg | None = None  # a driver's turn's leg: hand it to the next `pursue`, which holds it
 
 
 def project(path: np.ndarray, x: float, y: float, start: int = 0) -> tuple[int, np.ndarray, float]:
@@ -98,37 +82,16 @@ def _carrot(path: np.ndarray, index: int, point: np.ndarray, lookahead: float) -
     return path[-1]
 
 
-def arc_clearance(scan: np.ndarray, vx: float, wz: float, duration: float, fp: Rect) -> float:
-    """The least clearance (m) of the footprint to the scan points (base frame) along the arc that
-    (vx, wz) drives for `duration`, its start included."""
-    if len(scan) == 0:
-        return math.inf
-    reach = abs(vx) * duration + fp.corner + 1.0
-    pts = scan[np.hypot(scan[:, 0], scan[:, 1]) <= reach]
-    if len(pts) == 0:
-        return math.inf
-    best = math.inf
-    for t in np.linspace(0.0, duration, ARC_SAMPLES):
-        th = wz * t
-        if abs(wz) > 1e-6:
-            px, py = vx / wz * math.sin(th), vx / wz * (1.0 - math.cos(th))
-        else:
-            px, py = vx * t, 0.0
-        c, s = math.cos(th), math.sin(th)
-        dx, dy = pts[:, 0] - px, pts[:, 1] - py
-        lx, ly = c * dx + s * dy, -s * dx + c * dy
-        best = min(best, float(rect_distance(lx, ly, fp.half_length, fp.half_width).min()))
-    return best
-
-
 def pursue(
     path: np.ndarray, pose: tuple[float, float, float], scan: np.ndarray | None, speed: float, p: NavParams,
-    max_linear: float, max_angular: float, start: int = 0, fp: Rect = Rect(), rule: Clearance | None = None,
+    max_linear: float, max_angular: float, start: int = 0, fp: Rect | None = None, rule: Clearance | None = None,
+    held: Leg | None = None, now: float = 0.0,
 ) -> Drive:  # fmt: skip
     """The command that follows `path` ((M, 2) world waypoints) from `pose` (x, y, yaw); `speed` the
     robot's speed now (m/s, for the lookahead); `scan` obstacle points in the base frame (None: no
-    fresh scan, no checks here: the guard's blind cap holds it)."""
-    rule = rule or Clearance()
+    fresh scan, no checks here: the guard's blind cap holds it); `held` the last step's `Drive.leg`, and
+    `now` the caller's time, which ends it."""
+    rule, fp = rule or Clearance(), fp or Rect()
     x, y, yaw = pose
     index, point, remaining = project(path, x, y, start)
     lookahead = min(max(p.lookahead_s * abs(speed), p.lookahead_min_m), p.lookahead_max_m)
@@ -142,7 +105,7 @@ def pursue(
     kappa = 2.0 * ly / max(d2, 1e-9)
 
     def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
-        return arc_clearance(pts, vx, wz, duration, fp) >= min(fp.need(rule, vx, wz), now_clear) - 1e-3
+        return fits(pts, vx, wz, duration, fp, rule)
 
     def turn() -> Drive:
         """Face the carrot where it stands, when the whole turn keeps the clearance; no room: a driver's
@@ -154,23 +117,37 @@ def pursue(
             w = math.copysign(rate, alpha)  # (the horizon checked at its own samples too)
             if rate > 0 and keeps(0.0, w) and keeps(0.0, w, max(p.horizon_s, abs(alpha) / rate)):
                 return Drive(0.0, w, "rotate", "turning to the route", index, remaining)
-        # No room to turn where it stands: a driver's turn in a narrow lane. Back along the route where
-        # it lies behind; else back, or creep on, turning towards it (a few of these turn it round).
+        # No room to turn where it stands: a driver's turn, in legs, each held for the rest of its
+        # length while that keeps its room (the search below checked it whole).
+        if held is not None and now < held.until and keeps(held.vx, held.wz, held.until - now):
+            return leg(held)
         side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
-        creep = min(p.min_speed, max_linear)
-        # on straight, out of the doorway it stands in, to turn where it is clear: first when the carrot
-        # lies ahead, last when behind (after backing along the route, and turning either way)
-        on = (creep, 0.0, "on straight to turn where it is clear")
         behind = abs(alpha) > math.pi / 2
-        moves = [(slow_back, slow_back * kappa, "backing along the route")] if behind else [on]
-        moves += [(slow_back / 2, side, "backing while it turns"),
-                  (creep, side, "creeping while it turns")] + ([on] if behind else [])  # fmt: skip
+        v, wz = slow_back, slow_back * kappa
+        if abs(wz) > max_angular:
+            v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+        if behind and keeps(v, wz):  # the route lies behind: back along it
+            return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
+        found = first_leg(pts, (lx, ly), p, fp, rule, max_linear, max_angular)
+        if found is not None:
+            return leg(Leg(found[0], found[1], now + p.turn_leg_s, f"leg 1 of {found[2]} to where it can turn"))
+        # No pose to turn from within reach: creep on straight, out of the doorway it stands in, to turn
+        # where it is clear (first where the carrot lies ahead, last where behind); back or creep on
+        # while it turns towards it.
+        creep = min(p.min_speed, max_linear)
+        on = (creep, 0.0, "on straight to turn where it is clear")
+        moves = [(slow_back / 2, side, "backing while it turns"), (creep, side, "creeping while it turns")]
+        moves = [*moves, on] if behind else [on, *moves]
         for v, wz, how in moves:
             if abs(wz) > max_angular:
                 v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
             if keeps(v, wz):
-                return Drive(v, wz, "reverse" if v < 0 else "track", f"no room to turn: {how}", index, remaining)
+                return leg(Leg(v, wz, now + p.turn_leg_s, how))
         return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
+
+    def leg(held: Leg) -> Drive:
+        mode = "reverse" if held.vx < 0 else "track"
+        return Drive(held.vx, held.wz, mode, f"no room to turn: {held.how}", index, remaining, held)
 
     if abs(alpha) > math.radians(p.rotate_to_heading_deg):
         return turn()

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from go2vlm.behavior.navigate.controller import Rect, pursue
+from go2vlm.behavior.navigate.controller import Leg, Rect, pursue
 from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.navigate.recovery import Recoveries
@@ -93,10 +93,11 @@ class Navigator:
         self.route: Route | None = None
         self._index = 0
         self._speed = 0.0
+        self._leg: Leg | None = None  # the controller's driver's-turn leg, handed back to it each step
 
     def reset(self) -> None:
         """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
-        self.goal, self.route, self._index, self._speed = None, None, 0, 0.0
+        self.goal, self.route, self._index, self._speed, self._leg = None, None, 0, 0.0, None
         self.progress.reset()
         self.recoveries.reset()
 
@@ -180,8 +181,8 @@ class Navigator:
             return self.step(goal, tolerance, cm, pose, scan, now, max_linear=max_linear, max_angular=max_angular,
                              body=body)  # fmt: skip
         d = pursue(self.route.plan.waypoints, pose, scan, self._speed, p, max_linear, max_angular, self._index,
-                   self.footprint, self.clearance)  # fmt: skip
-        self._index, self._speed = d.index, d.vx
+                   self.footprint, self.clearance, self._leg, now)  # fmt: skip
+        self._index, self._speed, self._leg = d.index, d.vx, d.leg
         self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
         reason = f"{d.remaining:.1f} m along the route"
         return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)

@@ -75,6 +75,14 @@ class NavParams:
         1.0, help="navigate: the command's arc this long ahead must keep the clearance (s)", min=0.1, max=5.0,
         live=True,
     )  # fmt: skip
+    turn_leg_s: float = param(
+        1.0, help="navigate: with no room to turn in place, a driver's turn goes in legs of this long (s), each held "
+        "while it keeps its clearance", min=0.1, max=5.0, live=True,
+    )  # fmt: skip
+    turn_legs: int = param(
+        4, help="navigate: a driver's turn searches this many legs ahead for a pose it can turn from", min=0, max=6,
+        live=True,
+    )  # fmt: skip
     # -- progress and recoveries ---------------------------------------------------------------
     progress_m: float = param(0.3, help="navigate: moving this far (m) ...", min=0.05, max=3.0, live=True)
     progress_deg: float = param(

@@ -19,8 +19,8 @@ from collections import Counter
 
 import numpy as np
 
-from go2vlm.behavior.navigate.controller import Rect, arc_clearance
 from go2vlm.behavior.navigate.params import RECOVERIES, NavParams
+from go2vlm.behavior.navigate.sweep import Rect, arc_clearance
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.poses import wrap_angle
 
