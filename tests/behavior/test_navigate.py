@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from go2vlm.behavior.navigate import Navigator, NavParams
-from go2vlm.behavior.navigate.controller import Rect, arc_clearance, pursue
+from go2vlm.behavior.navigate.controller import Leg, Rect, arc_clearance, pursue
 from go2vlm.behavior.navigate.params import RECOVERIES
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.geometry.footprint import Clearance
@@ -243,3 +243,19 @@ def test_a_drivers_turn_goes_in_legs_not_rocking(lane: float) -> None:
     flips = sum(a != b for a, b in zip(signs, signs[1:], strict=False))
     assert flips <= 30, flips
     assert least > 0.0  # never into a wall
+
+
+def test_a_held_leg_runs_on_where_the_routes_arc_would_keep_again() -> None:
+    """In a lane 0.8 m wide and long (no room to turn in place), the route 20 degrees off: the arc
+    keeps, but a leg of a driver's turn still held runs its length; cut short, the arc walked back to
+    where it had failed and the robot rocked (houses 005). Its time over, the arc is followed."""
+    wall = np.array([(x, s * 0.4) for x in np.linspace(-0.4, 0.4, 17) for s in (1, -1)])
+    path = np.array([[0.0, 0.0], [3.0, 3.0 * math.tan(math.radians(20))]])
+    p = NavParams()
+    free = pursue(path, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8)
+    assert free.mode == "track" and free.vx > 0.0, free
+    held = Leg(-0.15, 0.0, 1.0, "back")
+    d = pursue(path, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8, held=held, now=0.5)
+    assert d.vx == -0.15 and d.leg == held, d
+    d = pursue(path, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8, held=held, now=1.0)
+    assert d == free, d

@@ -10,7 +10,9 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
   carrot lies behind (`back_up_speed`); where it lies ahead, first creep straight on (`min_speed`:
   out of the doorway it stands in, to turn where it is clear); else back (at half that speed) or
   creep on while turning towards it, a driver's turn in a narrow lane; and with the carrot behind,
-  last, straight on out of the doorway all the same.
+  last, straight on out of the doorway all the same. A driver's turn goes in legs (manoeuvre.py),
+  each held for its length while it keeps its clearance, until the robot can turn to face the carrot
+  (or faces it within `line_up_deg`).
 - Otherwise the pure-pursuit arc through the carrot, at `max_linear` regulated down: by curvature
   (a radius under `min_radius_m` slows in proportion), by obstacles (the footprint nearer than
   `slow_near_m` to a scan point slows in proportion), and near the end (`approach_gain` x metres left),
@@ -149,7 +151,10 @@ def pursue(
         mode = "reverse" if held.vx < 0 else "track"
         return Drive(held.vx, held.wz, mode, f"no room to turn: {held.how}", index, remaining, held)
 
-    if abs(alpha) > math.radians(p.rotate_to_heading_deg):
+    # A held leg runs on, even where the route's arc would keep again: cut short, the arc walked
+    # straight back to where it failed, and the robot rocked between the two (houses 005).
+    turning = held is not None and now < held.until and abs(alpha) > math.radians(p.line_up_deg)
+    if abs(alpha) > math.radians(p.rotate_to_heading_deg) or turning:
         return turn()
     v, notes = max_linear, []
     if abs(kappa) > 1e-9 and 1.0 / abs(kappa) < p.min_radius_m:
