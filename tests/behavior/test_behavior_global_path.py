@@ -5,6 +5,7 @@ known space when told to, refuses with a reason, and a route replans when the ma
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -251,3 +252,23 @@ def test_passable_agrees_with_the_cost_grid(cells, unknown_cost, probe) -> None:
     want = np.zeros(len(rc), bool)
     want[inside] = np.isfinite(c[rc[inside, 0], rc[inside, 1]])
     assert (passable(cm, rc, p) == want).all()
+
+
+def test_a_stand_to_look_round_from_is_where_the_footprint_turns() -> None:
+    """A goal just past a doorway (its cells in the band: the footprint fits there at some headings
+    only): the plain search ends in the doorway, the nearest cell within the tolerance; a stand to
+    look round from (`goal_turnable`) ends past it, where the footprint may turn in place; and where
+    no such cell is near, any passable one is the goal still."""
+    data = np.zeros((40, 40), np.int8)
+    data[:, 20] = 100
+    data[17:23, 19:22] = 95  # the doorway, in the band
+    cm = Costmap(data, 0.05, (0.0, 0.0), 1.0)
+    p = replace(P, goal_tolerance_m=0.25)
+    plain = plan_path(cm, (0.3, 1.0), [(1.23, 1.01)], p)
+    stand = plan_path(cm, (0.3, 1.0), [(1.23, 1.01)], replace(p, goal_turnable=True))
+    assert plain.ok and stand.ok
+    assert plain.goal is not None and stand.goal is not None
+    assert cm.data[cm.cell(*plain.goal)] >= CIRCUMSCRIBED  # in the doorway
+    assert cm.data[cm.cell(*stand.goal)] < CIRCUMSCRIBED and stand.goal[0] > 1.05
+    inside = plan_path(cm, (0.3, 1.0), [(1.03, 1.01)], replace(P, goal_tolerance_m=0.05, goal_turnable=True))
+    assert inside.ok and inside.goal is not None and cm.data[cm.cell(*inside.goal)] >= CIRCUMSCRIBED

@@ -37,7 +37,8 @@ known way exists).
 
 Start and goal: a start on a lethal cell (the robot inside the inflation, by a wall) plans from the
 nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
-the goal (an object is itself an obstacle on the map: the path ends beside it). With `goal_in_sight`
+the goal (an object is itself an obstacle on the map: the path ends beside it); with `goal_turnable`
+(a stand to look round from) only those where the footprint turns in place, where there are any. With `goal_in_sight`
 (a place to look at: an object) only those in sight of it: the straight line to the goal crosses no
 obstacle cell farther than `goal_body_m` from it, or that belongs to a piece of obstacle lying wholly
 within `goal_body_m + goal_own_m` of it (the object's own cells hide nothing, where a remembered
@@ -289,6 +290,10 @@ def _search(
         # a coarse guide's goal cells are a guide's: the fine search keeps those in sight
         if k == 1 and p.goal_in_sight:
             cells = cells[in_sight(cm.data, cells, gc, p.goal_body_m / res, p.goal_own_m / res)]
+        if k == 1 and p.goal_turnable and len(cells):
+            v = cm.data[cells[:, 0], cells[:, 1]]
+            turnable = (v >= 0) & (v < CIRCUMSCRIBED)
+            cells = cells[turnable] if turnable.any() else cells
         ends += [(int(a), int(b)) for a, b in cells]
         owner += [gi] * len(cells)
     if not ends:

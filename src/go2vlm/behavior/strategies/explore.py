@@ -187,10 +187,11 @@ class Explorer:
     def route_params(self) -> GlobalParams:
         """The planner's settings for a walk to a frontier: its route ends within `arrive_m` less the
         navigator's own `arrive_m` of the goal, so that wherever the navigator calls it there the
-        robot stands within `arrive_m` of the goal, which is where a look counts for a map frontier."""
+        robot stands within `arrive_m` of the goal, which is where a look counts for a map frontier;
+        and, where it can, on a cell where it may turn in place to look round (`goal_turnable`)."""
         p = self.params
         end = max(p.arrive_m - self.navigator.params.arrive_m, 0.0)
-        return replace(p.global_params, goal_tolerance_m=end)
+        return replace(p.global_params, goal_tolerance_m=end, goal_turnable=True)
 
     def _standable(self, cm: Costmap, xy: tuple[float, float]) -> bool:
         """Is there a cell within `arrive_m` of `xy` that the robot may stand on, on `cm`?"""
