@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, mount_transform, scan_points, to_base
+from go2vlm.geometry.scan import ScanSpec, Stance, cloud_to_ranges, mount_transform, scan_points, to_base
 from go2vlm.msgs.pointcloud import cloud_xyz, scan_from_cloud, xyz_cloud
 from go2vlm.msgs.sensor_msgs import FLOAT64, PointCloud2, PointField
 from go2vlm.msgs.std_msgs import Header
@@ -101,3 +101,28 @@ def test_scan_from_cloud_frames() -> None:
     assert scan_from_cloud(xyz_cloud(Header(frame_id=GO2.lidar.frame), np.zeros((0, 3))), SPEC, tfs, "b") is None
     with pytest.raises(ValueError, match="frame"):
         scan_from_cloud(xyz_cloud(Header(frame_id="odom"), in_lidar), SPEC, tfs, GO2.frames.base)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.floats(0.08, 0.40), st.floats(-0.35, 0.35), st.floats(-0.35, 0.35))
+def test_with_its_stance_the_band_is_measured_from_the_floor(height: float, roll: float, pitch: float) -> None:
+    """The floor round the robot is never an obstacle, however the base stands, lies or tilts (a Go2
+    lying damped, its base 0.1 m up, saw the floor inside the base frame's band, and its guard held it
+    after an e-stop's release); a 0.16 m brick 0.6 m ahead stays one. In the base frame alone the
+    lying robot's floor is an obstacle."""
+    spec = GO2.scan_spec()
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    rot = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]]) @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    xs, ys = np.meshgrid(np.linspace(-3, 3, 61), np.linspace(-3, 3, 61))
+    floor = np.column_stack((xs.ravel(), ys.ravel(), np.zeros(xs.size)))
+    brick = np.array([(0.6, y, z) for y in np.linspace(-0.08, 0.08, 5) for z in np.linspace(0.0, 0.16, 9)])
+    world = np.vstack((floor, brick)) - (0.0, 0.0, height)  # relative to the base, in the level frame
+    base = world @ rot  # R^T p: into the tilted base's axes
+    r = cloud_to_ranges(base, spec, Stance.of(rot, height))
+    ahead = int(round(-spec.angle_min / spec.angle_increment))
+    assert r[ahead] == pytest.approx(0.6, abs=0.05)
+    others = np.ones(spec.bins, bool)
+    others[ahead - 5 : ahead + 6] = False  # the brick spans +-8 degrees
+    assert np.isinf(r[others]).all()
+    lying = cloud_to_ranges(floor - (0.0, 0.0, 0.1), spec)
+    assert np.isfinite(lying).all()  # the base frame's band holds the floor of a lying robot

@@ -47,3 +47,22 @@ def test_lidar_keeps_a_table_top_in_the_scan_as_the_robot_comes_near(gap: float)
     x = sim.state().position[0]
     assert x + 2.3 == pytest.approx(gap, abs=0.05)  # where it was put, facing the table
     assert r[ahead] <= (x + 2.3) + 0.4, r[ahead - 2 : ahead + 3]  # the edge, or the top just beyond it
+
+
+@pytest.mark.parametrize("gap", [0.15, 0.25, 0.5, 0.8, 1.1])
+def test_lidar_sees_a_low_object_near_the_robot(gap: float) -> None:
+    """House 1006's lego brick (0.16 m tall, 0.16 m across, at (6.125, 2.128)), `gap` m ahead of the
+    robot's nose, the robot facing it from the north: the scan ahead ends at it. With the lowest row
+    at -12 degrees the rays passed over the brick from 0.82 m from the base centre in, the map
+    cleared it, and the robot walked over it."""
+    bx, by = 6.125, 2.128
+    y0 = by + 0.08 + gap + GO2.footprint_length / 2  # the nose `gap` m short of the brick's north face
+    sim = Go2Sim(SimConfig(world="house:1006", spawn=(bx, y0, -math.pi / 2), mode="kinematic"))
+    sim.step(10)
+    lidar = Lidar(sim.model, sim.model.body("base").id)
+    base = to_base(lidar.scan(sim.data), (lidar.mount_r, lidar.mount_t))
+    s = GO2.scan_spec()
+    r = cloud_to_ranges(base, s)
+    ahead = int(round(-s.angle_min / s.angle_increment))
+    face = sim.state().position[1] - (by + 0.08)
+    assert min(r[ahead - 1 : ahead + 2]) == pytest.approx(face, abs=0.08), r[ahead - 2 : ahead + 3]

@@ -6,9 +6,15 @@ commander read /scan back into obstacle points with `scan_points`.
 
 The scan is in the base frame (x forward, y left), 360 degrees from -pi, one bin per
 `angle_increment`. A bin holds the horizontal distance to the nearest point in the obstacle band:
-between `z_min` and `z_max` in the base frame (above what the legs step over, below what the body
-passes under), outside the robot's own footprint (its legs in the cloud), within [range_min,
-range_max]. A bin without such a point is +inf (REP 117: nothing within range_max).
+between `z_min` and `z_max` in the base frame of the robot standing level (above what the legs step
+over, below what the body passes under), outside the robot's own footprint (its legs in the cloud),
+within [range_min, range_max]. A bin without such a point is +inf (REP 117: nothing within range_max).
+
+With the robot's `Stance` (its attitude and the base's height above the floor) the band is measured
+from the floor, as pointcloud_to_laserscan does in a gravity-aligned frame: the cloud is levelled and
+raised or lowered to where a level robot at `stand_height` would see it. Without it, in the base
+frame: a Go2 lying damped sees the floor 0.1 m below its base, inside the band, and the near rows that
+keep a low object in the scan would fill it with floor.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from go2vlm.declare import param
 
 __all__ = [
     "ScanSpec",
+    "Stance",
     "cloud_to_ranges",
     "frame_scan_points",
     "mount_transform",
@@ -49,6 +56,7 @@ class ScanSpec:
     )  # fmt: skip
     self_hx: float = 0.0  # half length and width of the robot's own box, left out (0 = keep all)
     self_hy: float = 0.0
+    stand_height: float = 0.0  # the base above the floor, standing (m): where a `Stance` puts the band
 
     @property
     def angle_min(self) -> float:
@@ -63,6 +71,23 @@ class ScanSpec:
         return self.angle_min + (self.bins - 1) * self.angle_increment
 
 
+@dataclass(frozen=True)
+class Stance:
+    """The robot's attitude and height: `level` rotates base-frame vectors into the frame of the same
+    heading with z up (roll and pitch undone), and `height` is the base's height above the floor (m)."""
+
+    level: np.ndarray
+    height: float
+
+    @staticmethod
+    def of(rotation: np.ndarray, height: float) -> Stance:
+        """From the base's rotation in any frame with z up (a world frame, an IMU's): its yaw is dropped."""
+        r = np.asarray(rotation, dtype=float).reshape(3, 3)
+        yaw = math.atan2(r[1, 0], r[0, 0])
+        c, s = math.cos(yaw), math.sin(yaw)
+        return Stance(np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ r, float(height))
+
+
 def mount_transform(pos: tuple[float, float, float], pitch: float) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) of a sensor mounted at `pos` pitched by `pitch` about y: p_base = R @ p_sensor + t."""
     c, s = math.cos(pitch), math.sin(pitch)
@@ -74,10 +99,13 @@ def to_base(points: np.ndarray, transform: tuple[np.ndarray, np.ndarray]) -> np.
     return np.asarray(points, dtype=float).reshape(-1, 3) @ r.T + t
 
 
-def cloud_to_ranges(points_base: np.ndarray, spec: ScanSpec) -> np.ndarray:
-    """(N, 3) points in the base frame -> `spec.bins` ranges (float32, +inf where nothing)."""
+def cloud_to_ranges(points_base: np.ndarray, spec: ScanSpec, stance: Stance | None = None) -> np.ndarray:
+    """(N, 3) points in the base frame -> `spec.bins` ranges (float32, +inf where nothing); with
+    `stance`, the band measured from the floor (module docstring)."""
     p = np.asarray(points_base, dtype=float).reshape(-1, 3)
     p = p[np.isfinite(p).all(axis=1)]
+    if stance is not None:
+        p = p @ stance.level.T + (0.0, 0.0, stance.height - spec.stand_height)
     p = p[(p[:, 2] >= spec.z_min) & (p[:, 2] <= spec.z_max)]
     if spec.self_hx > 0 and spec.self_hy > 0:
         p = p[(np.abs(p[:, 0]) > spec.self_hx) | (np.abs(p[:, 1]) > spec.self_hy)]

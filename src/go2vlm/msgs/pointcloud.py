@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, to_base
+from go2vlm.geometry.scan import ScanSpec, Stance, cloud_to_ranges, to_base
 from go2vlm.msgs.sensor_msgs import FLOAT32, FLOAT64, LaserScan, PointCloud2, PointField
 from go2vlm.msgs.std_msgs import Header
 
@@ -96,9 +96,11 @@ def scan_from_cloud(
     transforms: Mapping[str, tuple[np.ndarray, np.ndarray]],
     base_frame: str,
     scan_time: float = 0.0,
+    stance: Stance | None = None,
 ) -> LaserScan | None:
     """The /scan of a lidar cloud, in `base_frame`; `transforms` maps each frame a cloud may come in
-    to its (R, t) into the base frame. None for a cloud without a single point (a blind sensor: no
+    to its (R, t) into the base frame; `stance` the robot's, to measure the band from the floor
+    (geometry/scan.py). None for a cloud without a single point (a blind sensor: no
     scan at all, so that consumers see it go stale, rather than a scan that says "all free").
     Raises ValueError for a cloud in an unknown frame or with a broken layout."""
     tf = transforms.get(msg.header.frame_id)
@@ -107,5 +109,5 @@ def scan_from_cloud(
     pts = cloud_xyz(msg)
     if not np.isfinite(pts).all(axis=1).any():
         return None
-    ranges = cloud_to_ranges(to_base(pts, tf), spec)
+    ranges = cloud_to_ranges(to_base(pts, tf), spec, stance)
     return laser_scan(Header(stamp=msg.header.stamp, frame_id=base_frame), spec, ranges, scan_time)

@@ -111,4 +111,7 @@ class RobotProfile:
 
     def scan_spec(self) -> ScanSpec:
         """The robot's /scan: its own legs (the footprint, 2 cm padded) left out of the cloud."""
-        return ScanSpec(self_hx=self.footprint_length / 2 + 0.02, self_hy=self.footprint_width / 2 + 0.02)
+        return ScanSpec(
+            self_hx=self.footprint_length / 2 + 0.02, self_hy=self.footprint_width / 2 + 0.02,
+            stand_height=self.stand_height,
+        )  # fmt: skip

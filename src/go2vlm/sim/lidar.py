@@ -6,8 +6,14 @@ frame of the real rt/utlidar/cloud), so that the sim publishes the cloud a real 
 
 The real L1 covers 360 x 90 degrees with ~21600 points/s. The sim casts a cheap subset: `azimuths`
 rays around (2 degrees apart by default) on each of the `ELEVATIONS` rows (degrees above the base's
-horizontal plane): the rows below the horizon reach the floor within ~1.3 and ~2.6 m, so the cloud is
-never empty while the sensor works, the horizon row sees walls, and those above see what overhangs:
+horizontal plane): the rows below the horizon reach the floor from 0.27 m ahead of the lidar out to
+~1.3 and ~2.6 m, so the cloud is never empty while the sensor works and a low object near the robot
+stays in /scan (a 0.16 m lego brick from 0.11 m ahead of the lidar on; with -12 degrees the lowest
+row, rays passed over it from 0.53 m in, the map cleared it and the robot walked over it); the rows
+steeper than -12 degrees look forward only, as the chin-mounted L1 does (behind, the body is in
+their way), and /scan measures its band from the floor (`stance`: geometry/scan.py), so that the
+floor these rows meet is never an obstacle, lying down included. The horizon row sees walls, and
+those above see what overhangs:
 a table top 0.21 m above the lidar (0.48 m off the floor) is met by the +8 row from 1.5 m, the +15
 row from 0.8 m and the +30 row from 0.36 m away, so the edge of a table stays in /scan as the robot
 comes near it (with only +8, rays passed under it from 1.5 m on, the map cleared the space under it,
@@ -23,12 +29,13 @@ import math
 import mujoco
 import numpy as np
 
-from go2vlm.geometry.scan import mount_transform
+from go2vlm.geometry.scan import Stance, mount_transform
 from go2vlm.robot_profile.go2 import GO2
 
 __all__ = ["ELEVATIONS", "Lidar"]
 
-ELEVATIONS = (-12.0, -6.0, 0.0, 8.0, 15.0, 22.0, 30.0, 40.0)  # degrees
+ELEVATIONS = (-45.0, -30.0, -20.0, -12.0, -6.0, 0.0, 8.0, 15.0, 22.0, 30.0, 40.0)  # degrees
+NEAR_ROWS_BELOW = -12.0  # rows steeper than this look forward only (behind, the body is in their way)
 CUTOFF = 10.0  # m: beyond this a ray returns nothing (the scan's range_max)
 _GEOMGROUP = np.array([1, 1, 0, 0, 1, 1], dtype=np.uint8)  # not the robot's groups 2 and 3
 
@@ -39,10 +46,9 @@ class Lidar:
         self.base = base_body
         az = np.linspace(-math.pi, math.pi, azimuths, endpoint=False)
         rows = []
-        for el in np.radians(ELEVATIONS):
-            rows.append(
-                np.column_stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.full_like(az, np.sin(el))])
-            )
+        for deg in ELEVATIONS:
+            el, a = math.radians(deg), az if deg >= NEAR_ROWS_BELOW else az[np.cos(az) >= 0.0]
+            rows.append(np.column_stack([np.cos(el) * np.cos(a), np.cos(el) * np.sin(a), np.full_like(a, np.sin(el))]))
         self.dirs_base = np.vstack(rows)  # unit rays in the base frame
         self.mount_r, self.mount_t = mount_transform(GO2.lidar.pos, GO2.lidar.pitch)
         n = len(self.dirs_base)
@@ -65,3 +71,7 @@ class Lidar:
         hit = (self._geomid >= 0) & (self._dist >= 0) & (self._dist <= CUTOFF)
         p_base = self.dirs_base[hit] * self._dist[hit, None]  # from the mount, in base axes
         return p_base @ self.mount_r  # base axes -> lidar frame (R^T p, row-wise)
+
+    def stance(self, data: mujoco.MjData) -> Stance:
+        """The base's attitude and height above the floor (the worlds' floor is z = 0), for /scan's band."""
+        return Stance.of(data.xmat[self.base].reshape(3, 3), float(data.xpos[self.base][2]))

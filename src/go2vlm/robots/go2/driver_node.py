@@ -99,6 +99,7 @@ from go2vlm.bus.topics import (
 )
 from go2vlm.geometry.camera import PinholeCamera
 from go2vlm.geometry.rotations import quat_to_mat
+from go2vlm.geometry.scan import Stance
 from go2vlm.msgs.base_state import base_state_messages
 from go2vlm.msgs.image import camera_info, numpy_to_image
 from go2vlm.msgs.pointcloud import scan_from_cloud
@@ -128,7 +129,8 @@ class Go2DriverConfig(RobotEndConfig):
         p.SIGNAL_PORT, help="webrtc: the robot's signalling port (9991; the sim's --webrtc port)", min=1, max=65535
     )
     aes_key_file: str = param(
-        "", help="webrtc: a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
+        "",
+        help="webrtc: a file holding the robot's AES-128 key (32 hex chars; else env GO2VLM_AES_KEY), "
         "needed on firmware >= 1.1.15",
     )
     connect_timeout_s: float = param(
@@ -353,13 +355,25 @@ class Go2DriverNode(RobotEnd):
 
     def _on_cloud(self, msg: PointCloud2) -> None:
         try:
-            scan = scan_from_cloud(msg, self._scan_spec, self._lidar_tfs, self.config.base_frame)
+            scan = scan_from_cloud(msg, self._scan_spec, self._lidar_tfs, self.config.base_frame, 0.0, self._stance())
         except ValueError as exc:
             self.count("bad_cloud")
             self.log.throttled("error", 2.0, f"dropped a lidar cloud: {exc}")
             return
         if scan is not None:
             self.pub_scan.publish(scan)
+
+    def _stance(self) -> Stance | None:
+        """The robot's attitude (its IMU) and body height, from the last rt/sportmodestate: /scan's band
+        is measured from the floor (geometry/scan.py). None before a valid one: the base frame's band."""
+        s = self.state
+        if s is None:
+            return None
+        q = np.array([float(v) for v in s.imu_state.quaternion])
+        height = float(s.body_height)
+        if not (np.isfinite(q).all() and abs(np.linalg.norm(q) - 1.0) < 0.05 and math.isfinite(height) and height > 0):
+            return None
+        return Stance.of(quat_to_mat(q / np.linalg.norm(q)), height)
 
     def _on_state(self, msg: SportModeState) -> None:
         self.state = msg

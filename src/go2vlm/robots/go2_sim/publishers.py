@@ -166,7 +166,8 @@ class SimPublishers:
         points = self.lidar.scan(self.sim.data)
         cloud = xyz_cloud(Header(stamp=self.node.stamp(t), frame_id=self.robot.lidar.frame), points)
         self.cloud.publish(cloud)
-        scan = scan_from_cloud(cloud, self._scan_spec, self._lidar_tfs, self.robot.frames.base, period)
+        stance = self.lidar.stance(self.sim.data)
+        scan = scan_from_cloud(cloud, self._scan_spec, self._lidar_tfs, self.robot.frames.base, period, stance)
         if scan is not None:
             self.scan.publish(scan)
 
