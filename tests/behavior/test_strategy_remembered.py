@@ -169,3 +169,30 @@ def test_a_go_to_the_navigator_calls_there_short_of_the_stop_walks_the_last_bit(
     else:
         raise AssertionError(f"not reached in 120 s at {3.5 - 0.3 - x:.2f} m: {cmd.reason}")
     assert 3.5 - 0.3 - x - p.stop_distance_m <= p.distance_tolerance_m + 0.05, cmd.reason
+
+
+@settings(max_examples=30)
+@given(latency=st.floats(0.1, 2.0), jitter=st.floats(0.01, 0.04))
+def test_a_look_begun_at_the_place_is_answered_before_it_walks_again(latency: float, jitter: float) -> None:
+    """The place's range flickers by `jitter` either side of the stop distance's tolerance (the scan's
+    face against the memory's size, step by step). A look begun there is held until it is answered,
+    while the place is within the reach slack: before, each flicker out walked "the last bit" and
+    forgot the look, the next flicker in began a new one, no answer ever came back to a look, and the
+    robot rocked 0.85 m from a mug for 80 s (houses 006)."""
+    p = MissionParams()
+    ctx = Context(p, goal=parse_goal("go to the blue cylinder"), view=1.27)
+    nav = GoToRemembered()
+    edge = p.stop_distance_m + p.distance_tolerance_m + 0.3  # the centre at the edge of "at its place"
+    now, dt = 0.0, 0.05
+    for k in range(int(60.0 / dt)):
+        now += dt
+        ctx.answers.take(now - latency, now)  # every answer sees it straight ahead
+        x = edge + (jitter if k % 2 else -jitter)
+        ctx.memory = [obj(0, "blue cylinder", x, 0.0, 0.9, now - latency)]
+        ctx.pose = Pose(0.0, 0.0, 0.0, now)
+        ctx.target_obj = nav.pick(ctx)
+        cmd = nav.step(ctx, now)
+        assert cmd is not None
+        if cmd.state == "reached":
+            return
+    raise AssertionError(f"not reached in 60 s: {cmd.reason}")

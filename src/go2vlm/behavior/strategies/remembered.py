@@ -12,7 +12,8 @@ view is. Pure, timestamp-driven.
   given up (`remembered_unreachable`). Without a costmap: turn, then walk straight with the local
   planner, the guard having the last word. At its remembered place it turns to face it, stops and
   looks: `reached` only when an answer about a frame taken there placed it within reach
-  (stop_distance_m + distance_tolerance_m + `reach_slack_m`).
+  (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A look begun is held until answered
+  while the place stays within that reach: its range flickers about the stop distance's edge.
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
   one out of sight on the map is first walked towards with the navigator until it is in sight
   (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
@@ -134,7 +135,10 @@ class GoToRemembered:
                 out = self._walk(ctx, o, reach, now, "aligning", f"walking to where {where} can be seen")
                 if out is not None or ctx.target_obj is None:
                     return out
-        if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place:
+        # A look begun at its place is answered before it walks again, while within the reach slack:
+        # the range flickers about the stop distance's edge, and each flicker out forgot the look.
+        looking = ctx.look.key == key and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m
+        if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place and not looking:
             ctx.look.forget()
             self.failed_looks = 0
             mapped = ctx.costmap is not None
