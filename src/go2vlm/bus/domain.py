@@ -214,6 +214,17 @@ def domain_in_use(domain_id: int, interface: str = "lo", wait_s: float = 0.6) ->
             entity.__del__()  # delete now: a lingering participant would make the domain look busy
 
 
+def _bindable(domain_id: int, interface: str) -> bool:
+    """Can Cyclone start `domain_id` here? A domain's ports are fixed (7400 + 250 x id and up), and
+    from domain 102 on they lie in the ephemeral range, where any process's UDP socket may hold one:
+    Cyclone then cannot start it at all (a Ray eval task failed so, DDS_RETCODE_ERROR)."""
+    try:
+        Domain(domain_id, cyclone_config(interface)).__del__()
+    except DDSException:
+        return False
+    return True
+
+
 def domain_lock_dir() -> Path:
     """Where domain claims live: one lock file per domain, shared by every go2vlm process of this host."""
     return Path(os.environ.get("TMPDIR", tempfile.gettempdir())) / "go2vlm-domains"
@@ -223,8 +234,8 @@ def claim_free_domain(
     lo: int, hi: int, interface: str = "lo", seed: int | None = None, exclude: Collection[int] = ()
 ) -> int:
     """A DDS domain in lo..hi, not in `exclude`, that no other process holds (an flock on a file per
-    domain) and no participant on this host uses; the claim lasts as long as this process. ParamError
-    if none is free."""
+    domain), that Cyclone can start here (its ports free) and that no participant on this host uses;
+    the claim lasts as long as this process. ParamError if none is free."""
     import fcntl
 
     if not 0 <= lo <= hi <= 232:
@@ -240,7 +251,7 @@ def claim_free_domain(
         except OSError:
             os.close(fd)
             continue
-        if domain_in_use(domain_id, interface):
+        if not _bindable(domain_id, interface) or domain_in_use(domain_id, interface):
             os.close(fd)
             continue
         _claims.append(fd)
