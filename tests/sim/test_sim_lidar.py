@@ -14,20 +14,25 @@ from go2vlm.sim import Go2Sim, SimConfig
 from go2vlm.sim.lidar import Lidar
 
 
-def scan_ahead(sim: Go2Sim) -> tuple[np.ndarray, np.ndarray, int]:
+def scan_ahead(sim: Go2Sim) -> tuple[np.ndarray, np.ndarray, int, int]:
     """The cloud in the base frame, the /scan ranges the sim publishes of it (the band measured from
-    the floor with the robot's stance), and the bin straight ahead."""
+    the floor with the robot's stance), the bin straight ahead, and how many rays the lidar casts."""
     lidar = Lidar(sim.model, sim.model.body("base").id)
     base = to_base(lidar.scan(sim.data), (lidar.mount_r, lidar.mount_t))
     s = GO2.scan_spec()
-    return base, cloud_to_ranges(base, s, lidar.stance(sim.data)), int(round(-s.angle_min / s.angle_increment))
+    return (
+        base,
+        cloud_to_ranges(base, s, lidar.stance(sim.data)),
+        int(round(-s.angle_min / s.angle_increment)),
+        lidar.rays,
+    )
 
 
 def test_lidar_sees_the_wall_ahead_and_the_floor() -> None:
     sim = Go2Sim(SimConfig(world="obstacles", spawn=(3.0, 1.5, 0.0), mode="kinematic"))
     sim.step(10)
-    base, r, ahead = scan_ahead(sim)
-    assert len(base) > Lidar(sim.model, sim.model.body("base").id).rays // 4
+    base, r, ahead, rays = scan_ahead(sim)
+    assert len(base) > rays // 4
     assert (base[:, 2] < -0.25).any()  # floor returns
     x = sim.state().position[0]
     assert r[ahead] == pytest.approx(4.9 - x, abs=0.03)  # wall_east's face at x = 4.9
@@ -43,7 +48,7 @@ def test_lidar_keeps_a_table_top_in_the_scan_as_the_robot_comes_near(gap: float)
     horizon; with the +8 row alone, rays passed under it from 1.5 m on)."""
     sim = Go2Sim(SimConfig(world="household", spawn=(-2.3 + gap, 0.2, math.pi), mode="kinematic"))
     sim.step(10)
-    base, r, ahead = scan_ahead(sim)
+    base, r, ahead, _ = scan_ahead(sim)
     x = sim.state().position[0]
     assert x + 2.3 == pytest.approx(gap, abs=0.05)  # where it was put, facing the table
     assert r[ahead] <= (x + 2.3) + 0.4, r[ahead - 2 : ahead + 3]  # the edge, or the top just beyond it
@@ -59,6 +64,6 @@ def test_lidar_sees_a_low_object_near_the_robot(gap: float) -> None:
     y0 = by + 0.08 + gap + GO2.footprint_length / 2  # the nose `gap` m short of the brick's north face
     sim = Go2Sim(SimConfig(world="house:1006", spawn=(bx, y0, -math.pi / 2), mode="kinematic"))
     sim.step(10)
-    base, r, ahead = scan_ahead(sim)
+    base, r, ahead, _ = scan_ahead(sim)
     face = sim.state().position[1] - (by + 0.08)
     assert min(r[ahead - 1 : ahead + 2]) == pytest.approx(face, abs=0.08), r[ahead - 2 : ahead + 3]

@@ -83,6 +83,7 @@ class CommanderConfig:
     nav_horizon_s: float = from_core(NavParams, "horizon_s")
     nav_turn_leg_s: float = from_core(NavParams, "turn_leg_s")
     nav_turn_legs: int = from_core(NavParams, "turn_legs")
+    nav_turn_search_moves: int = from_core(NavParams, "turn_search_moves")
     nav_progress_m: float = from_core(NavParams, "progress_m")
     nav_progress_deg: float = from_core(NavParams, "progress_deg")
     nav_progress_s: float = from_core(NavParams, "progress_s")

@@ -107,7 +107,7 @@ def pursue(
     kappa = 2.0 * ly / max(d2, 1e-9)
 
     def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
-        return fits(pts, vx, wz, duration, fp, rule)
+        return fits(pts, vx, wz, duration, fp, rule, now_clear)
 
     def turn() -> Drive:
         """Face the carrot where it stands, when the whole turn keeps the clearance; no room: a driver's

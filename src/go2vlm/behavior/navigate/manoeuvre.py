@@ -19,12 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from go2vlm.behavior.navigate.params import NavParams
-from go2vlm.behavior.navigate.sweep import Rect, fits
+from go2vlm.behavior.navigate.sweep import Rect, arc_clearance, fits
 from go2vlm.geometry.footprint import Clearance
 
 __all__ = ["Leg", "first_leg"]
 
-_NODES = 400  # poses tried at most in one search: it runs once per leg, never per step
 _GRID_M, _GRID_RAD = 0.02, math.radians(5)  # poses nearer than this are one
 
 
@@ -77,7 +76,8 @@ def first_leg(pts: np.ndarray, carrot: tuple[float, float], p: NavParams, fp: Re
         cx, cy = carrot[0] - x, carrot[1] - y
         alpha = math.atan2(-math.sin(th) * cx + math.cos(th) * cy, math.cos(th) * cx + math.sin(th) * cy)
         w = math.copysign(rate, alpha)
-        if not (fits(at, 0.0, w, p.horizon_s, fp, rule) and fits(at, 0.0, w, abs(alpha) / rate, fp, rule)):
+        here = arc_clearance(at, 0.0, 0.0, 0.0, fp)
+        if not (fits(at, 0.0, w, p.horizon_s, fp, rule, here) and fits(at, 0.0, w, abs(alpha) / rate, fp, rule, here)):
             return False
         c, s = math.cos(alpha), math.sin(alpha)
         faced = np.column_stack((c * at[:, 0] + s * at[:, 1], -s * at[:, 0] + c * at[:, 1]))
@@ -86,12 +86,13 @@ def first_leg(pts: np.ndarray, carrot: tuple[float, float], p: NavParams, fp: Re
     seen = {(0, 0, 0)}
     todo: deque[tuple[float, float, float, int, tuple[float, float]]] = deque([(0.0, 0.0, 0.0, 0, (0.0, 0.0))])
     tried = 0
-    while todo and tried < _NODES:
+    while todo and tried < p.turn_search_moves:
         x, y, th, depth, first = todo.popleft()
         at = local(x, y, th)
+        here = arc_clearance(at, 0.0, 0.0, 0.0, fp)
         for vx, wz in moves:
             tried += 1
-            if not fits(at, vx, wz, horizon, fp, rule):
+            if not fits(at, vx, wz, horizon, fp, rule, here):
                 continue
             nx, ny, nth = _moved(x, y, th, vx, wz, leg_s)
             key = (round(nx / _GRID_M), round(ny / _GRID_M), round(nth / _GRID_RAD))

@@ -83,6 +83,10 @@ class NavParams:
         4, help="navigate: a driver's turn searches this many legs ahead for a pose it can turn from", min=0, max=6,
         live=True,
     )  # fmt: skip
+    turn_search_moves: int = param(
+        400, help="navigate: a driver's turn's search tries at most this many legs (its cost: it runs once per leg, "
+        "never per step)", min=1, max=5000, live=True,
+    )  # fmt: skip
     # -- progress and recoveries ---------------------------------------------------------------
     progress_m: float = param(0.3, help="navigate: moving this far (m) ...", min=0.05, max=3.0, live=True)
     progress_deg: float = param(

@@ -20,7 +20,7 @@ from collections import Counter
 import numpy as np
 
 from go2vlm.behavior.navigate.params import RECOVERIES, NavParams
-from go2vlm.behavior.navigate.sweep import Rect, arc_clearance
+from go2vlm.behavior.navigate.sweep import Rect, arc_clearance, fits
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.poses import wrap_angle
 
@@ -79,7 +79,7 @@ class Recoveries:
                 return None
             wz = math.copysign(max(p.min_turn_rate, 0.5 * max_angular), self._dir)
             for w in (wz, -wz):
-                if arc_clearance(pts, 0.0, w, p.horizon_s, fp) >= min(fp.need(rule, 0.0, w), here) - 1e-3:
+                if fits(pts, 0.0, w, p.horizon_s, fp, rule, here):
                     self._dir = math.copysign(1.0, w)
                     return 0.0, w
             self.active = None
@@ -87,7 +87,7 @@ class Recoveries:
         if name == "back_up":
             gone = math.hypot(pose[0] - self._start[0], pose[1] - self._start[1])
             v = -p.back_up_speed
-            room = arc_clearance(pts, v, 0.0, p.horizon_s, fp) >= min(fp.need(rule, v, 0.0), here) - 1e-3
+            room = fits(pts, v, 0.0, p.horizon_s, fp, rule, here)
             if gone >= p.back_up_m or not room:
                 self.active = None
                 return None

@@ -52,9 +52,12 @@ def arc_clearance(scan: np.ndarray, vx: float, wz: float, duration: float, fp: R
     return float(rect_distance(c * dx + s * dy, -s * dx + c * dy, fp.half_length, fp.half_width).min())
 
 
-def fits(pts: np.ndarray, vx: float, wz: float, duration: float, fp: Rect, rule: Clearance) -> bool:
+def fits(pts: np.ndarray, vx: float, wz: float, duration: float, fp: Rect, rule: Clearance,
+         here: float | None = None) -> bool:  # fmt: skip
     """Does the arc (vx, wz) for `duration` keep the clearance its speed needs (`rule` at the
     footprint's fastest point), or, where the footprint is nearer than that already (inside a
-    doorway), bring it no nearer? `pts`: obstacles in the base frame."""
-    here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
+    doorway), bring it no nearer? `pts`: obstacles in the base frame; `here`: the footprint's
+    clearance where it stands, when the caller has it (a step checks several arcs from one pose)."""
+    if here is None:
+        here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
     return arc_clearance(pts, vx, wz, duration, fp) >= min(fp.need(rule, vx, wz), here) - 1e-3
