@@ -20,6 +20,7 @@ from go2vlm.apps.episodes.recorder import Recording  # noqa: E402
 from go2vlm.apps.episodes.report import bootstrap_ci, wilson  # noqa: E402
 from go2vlm.apps.episodes.suites import SuiteError, available_suites, load_suite  # noqa: E402
 from go2vlm.behavior.goals import parse_target  # noqa: E402
+from go2vlm.behavior.strategies.params import MissionParams  # noqa: E402
 from go2vlm.bus import ShutdownRequested  # noqa: E402
 from go2vlm.geometry.footprint import Footprint, clearance  # noqa: E402
 from go2vlm.launch.launcher import LaunchError, load_launch, with_overrides  # noqa: E402
@@ -180,6 +181,14 @@ def test_go_to_metrics_success_spl_and_collisions() -> None:
     rec.poses.insert(50, (4.95, {"go2": (1.0, 1.0, 0.3, *_quat(0.0))}))
     m, _ = compute_metrics(rec, _ctx(ep, shapes))
     assert m["spl"] == pytest.approx(1.9 / m["path_length_m"], abs=1e-4) and m["spl"] < 0.9
+
+
+def test_the_commanders_farthest_reach_is_the_evals_success_distance() -> None:
+    """One definition of reached: where nearer cannot be walked the commander calls a go to reached
+    out to stop + tolerance + reach_slack_m from the surface; past the eval's success distance that
+    was a reached episode judged a miss (houses 006: 1.08 m by its own range, truly 1.002 m)."""
+    m = MissionParams()
+    assert m.stop_distance_m + m.distance_tolerance_m + m.reach_slack_m == pytest.approx(Episode.success_distance_m)
 
 
 def test_grounding_scores_every_answer_against_its_frame() -> None:

@@ -73,8 +73,9 @@ class MissionParams:
     # two sightings that agree: 0.73
     memory_confirm_confidence: float = param(0.7, help="... and this sure walked to", min=0.01, max=1.0, live=True)
     reach_slack_m: float = param(
-        0.25, help="go to: within reach where nearer cannot be walked (a remembered place, a blocked last "
-        "bit): stop + tolerance + this (m)", min=0.0, max=2.0, live=True,
+        0.15, help="go to: within reach where nearer cannot be walked (a remembered place, a blocked last "
+        "bit): stop + tolerance + this (m); by default 1.0 m, the success distance go to is judged by "
+        "(ObjectNav's, the eval's)", min=0.0, max=2.0, live=True,
     )  # fmt: skip
     confirm_looks: int = param(3, help="answered looks without it before giving up", min=1, max=20, live=True)
     # the view is 73 deg wide
