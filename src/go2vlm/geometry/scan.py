@@ -47,8 +47,9 @@ class ScanSpec:
     # episodes count a collision where the footprints meet in the plane, so a table top the robot could
     # walk under is kept an obstacle (docs/navigation.md, "Known limits").
     z_min: float = param(
-        -0.25, help="scan: points at least this high in the base frame are obstacles (m; -0.25: 7 cm off the "
-        "floor for a standing Go2)", min=-1.0, max=1.0,
+        -0.28, help="scan: points at least this high in the base frame are obstacles (m; -0.28: 4 cm off the "
+        "floor for a standing Go2, below the lowest thing a home leaves on the floor, a 7 cm tray)", min=-1.0,
+        max=1.0,
     )  # fmt: skip
     z_max: float = param(
         0.45, help="scan: ... and at most this high (m in the base frame; 0.45: 0.77 m off the floor)", min=-1.0,
