@@ -91,7 +91,7 @@ def _to_local(px: float, py: float, x: float, y: float, yaw: float) -> tuple[flo
     return c * dx + s * dy, -s * dx + c * dy
 
 
-def rect_distance(px: np.ndarray, py: np.ndarray, hx: float, hy: float) -> np.ndarray:
+def rect_distance(px: np.ndarray, py: np.ndarray, hx: float | np.ndarray, hy: float | np.ndarray) -> np.ndarray:
     """Signed distance from points (the rectangle's frame) to the centred rectangle of half sizes
     `hx`, `hy` (negative inside)."""
     dx, dy = np.abs(px) - hx, np.abs(py) - hy
@@ -107,25 +107,52 @@ def _rect_dist(px: float, py: float, rect: Footprint) -> float:
     return outside if outside > 0 else max(dx, dy)
 
 
-def _rect_points(rect: Footprint, n: int = 12) -> list[tuple[float, float]]:
+_OUTLINE = np.linspace(-1.0, 1.0, 12)  # points along each side, as fractions of its half length
+
+
+def _rect_points(rect: Footprint) -> tuple[np.ndarray, np.ndarray]:
+    """Points along a rectangle's outline (12 a side), world x and y."""
+    f, one = _OUTLINE, np.ones_like(_OUTLINE)
+    lx = np.concatenate((f * rect.hx, f * rect.hx, one * rect.hx, -one * rect.hx))
+    ly = np.concatenate((one * rect.hy, -one * rect.hy, f * rect.hy, f * rect.hy))
     c, s = math.cos(rect.yaw), math.sin(rect.yaw)
-    hx, hy = rect.hx, rect.hy
-    pts = []
-    for i in range(n):
-        f = -1.0 + 2.0 * i / (n - 1)
-        for lx, ly in ((f * hx, hy), (f * hx, -hy), (hx, f * hy), (-hx, f * hy)):
-            pts.append((rect.x + c * lx - s * ly, rect.y + s * lx + c * ly))
-    return pts
+    return rect.x + c * lx - s * ly, rect.y + s * lx + c * ly
+
+
+def _least_rect_dist(px: np.ndarray, py: np.ndarray, rect: Footprint) -> np.ndarray:
+    """The least signed distance from each row of points (world, (..., N)) to an oriented rectangle."""
+    c, s = math.cos(rect.yaw), math.sin(rect.yaw)
+    dx, dy = px - rect.x, py - rect.y
+    return rect_distance(c * dx + s * dy, -s * dx + c * dy, rect.hx, rect.hy).min(axis=-1)
 
 
 def clearance(robot: Footprint, shape: Footprint) -> float:
     """Gap between a rectangular robot footprint and an object's footprint (negative: they overlap).
     Rectangle against rectangle is sampled along both outlines (12 points a side: a few mm)."""
-    if shape.kind == "circle":
-        return _rect_dist(shape.x, shape.y, robot) - shape.r
-    a = min(_rect_dist(px, py, robot) for px, py in _rect_points(shape))
-    b = min(_rect_dist(px, py, shape) for px, py in _rect_points(robot))
-    return min(a, b)
+    return float(clearances(robot, [shape])[0])
+
+
+def clearances(robot: Footprint, shapes: list[Footprint]) -> np.ndarray:
+    """`clearance` of the robot to each of `shapes`, all at once (an episode's every pose against
+    every piece of furniture)."""
+    out = np.empty(len(shapes))
+    circles = [i for i, sh in enumerate(shapes) if sh.kind == "circle"]
+    rects = [i for i, sh in enumerate(shapes) if sh.kind != "circle"]
+    if circles:
+        cx, cy = np.array([shapes[i].x for i in circles]), np.array([shapes[i].y for i in circles])
+        out[circles] = _least_rect_dist(cx[:, None], cy[:, None], robot) - [shapes[i].r for i in circles]
+    if rects:
+        rs = [shapes[i] for i in rects]
+        sx, sy = (np.stack(v) for v in zip(*(_rect_points(sh) for sh in rs), strict=True))
+        to_robot = _least_rect_dist(sx, sy, robot)  # the shapes' outlines against the robot
+        px, py = _rect_points(robot)
+        x0, y0 = np.array([[sh.x] for sh in rs]), np.array([[sh.y] for sh in rs])
+        c, s = np.cos([[sh.yaw] for sh in rs]), np.sin([[sh.yaw] for sh in rs])
+        dx, dy = px[None, :] - x0, py[None, :] - y0
+        hx, hy = np.array([[sh.hx] for sh in rs]), np.array([[sh.hy] for sh in rs])
+        to_shape = rect_distance(c * dx + s * dy, -s * dx + c * dy, hx, hy).min(axis=1)  # ours against theirs
+        out[rects] = np.minimum(to_robot, to_shape)
+    return out
 
 
 def surface_distance(x: float, y: float, shape: Footprint) -> float:

@@ -85,7 +85,7 @@ from go2vlm.apps.episodes.navmap import map_summary, nav_series
 from go2vlm.apps.episodes.recorder import Recording
 from go2vlm.behavior.goals import GoalParseError, parse_target
 from go2vlm.behavior.mission import MissionParams
-from go2vlm.geometry.footprint import Footprint, clearance, surface_distance
+from go2vlm.geometry.footprint import Footprint, clearances, surface_distance
 from go2vlm.geometry.rotations import quat_yaw
 from go2vlm.msgs.vision_msgs import PixelBox
 from go2vlm.robot_profile import profile
@@ -436,19 +436,22 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         track.append((t, x, y, yaw))
         robot = Footprint.rect(x, y, yaw, robot_facts.footprint_length, robot_facts.footprint_width)
         worst, worst_name = math.inf, ""
+        names, placed = list(ctx.shapes), []
         for name, shape in ctx.shapes.items():
             if name in p:
                 b = p[name]
                 shape = shape.moved(b[0], b[1], quat_yaw(b[3], b[4], b[5], b[6]))
-            gap = clearance(robot, shape)
-            if gap < worst:
-                worst, worst_name = gap, name
+            placed.append(shape)
             if name == target:
                 dists.append((t, surface_distance(x, y, shape)))
                 centre.append(math.hypot(shape.x - x, shape.y - y))
                 target_xy.append((shape.x, shape.y))
                 bearing = math.atan2(shape.y - y, shape.x - x) - yaw
                 in_view.append(abs(math.atan2(math.sin(bearing), math.cos(bearing))) < hfov / 2)
+        if placed:
+            gaps = clearances(robot, placed)
+            k = int(np.argmin(gaps))
+            worst, worst_name = float(gaps[k]), names[k]
         if math.isfinite(worst):
             min_clear = min(min_clear, worst)
         if worst < 0 and not colliding:
