@@ -87,6 +87,20 @@ def test_extra_or_missing_members_are_refused() -> None:
         loads(buf.getvalue(), None, None, PARAMS)
 
 
+def test_a_damaged_array_header_is_refused() -> None:
+    """numpy reads a .npy header with Python's tokenizer: an unterminated string in it raised
+    tokenize.TokenError, not a MapFileError (found by the damage test below)."""
+    hdr = b"{'descr': '''<f4, 'fortran_order': False, 'shape': (3,), }"
+    hdr += b" " * (64 - 10 - len(hdr) - 1) + b"\n"
+    npy = b"\x93NUMPY\x01\x00" + len(hdr).to_bytes(2, "little") + hdr + bytes(12)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for name in ("meta.npy", "offset.npy", "logodds.npy"):
+            z.writestr(name, npy)
+    with pytest.raises(MapFileError, match="not a map file"):
+        loads(buf.getvalue(), None, None, PARAMS)
+
+
 @settings(max_examples=60, deadline=None)
 @given(cut=st.integers(0, 10_000), flip=st.integers(0, 10_000), byte=st.integers(0, 255))
 def test_any_damage_is_refused_or_loads_a_whole_valid_map(cut: int, flip: int, byte: int) -> None:

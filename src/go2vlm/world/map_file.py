@@ -21,6 +21,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -125,7 +126,8 @@ def _members(data: bytes) -> dict[str, np.ndarray]:
     except MapFileError:
         raise
     except (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, ValueError, OSError, EOFError, KeyError,
-            NotImplementedError) as exc:  # fmt: skip
+            NotImplementedError, SyntaxError, tokenize.TokenError) as exc:  # fmt: skip
+        # (the last two: numpy parses a damaged .npy header with tokenize)
         raise MapFileError(f"not a map file: {' '.join(str(exc).split())[:120]}") from None
 
 
