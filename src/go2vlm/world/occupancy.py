@@ -33,6 +33,11 @@ Rules
   per scan, and a cell hit by this scan is not cleared by another of its rays grazing it. Log-odds
   are clamped to [min_logodds, max_logodds], so a moved object is cleared after a few scans.
 - Rays are sampled every half cell (a vectorised walk; corner-clipped cells may be skipped).
+- What a scan shows free is the wedge between each two neighbouring beams, out to the nearer of their
+  free lengths: where the beams end more than SPREAD cells apart, rays filled in between them clear
+  it, as weakly as a gap (nothing the map holds occupied, nor past it). Beams alone left unseen
+  slivers between them from res / increment on (2.9 m at 5 cm and 1 degree), and one across a narrow
+  doorway cut it in two for the planner.
 - Grows with what it sees, `grow_margin_m` at a time, up to `max_size_m` a side; beyond that cap the
   part of a scan outside is dropped (`beyond_cap`, counted per beam), and a scan whose origin is
   outside is refused whole (ScanRefused("beyond_cap")). A bad scan geometry is refused whole
@@ -221,10 +226,22 @@ class OccupancyMap:
         free_len[gap] = np.maximum(bound[gap] - res, 0.0)
         hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
         step = res / 2.0
-        n = np.ceil(free_len / step).astype(np.int64)
+        # The free space a scan shows is the wedge between two neighbouring beams, out to the nearer of
+        # their free lengths, not the beams alone: beyond res / increment (2.9 m at 5 cm and 1 degree)
+        # the beams are more than a cell apart and leave unseen slivers between them (one across a
+        # 0.75 m doorway seen from 3.6 m cut it in two for the planner, houses 002). Rays in between,
+        # as weak as a gap's: they clear nothing the map holds occupied, nor anything past it.
+        apart = SPREAD * res
+        ex_dx, ex_dy, ex_len = _between(wa, free_len, usable, beams.angle_increment, apart, wraps)
+        dx, dy = np.concatenate((dx, ex_dx)), np.concatenate((dy, ex_dy))
+        free_len = np.concatenate((free_len, ex_len))
+        weak_ray = np.concatenate((gap, np.ones(len(ex_len), dtype=bool)))
+        # ... from where the beams are `apart`: nearer, the beams' own samples cover the wedge.
+        start = np.where(np.arange(len(free_len)) < len(r), 0.0, apart / abs(beams.angle_increment))
+        n = np.maximum(np.ceil((free_len - start) / step), 0).astype(np.int64)
         total = int(n.sum())
-        ray = np.repeat(np.arange(len(r)), n)
-        t = (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * step
+        ray = np.repeat(np.arange(len(n)), n)
+        t = start[ray] + (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * step
         fx, fy = ox + t * dx[ray], oy + t * dy[ray]
         # Lattice indices of everything this scan touches, then the window it may write.
         o_ix, o_iy = math.floor(ox / res), math.floor(oy / res)
@@ -241,39 +258,42 @@ class OccupancyMap:
         f_in = (f_ix >= x_lo) & (f_ix <= x_hi) & (f_iy >= y_lo) & (f_iy <= y_hi)
         beyond = np.zeros(len(r), dtype=bool)
         beyond[np.nonzero(hit)[0][~h_in]] = True
-        beyond[ray[~f_in]] = True
+        out = ray[~f_in]
+        beyond[out[out < len(r)]] = True  # counted per beam: the rays in between are none
         # Checked: now write (grow, then free rays, then hits over them).
         grew = self._grow(x_lo, x_hi, y_lo, y_hi)
         ix0, iy0 = self.offset
         flat_w = self.logodds.shape[1]
         lo = self.logodds.reshape(-1)
         h_flat = (h_iy[h_in] - iy0) * flat_w + (h_ix[h_in] - ix0)
-        f_flat = (f_iy[f_in] - iy0) * flat_w + (f_ix[f_in] - ix0)
+        f_ix, f_iy = f_ix[f_in] - ix0, f_iy[f_in] - iy0  # grid indices from here on
+        f_flat = f_iy * flat_w + f_ix
         before = lo[h_flat]
         # A gap in the sampling (not a measurement: a hole a binned cloud leaves) stops at the first
         # cell that is, or touches, one the map holds occupied: it may not clear what has been seen (a
         # wall behind a shadow stays a wall), nor slip between two wall cells that meet at a corner. A
         # ray that returned nothing did look: what the map held on it has gone, and it clears it.
-        weak = gap[ray[f_in]]
-        occ = np.zeros(len(f_flat), dtype=bool)
-        if weak.any():
-            grid2 = self.logodds
-            gy, gx = f_iy[f_in][weak] - iy0, f_ix[f_in][weak] - ix0
-            near = np.zeros(len(gy), dtype=bool)
-            for ddy in (-1, 0, 1):
-                for ddx in (-1, 0, 1):
-                    yy = np.clip(gy + ddy, 0, grid2.shape[0] - 1)
-                    xx = np.clip(gx + ddx, 0, grid2.shape[1] - 1)
-                    near |= grid2[yy, xx] >= p.occupied_logodds
-            occ[np.nonzero(weak)[0]] = near
-        if occ.any():
-            seg = np.repeat(np.cumsum(n) - n, n)[f_in]  # each sample's ray start, in samples
-            order = np.arange(total)[f_in]
-            past = np.zeros(total, dtype=np.int64)
-            past[order[occ]] = 1
-            csum = np.cumsum(past)
-            start = np.where(seg > 0, csum[np.maximum(seg - 1, 0)], 0)
-            f_flat = f_flat[~(weak & (csum[order] - start > 0))]
+        f_ray = ray[f_in]
+        w = np.nonzero(weak_ray[f_ray])[0]  # weak samples: each ray's in a row, in order
+        if len(w):
+            gy, gx = f_iy[w], f_ix[w]
+            y0, x0 = max(int(gy.min()) - 1, 0), max(int(gx.min()) - 1, 0)
+            held = self.logodds[y0 : int(gy.max()) + 2, x0 : int(gx.max()) + 2] >= p.occupied_logodds
+            touch = held.copy()  # an occupied cell or one of its 8 neighbours, over the window touched
+            touch[1:] |= held[:-1]
+            touch[:-1] |= held[1:]
+            touch[:, 1:] |= touch[:, :-1].copy()
+            touch[:, :-1] |= touch[:, 1:].copy()
+            occ = touch[gy - y0, gx - x0]
+            if occ.any():
+                wr = f_ray[w]
+                first = np.flatnonzero(np.r_[True, wr[1:] != wr[:-1]])  # where each weak ray begins
+                csum = np.cumsum(occ)
+                group = np.cumsum(np.r_[True, wr[1:] != wr[:-1]]) - 1
+                before_ray = (csum[first] - occ[first])[group]
+                keep = np.ones(len(f_flat), dtype=bool)
+                keep[w[csum - before_ray > 0]] = False  # from its first such cell on
+                f_flat = f_flat[keep]
         lo[f_flat] = np.maximum(lo[f_flat] - p.miss, p.min_logodds)
         lo[h_flat] = np.minimum(before + p.hit, p.max_logodds)
         self.scans += 1
@@ -347,6 +367,7 @@ GAP_ANGLE = math.radians(60.0)
 
 
 NEAR_BEAMS = 5  # how far beside a run its shadow's caster is looked for
+SPREAD = 0.7  # rays filled in between beams end at most this many cells apart (1.0 left slivers)
 
 
 def _gaps(
@@ -379,6 +400,24 @@ def _gaps(
         gap[idx] = True
         bound[idx] = min(r_hit[lo % n], r_hit[hi % n])
     return gap, bound
+
+
+def _between(
+    angles: np.ndarray, free_len: np.ndarray, usable: np.ndarray, increment: float, step: float, wraps: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rays between each two neighbouring usable beams, no further apart than `step` where they end,
+    each as long as the shorter of the two: their directions (x, y) and lengths."""
+    n = len(free_len)
+    i = np.arange(n if wraps else n - 1)
+    j = (i + 1) % n
+    both = usable[i] & usable[j]
+    i, j = i[both], j[both]
+    reach = np.minimum(free_len[i], free_len[j])
+    k = np.maximum(np.ceil(reach * abs(increment) / step).astype(np.int64) - 1, 0)  # rays in between
+    pair = np.repeat(np.arange(len(i)), k)
+    m = np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k) + 1
+    a = angles[i][pair] + increment * m / (k[pair] + 1)
+    return np.cos(a), np.sin(a), reach[pair]
 
 
 def _check_geometry(b: Beams) -> None:
