@@ -15,8 +15,9 @@ import pytest
 from go2vlm.apps.episodes.metrics import house_metrics
 from go2vlm.apps.episodes.report import by_house
 from go2vlm.apps.episodes.suites import SuiteError, load_suite
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.sim.houses import HouseError, generate, house_file
-from go2vlm.sim.houses.check import check_house, floor_grid
+from go2vlm.sim.houses.check import CHECK_GAP_M, check_house, floor_grid
 from go2vlm.sim.houses.objects import OBJECTS
 from go2vlm.sim.houses.plan import MAX_SIDE, MIN_SIDE, Piece, Wall
 from go2vlm.sim.render import labelled_bodies
@@ -202,3 +203,9 @@ def test_a_suite_naming_a_house_that_fails_its_check_stops(tmp_path: Path) -> No
     ok = next(g.asked for g in (generate(s) for s in range(200)) if not g.skipped)
     f.write_text(f"name: good\ntasks:\n  - {{world: 'house:{ok}', goal: go to the mug}}\n")
     assert load_suite(str(f)).episode(0, "oracle").world == f"house:{ok}"
+
+
+def test_the_check_asks_at_least_the_gap_the_planners_keep_at_a_creep() -> None:
+    """A house the check passes is one the planners can cross square-on: its gap round the footprint
+    is never less than the clearance rule's at a creep."""
+    assert Clearance().creep <= CHECK_GAP_M

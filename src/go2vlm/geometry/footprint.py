@@ -28,13 +28,14 @@ class Clearance:
     """The gap (m) kept between the robot's footprint and any obstacle: `creep_m` standing or at a
     creep, `per_speed_s` more per m/s of the fastest footprint point (about the distance it covers in
     that time while tracking, sensing and leg sway add up). Non-decreasing in speed. With the
-    defaults a Go2 (0.31 m wide) crosses a 0.8 m doorway square-on at up to 0.36 m/s (0.245 m each
-    side), refuses a 0.5 m gap (0.095 m each side, less than `creep_m`), and keeps 0.3 m at 0.5 m/s."""
+    defaults a Go2 (0.31 m wide) keeps a few centimetres at a creep (0.11 m at 0.15 m/s), crosses a
+    0.8 m doorway square-on at up to 0.49 m/s (0.245 m each side), refuses a 0.4 m gap (0.045 m each
+    side, less than `creep_m`), and keeps 0.25 m at 0.5 m/s."""
 
     # bound="min": a clearance is a safety limit, it may only grow while a node runs (declare.py)
     creep_m: float = param(
-        0.10, help="clearance: gap (m) the footprint keeps from any obstacle at a creep", min=0.0, max=1.5,
-        live=True, bound="min",
+        0.05, help="clearance: gap (m) the footprint keeps from any obstacle standing (more at speed)", min=0.0,
+        max=1.5, live=True, bound="min",
     )  # fmt: skip
     per_speed_s: float = param(
         0.4, help="clearance: gap added (m) per m/s of the footprint's fastest point", min=0.0, max=3.0,

@@ -1,7 +1,7 @@
 """The collision guard: the safety gate's last word on a command, from the range scan. Pure, driven by
 explicit timestamps, like SafetyCore (safety/mux.py), which applies it to every output.
 
-    guard = CollisionGuard(GuardConfig(margin=0.1, margin_per_speed_s=0.4))
+    guard = CollisionGuard(GuardConfig(margin=0.05, margin_per_speed_s=0.4))
     guard.scan(Scan("base_link", ranges, angle_min, angle_increment, range_min, range_max), now)
     out = guard.limit(Velocity(0.5, 0, 0), now, limits)   # the command, scaled down or as it is
 
@@ -13,7 +13,7 @@ Rules
   `margin` at a creep, `margin_per_speed_s` more per m/s of the footprint's fastest point (linear
   speed plus turn rate times the corner radius) at the scaled command. A creep keeps a few
   centimetres, so a Go2 walks through a 0.8 m doorway square-on (0.245 m each side); at 0.5 m/s the
-  defaults keep 0.3 m.
+  defaults keep 0.25 m.
 - With a fresh scan: the command passes at the largest scale s at which the robot can still stop
   before any obstacle comes within the margin at s of its footprint. The stopping path is the command's own
   arc (forward, sideways, turning: the footprint rectangle sweeps as it turns): first `reaction_s` plus

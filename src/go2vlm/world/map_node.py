@@ -48,7 +48,7 @@ Topics
 
 Parameters
   scan_topic (/scan), odom_topic (/odom), odom_frame ("odom"), map_frame ("map"), resolution_m
-  (0.05 m), max_size_m (60.0 m: the cap, a side), padding_m (0.1 m: the clearance at a creep),
+  (0.05 m), max_size_m (60.0 m: the cap, a side), padding_m (0.05 m: the clearance standing),
   inflation_m (0.8 m), history_s
   (10.0 s of poses), pose_wait_s (0.5 s: a scan newer than the newest pose waits this long),
   scan_matching (false), match_window_m (6.0 m), lost_reset_s (10.0 s), world ("": the place the map

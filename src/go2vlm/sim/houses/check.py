@@ -4,8 +4,9 @@
 - nothing overlaps: no piece of furniture or object overlaps a wall, another piece or another object;
 - every room is reachable by the Go2's footprint as the navigator plans it: the robot turns in place and
   crosses a gap square-on, so its centre may be where the clearance exceeds the half width (0.155 m)
-  plus the gap the planners keep at a creep (geometry/footprint.Clearance, 0.16 m): 0.63 m between
-  two obstacles; every room's spawn is one connected floor with every other's; the spawn itself
+  plus CHECK_GAP_M (0.16 m, at least the gap the planners keep at a creep, geometry/footprint.Clearance,
+  0.11 m: the houses are as roomy as when that gap was 0.16 m, and the suite's figures stay comparable):
+  0.63 m between two obstacles; every room's spawn is one connected floor with every other's; the spawn itself
   clears the whole footprint at any heading;
 - every object is reachable (a reachable cell within REACH_M of its footprint) and visible from
   somewhere (a reachable cell within SIGHT_M with a line of sight to it past walls and solid furniture;
@@ -22,12 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from go2vlm.geometry.footprint import Clearance
 from go2vlm.robot_profile.go2 import SIM
 from go2vlm.sim.houses.furniture import overlaps
 from go2vlm.sim.houses.plan import House, Rect
 
-__all__ = ["GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns", "unreachable_rooms"]
+__all__ = [
+    "CHECK_GAP_M", "GRID_M", "MARGIN_M", "Floor", "check_house", "floor_grid", "hidden_items", "spawns",
+    "unreachable_rooms",
+]  # fmt: skip
 
 GRID_M = 0.05
 MARGIN_M = 0.05  # beyond the footprint's circle (spawns)
@@ -35,7 +38,8 @@ REACH_M = 0.8  # the commander's stop distance: how close a go-to comes
 SIGHT_M = 4.0
 INSCRIBED = SIM.footprint_width / 2
 CIRCUMSCRIBED = math.hypot(SIM.footprint_length / 2, SIM.footprint_width / 2)
-PASSAGE = INSCRIBED + Clearance().creep  # the centre's clearance where the planners let it stand
+CHECK_GAP_M = 0.16  # kept round the footprint by the check: >= Clearance().creep (a test holds it)
+PASSAGE = INSCRIBED + CHECK_GAP_M  # the centre's clearance where the check lets it stand
 
 
 @dataclass
