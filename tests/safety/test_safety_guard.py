@@ -157,8 +157,9 @@ def test_wall_ahead_slows_then_stops_at_the_margin() -> None:
 
 def test_turning_in_place_sweeps_the_corners() -> None:
     guard = CollisionGuard(CFG)
-    # A post just off the front-left corner: outside the footprint, but inside its turning circle.
-    guard.scan(scan_of([(CFG.half_length + 0.05, CFG.half_width + 0.1)]), 0.0)
+    # A post just off the front-left corner: outside the footprint (and its margin standing), but
+    # inside its turning circle.
+    guard.scan(scan_of([(CFG.half_length + 0.01, CFG.half_width + CFG.margin + 0.01)]), 0.0)
     assert guard.limit(Velocity(0.0, 0.0, 1.0), 0.0, LIMITS).is_zero  # turning left swings into it
     guard.scan(scan_of([(0.0, CFG.half_width + 0.5)]), 0.0)  # beside the middle: the turn is free
     assert guard.limit(Velocity(0.0, 0.0, 1.0), 0.0, LIMITS) == Velocity(0.0, 0.0, 1.0)

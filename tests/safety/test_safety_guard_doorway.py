@@ -70,9 +70,9 @@ def test_the_clearance_grows_with_speed() -> None:
     speeds = np.linspace(0.0, 1.5, 31)
     gaps = [rule.at(v) for v in speeds]
     assert (np.diff(gaps) >= 0).all() and gaps[0] == rule.creep_m
-    assert rule.at(0.5) == 0.1 + 0.4 * 0.5
+    assert rule.at(0.5) == rule.creep_m + rule.per_speed_s * 0.5
     assert all(rule.at(rule.speed_for(g)) <= g + 1e-12 for g in (0.1, 0.2, 0.245, 0.4))
-    assert rule.speed_for(0.05) == 0.0
+    assert rule.speed_for(rule.creep_m * 0.9) == 0.0  # less than a standing gap: not even a creep
 
 
 @given(creep=st.floats(0.0, 0.3), per=st.floats(0.0, 1.0), a=st.floats(0.0, 2.0), b=st.floats(0.0, 2.0))
