@@ -279,11 +279,11 @@ def test_sit_and_stand_are_posture_commands() -> None:
 def test_a_search_turn_beside_a_table_backs_away_first() -> None:
     """The gate's guard would hold a turn in place that sweeps the footprint into a table edge: the
     mission backs away (turning the way it wanted to), then turns (planner/local.py unstick). The
-    table stands 0.15 m ahead: the corners' sweep would come within a creep's clearance (0.16 m)."""
+    table stands 0.08 m ahead: the corners' sweep would come within a creep's clearance (0.11 m)."""
     m = Mission(MissionParams())
     m.set_goal("look for the blue cylinder", 0.0)
     ys = np.arange(-0.6, 0.6, 0.02)
-    table = np.column_stack([np.full_like(ys, 0.35 + 0.15), ys])
+    table = np.column_stack([np.full_like(ys, 0.35 + 0.08), ys])
     m.observe_pose(0.0, 0.0, 0.0, 0.1)
     m.observe_scan(table, 0.1)
     out = m.step(0.1)
