@@ -1,5 +1,5 @@
 """Footprint-true geometry on narrow doors: the costmap (world/occupancy.py `inflate`) leaves a 0.8 m
-doorway open and closes a 0.5 m gap, and the global planner crosses the doorway square-on, at full
+doorway open and closes a 0.4 m gap, and the global planner crosses the doorway square-on, at full
 resolution and when the map is planned coarse first. Real costmaps from a wall's cells, no mocks."""
 
 from __future__ import annotations
