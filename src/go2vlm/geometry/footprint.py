@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -120,11 +121,16 @@ def _rect_points(rect: Footprint) -> tuple[np.ndarray, np.ndarray]:
     return rect.x + c * lx - s * ly, rect.y + s * lx + c * ly
 
 
+def _least_dist(px: np.ndarray, py: np.ndarray, x: Any, y: Any, yaw: Any, hx: Any, hy: Any) -> np.ndarray:
+    """The least signed distance from each row of points (world, (..., N)) to an oriented rectangle
+    (centre, yaw, half sizes: numbers, or columns with one rectangle a row)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    dx, dy = px - x, py - y
+    return rect_distance(c * dx + s * dy, -s * dx + c * dy, hx, hy).min(axis=-1)
+
+
 def _least_rect_dist(px: np.ndarray, py: np.ndarray, rect: Footprint) -> np.ndarray:
-    """The least signed distance from each row of points (world, (..., N)) to an oriented rectangle."""
-    c, s = math.cos(rect.yaw), math.sin(rect.yaw)
-    dx, dy = px - rect.x, py - rect.y
-    return rect_distance(c * dx + s * dy, -s * dx + c * dy, rect.hx, rect.hy).min(axis=-1)
+    return _least_dist(px, py, rect.x, rect.y, rect.yaw, rect.hx, rect.hy)
 
 
 def clearance(robot: Footprint, shape: Footprint) -> float:
@@ -147,11 +153,8 @@ def clearances(robot: Footprint, shapes: list[Footprint]) -> np.ndarray:
         sx, sy = (np.stack(v) for v in zip(*(_rect_points(sh) for sh in rs), strict=True))
         to_robot = _least_rect_dist(sx, sy, robot)  # the shapes' outlines against the robot
         px, py = _rect_points(robot)
-        x0, y0 = np.array([[sh.x] for sh in rs]), np.array([[sh.y] for sh in rs])
-        c, s = np.cos([[sh.yaw] for sh in rs]), np.sin([[sh.yaw] for sh in rs])
-        dx, dy = px[None, :] - x0, py[None, :] - y0
-        hx, hy = np.array([[sh.hx] for sh in rs]), np.array([[sh.hy] for sh in rs])
-        to_shape = rect_distance(c * dx + s * dy, -s * dx + c * dy, hx, hy).min(axis=1)  # ours against theirs
+        x, y, yaw, hx, hy = np.array([[sh.x, sh.y, sh.yaw, sh.hx, sh.hy] for sh in rs]).T[..., None]
+        to_shape = _least_dist(px[None, :], py[None, :], x, y, yaw, hx, hy)  # our outline against each of theirs
         out[rects] = np.minimum(to_robot, to_shape)
     return out
 

@@ -287,9 +287,10 @@ class OccupancyMap:
             occ = touch[gy - y0, gx - x0]
             if occ.any():
                 wr = f_ray[w]
-                first = np.flatnonzero(np.r_[True, wr[1:] != wr[:-1]])  # where each weak ray begins
+                begins = np.r_[True, wr[1:] != wr[:-1]]  # where each weak ray begins
+                first = np.flatnonzero(begins)
                 csum = np.cumsum(occ)
-                group = np.cumsum(np.r_[True, wr[1:] != wr[:-1]]) - 1
+                group = np.cumsum(begins) - 1
                 before_ray = (csum[first] - occ[first])[group]
                 keep = np.ones(len(f_flat), dtype=bool)
                 keep[w[csum - before_ray > 0]] = False  # from its first such cell on

@@ -428,6 +428,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
     in_view: list[bool] = []
     min_clear, collisions, colliding = math.inf, 0, False
     collided_with: set[str] = set()
+    shape_names = list(ctx.shapes)
     for t, p in rec.poses:
         if "go2" not in p:
             continue
@@ -436,7 +437,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         track.append((t, x, y, yaw))
         robot = Footprint.rect(x, y, yaw, robot_facts.footprint_length, robot_facts.footprint_width)
         worst, worst_name = math.inf, ""
-        names, placed = list(ctx.shapes), []
+        placed: list[Footprint] = []
         for name, shape in ctx.shapes.items():
             if name in p:
                 b = p[name]
@@ -451,7 +452,7 @@ def compute_metrics(rec: Recording, ctx: Context) -> tuple[dict[str, Any], dict[
         if placed:
             gaps = clearances(robot, placed)
             k = int(np.argmin(gaps))
-            worst, worst_name = float(gaps[k]), names[k]
+            worst, worst_name = float(gaps[k]), shape_names[k]
         if math.isfinite(worst):
             min_clear = min(min_clear, worst)
         if worst < 0 and not colliding:
