@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 
 from go2vlm.declare import param
+
+Num = float | np.ndarray  # a number, or a column of them (one a rectangle)
 
 __all__ = ["Clearance", "Footprint", "clearance", "rect_distance", "surface_distance"]
 
@@ -121,7 +122,7 @@ def _rect_points(rect: Footprint) -> tuple[np.ndarray, np.ndarray]:
     return rect.x + c * lx - s * ly, rect.y + s * lx + c * ly
 
 
-def _least_dist(px: np.ndarray, py: np.ndarray, x: Any, y: Any, yaw: Any, hx: Any, hy: Any) -> np.ndarray:
+def _least_dist(px: np.ndarray, py: np.ndarray, x: Num, y: Num, yaw: Num, hx: Num, hy: Num) -> np.ndarray:
     """The least signed distance from each row of points (world, (..., N)) to an oriented rectangle
     (centre, yaw, half sizes: numbers, or columns with one rectangle a row)."""
     c, s = np.cos(yaw), np.sin(yaw)
