@@ -236,12 +236,15 @@ class OccupancyMap:
         dx, dy = np.concatenate((dx, ex_dx)), np.concatenate((dy, ex_dy))
         free_len = np.concatenate((free_len, ex_len))
         weak_ray = np.concatenate((gap, np.ones(len(ex_len), dtype=bool)))
-        # ... from where the beams are `apart`: nearer, the beams' own samples cover the wedge.
-        start = np.where(np.arange(len(free_len)) < len(r), 0.0, apart / abs(beams.angle_increment))
-        n = np.maximum(np.ceil((free_len - start) / step), 0).astype(np.int64)
+        # ... from where the beams are `apart` (nearer, the beams' own samples cover the wedge), in
+        # longer steps than a beam's: their neighbours fill what one steps over.
+        filled = np.arange(len(free_len)) >= len(r)
+        start = np.where(filled, apart / abs(beams.angle_increment), 0.0)
+        steps = np.where(filled, res * FILL_STEP, step)
+        n = np.maximum(np.ceil((free_len - start) / steps), 0).astype(np.int64)
         total = int(n.sum())
         ray = np.repeat(np.arange(len(n)), n)
-        t = start[ray] + (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * step
+        t = start[ray] + (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * steps[ray]
         fx, fy = ox + t * dx[ray], oy + t * dy[ray]
         # Lattice indices of everything this scan touches, then the window it may write.
         o_ix, o_iy = math.floor(ox / res), math.floor(oy / res)
@@ -368,6 +371,7 @@ GAP_ANGLE = math.radians(60.0)
 
 
 NEAR_BEAMS = 5  # how far beside a run its shadow's caster is looked for
+FILL_STEP = 0.7  # cells between the samples of a ray filled in (the beams: half a cell; 0.8 left cells)
 SPREAD = 0.7  # rays filled in between beams end at most this many cells apart (1.0 left slivers)
 
 
