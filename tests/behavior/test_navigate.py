@@ -262,3 +262,52 @@ def test_a_held_leg_runs_on_where_the_routes_arc_would_keep_again() -> None:
     assert d.vx == -0.15 and d.leg == held, d
     d = pursue(path, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8, held=held, now=1.0)
     assert d == free, d
+
+
+def two_doors(shut: set[str]) -> np.ndarray:
+    """The toy house with two doors 1.0 m clear in its wall: "near" at y = -2.5, "far" at y = +2.5."""
+    g = house()
+    g[:, 119:121] = True
+    for name, centre in (("near", 20), ("far", 120)):
+        if name not in shut:
+            g[centre - 10 : centre + 10, 119:121] = False
+    return g
+
+
+def door_shutting(nav: Navigator, once: bool, steps: int = 3000) -> tuple[str, str, int]:
+    """Walk from (3, -2.5) to (-3, -2.5). A door shuts on the map as the robot comes within 1.2 m of it;
+    `once`: the near door only, for good; else whichever it nears, the other open again."""
+    x, y, yaw = 3.0, -2.5, math.pi
+    doors = {"near": (0.0, -2.5), "far": (0.0, 2.5)}
+    shut: set[str] = set()
+    walls = two_doors(shut)
+    cm, pts = costmap(walls), wall_points(walls)
+    for k in range(steps):
+        near = {n for n, (dx, dy) in doors.items() if math.hypot(x - dx, y - dy) < 1.2}
+        now_shut = (shut | (near & {"near"})) if once else near
+        if near and now_shut != shut:
+            shut, walls = now_shut, two_doors(now_shut)
+            cm, pts = costmap(walls, k * 0.1), wall_points(walls)
+        scan = scan_at(pts, x, y, yaw)
+        out = nav.step((-3.0, -2.5), 0.3, cm, (x, y, yaw), scan, k * 0.1, max_linear=0.5, max_angular=0.8)
+        if out.status in ("arrived", "failed"):
+            return out.status, out.reason, k
+        yaw += out.wz * 0.1
+        x, y = x + out.vx * math.cos(yaw) * 0.1, y + out.vx * math.sin(yaw) * 0.1
+    return "timeout", "", steps
+
+
+def test_a_goal_whose_way_keeps_growing_back_is_given_up() -> None:
+    """Whichever door the robot nears shuts on the map and the other opens: it walks all the time (the
+    moving check is content) and never nears the goal. The route's setbacks end it, where an unbounded
+    navigator walks between the doors until the time runs out; one door shut for good is one detour,
+    and it arrives."""
+    status, reason, _ = door_shutting(Navigator(NavParams(setbacks=1000), GlobalParams()), once=False)
+    assert status == "timeout", (status, reason)
+    nav = Navigator(NavParams(), GlobalParams())
+    status, reason, _ = door_shutting(nav, once=False)
+    assert status == "failed" and "grew back" in reason, (status, reason)
+    assert nav.counters["setbacks"] == NavParams().setbacks
+    nav = Navigator(NavParams(), GlobalParams())
+    status, reason, _ = door_shutting(nav, once=True)
+    assert status == "arrived" and nav.counters["setbacks"] == 1, (status, reason, nav.status())

@@ -12,7 +12,8 @@ It owns, as Nav2 keeps them apart:
   each answer keeps its route), replanned when the newest map blocks it, when the robot strays
   from it, or as the map grows;
 - the controller (navigate/controller.py: regulated pure pursuit, footprint-checked);
-- one progress checker (navigate/progress.py: `progress_m` within `progress_s`);
+- one progress checker (navigate/progress.py: `progress_m` within `progress_s`, and a way left to go
+  that does not keep growing back: `setbacks`);
 - the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
 A caller choosing among places (the explorer, among frontiers) asks the navigator too: `costs`
@@ -98,7 +99,7 @@ class Navigator:
     def reset(self) -> None:
         """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
         self.goal, self.route, self._index, self._speed, self._leg = None, None, 0, 0.0, None
-        self.progress.reset()
+        self.progress.new_goal()
         self.recoveries.reset()
 
     def costs(self, cm: Costmap, start: tuple[float, float], goals: list[tuple[float, float]],
@@ -163,6 +164,14 @@ class Navigator:
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
             self.route, self._index = Route(plan, goal, now, cm.stamp), 0
+            if self.progress.replanned(plan.length, p.setback_m):
+                self.counters["setbacks"] += 1
+                if self.progress.setbacks >= p.setbacks:
+                    self.counters["failures"] += 1
+                    least = self.progress.least_to_go
+                    self.reset()
+                    return NavStep(0.0, 0.0, "failed", f"the way there grew back {p.setbacks} times (by over "
+                                   f"{p.setback_m:g} m; {least:.1f} m to go at the least)")  # fmt: skip
         if self.progress.stalled(now, p.progress_s):
             toward = self._toward(pose)
             name = self.recoveries.begin(pose, now, toward)
@@ -184,6 +193,7 @@ class Navigator:
                    self.footprint, self.clearance, self._leg, now)  # fmt: skip
         self._index, self._speed, self._leg = d.index, d.vx, d.leg
         self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
+        self.progress.to_go(d.remaining)
         reason = f"{d.remaining:.1f} m along the route"
         return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)
 

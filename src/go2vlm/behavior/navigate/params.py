@@ -96,6 +96,14 @@ class NavParams:
     progress_s: float = param(
         10.0, help="navigate: ... within this long (s) is progress; else a recovery", min=1.0, max=120.0, live=True
     )
+    setback_m: float = param(
+        1.0, help="navigate: a replan that makes the way left this much longer (m) than its least for the goal is a "
+        "setback ...", min=0.1, max=20.0, live=True,
+    )  # fmt: skip
+    setbacks: int = param(
+        3, help="navigate: ... and after this many the goal is given up (failed: its way keeps growing back)", min=1,
+        max=100, live=True,
+    )  # fmt: skip
     spin_deg: float = param(90.0, help="navigate: the spin recovery's turn (deg)", min=10.0, max=360.0, live=True)
     back_up_m: float = param(0.3, help="navigate: the back-up recovery's distance (m)", min=0.05, max=2.0, live=True)
     back_up_speed: float = param(0.15, help="navigate: the back-up recovery's speed (m/s)", min=0.05, max=0.5,
