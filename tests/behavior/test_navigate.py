@@ -123,6 +123,22 @@ def test_a_stalled_robot_tries_each_recovery_in_order_then_fails() -> None:
     assert seen == [f"recovering: {name}" for name in RECOVERIES if name != "replan"]
 
 
+def test_a_robot_that_moves_but_gets_no_nearer_tries_each_recovery_once_then_fails() -> None:
+    """It shuffles 0.4 m across its route every 3 s whatever it is told: the moving check is content
+    all the time, and the way left to go never falls. Moving about does not start the recoveries
+    from the first again, so they run out."""
+    walls = house()
+    nav = Navigator(NavParams(nearing_s=6.0, wait_s=1.0, recovery_s=3.0), GlobalParams())
+    cm, pts = costmap(walls), wall_points(walls)
+    for k in range(600):
+        pose = (3.0, -2.0 + 0.4 * ((k // 30) % 2), 0.0)
+        out = nav.step((-3.0, 2.0), 0.3, cm, pose, scan_at(pts, *pose), k * 0.1, max_linear=0.5, max_angular=0.8)
+        if out.status == "failed":
+            break
+    assert out.status == "failed" and "nearing" in out.reason and "after every recovery" in out.reason, out
+    assert dict(nav.recoveries.counts) == {name: 1 for name in RECOVERIES}
+
+
 def test_a_goal_that_shifts_by_centimetres_keeps_its_route() -> None:
     walls = house()
     nav = Navigator(NavParams(), GlobalParams())

@@ -87,6 +87,7 @@ class CommanderConfig:
     nav_progress_m: float = from_core(NavParams, "progress_m")
     nav_progress_deg: float = from_core(NavParams, "progress_deg")
     nav_progress_s: float = from_core(NavParams, "progress_s")
+    nav_nearing_s: float = from_core(NavParams, "nearing_s")
     nav_setback_m: float = from_core(NavParams, "setback_m")
     nav_setbacks: int = from_core(NavParams, "setbacks")
     nav_spin_deg: float = from_core(NavParams, "spin_deg")

@@ -12,8 +12,8 @@ It owns, as Nav2 keeps them apart:
   each answer keeps its route), replanned when the newest map blocks it, when the robot strays
   from it, or as the map grows;
 - the controller (navigate/controller.py: regulated pure pursuit, footprint-checked);
-- one progress checker (navigate/progress.py: `progress_m` within `progress_s`, and a way left to go
-  that does not keep growing back: `setbacks`);
+- one progress checker (navigate/progress.py: moving `progress_m` within `progress_s`, nearing the goal
+  by as much within `nearing_s`, and a way left to go that does not keep growing back: `setbacks`);
 - the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
 A caller choosing among places (the explorer, among frontiers) asks the navigator too: `costs`
@@ -155,8 +155,7 @@ class Navigator:
                 self._speed = abs(cmd[0])
                 return NavStep(cmd[0], cmd[1], "recovering", f"recovering: {self.recoveries.active}")
             self.progress.reset()
-        if self.progress.moved(x, y, now, p.progress_m, yaw, math.radians(p.progress_deg)):
-            self.recoveries.reset()
+        self.progress.moved(x, y, now, p.progress_m, yaw, math.radians(p.progress_deg))
         if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
             tol = max(self.planner.goal_tolerance_m, tolerance)
             plan = self._plan(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol, goal_body_m=body))
@@ -164,7 +163,7 @@ class Navigator:
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
             self.route, self._index = Route(plan, goal, now, cm.stamp), 0
-            if self.progress.replanned(plan.length, p.setback_m):
+            if self.progress.replanned(plan.length, now, p.setback_m):
                 self.counters["setbacks"] += 1
                 if self.progress.setbacks >= p.setbacks:
                     self.counters["failures"] += 1
@@ -172,15 +171,15 @@ class Navigator:
                     self.reset()
                     return NavStep(0.0, 0.0, "failed", f"the way there grew back {p.setbacks} times (by over "
                                    f"{p.setback_m:g} m; {least:.1f} m to go at the least)")  # fmt: skip
-        if self.progress.stalled(now, p.progress_s):
+        if self.progress.stalled(now, p.progress_s, p.nearing_s):
             toward = self._toward(pose)
             name = self.recoveries.begin(pose, now, toward)
             if name is None:
                 self.counters["failures"] += 1
                 tried = self.recoveries.tried()
                 self.reset()
-                return NavStep(0.0, 0.0, "failed", f"no progress of {p.progress_m:g} m in {p.progress_s:g} s "
-                               f"after every recovery ({tried})")  # fmt: skip
+                return NavStep(0.0, 0.0, "failed", f"no progress (moving {p.progress_m:g} m in {p.progress_s:g} s, "
+                               f"or nearing in {p.nearing_s:g} s) after every recovery ({tried})")  # fmt: skip
             self.counters[f"recovery_{name}"] += 1
             if name == "replan":
                 self.route = None
@@ -193,7 +192,8 @@ class Navigator:
                    self.footprint, self.clearance, self._leg, now)  # fmt: skip
         self._index, self._speed, self._leg = d.index, d.vx, d.leg
         self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
-        self.progress.to_go(d.remaining)
+        if self.progress.to_go(d.remaining, now, p.progress_m):
+            self.recoveries.reset()  # nearer: the next stall starts from the first recovery again
         reason = f"{d.remaining:.1f} m along the route"
         return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)
 

@@ -96,6 +96,10 @@ class NavParams:
     progress_s: float = param(
         10.0, help="navigate: ... within this long (s) is progress; else a recovery", min=1.0, max=120.0, live=True
     )
+    nearing_s: float = param(
+        30.0, help="navigate: ... and the way left to go falling progress_m within this long (s); else a recovery "
+        "(only nearing starts the recoveries from the first again)", min=5.0, max=600.0, live=True,
+    )  # fmt: skip
     setback_m: float = param(
         1.0, help="navigate: a replan that makes the way left this much longer (m) than its least for the goal is a "
         "setback ...", min=0.1, max=20.0, live=True,

@@ -1,5 +1,6 @@
 """The navigator's recoveries: one ordered, bounded list (params.RECOVERIES), tried one at a time
-each time the progress checker says stalled, from the first again once the robot makes progress.
+each time the progress checker says stalled, from the first again once the robot nears the goal
+(moving about alone is not enough: a robot that shuffles by a place it cannot reach moves).
 Pure, timestamp-driven.
 
 - `replan`: drop the route; the next step plans anew on the newest map (the local view refreshed).
@@ -33,7 +34,7 @@ class Recoveries:
         self.reset()
 
     def reset(self) -> None:
-        """Progress made: the next stall starts from the first recovery again."""
+        """Nearer the goal (or a new one): the next stall starts from the first recovery again."""
         self.next = 0
         self.active: str | None = None
         self._t0 = 0.0
