@@ -9,7 +9,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from go2vlm.robot_profile.go2 import HEAD_CAMERA_FOVY_DEG
 from go2vlm.world.coverage import Coverage, CoverageParams
+from go2vlm.world.placement import CameraMount
 
 RES = 0.05
 ORIGIN = (-5.0, -5.0)
@@ -40,6 +42,22 @@ def test_a_frame_looks_within_its_view_and_range_and_not_through_a_wall() -> Non
     unseen = cov.unlooked(g, RES, ORIGIN, lethal=99)
     assert unseen[int((0 - ORIGIN[1]) / RES), int((-1.0 - ORIGIN[0]) / RES)]
     assert not unseen[int((0 - ORIGIN[1]) / RES), int((1.5 - ORIGIN[0]) / RES)]
+
+
+def test_a_frame_does_not_look_at_the_floor_below_its_lower_edge() -> None:
+    """A Go2's head camera, level and 0.36 m up with a 58 degree vertical view, sees the floor from
+    0.65 m ahead of itself (0.98 m from the base centre): a small thing nearer is below the picture, so
+    the cells there are not looked at, however long the robot stands there turning."""
+    p = CoverageParams()
+    mount = CameraMount()
+    assert p.near_m == mount.floor_seen_from(math.radians(HEAD_CAMERA_FOVY_DEG))
+    lowest = math.radians(HEAD_CAMERA_FOVY_DEG) / 2  # the lower edge's angle below the horizon
+    assert math.isclose(math.tan(lowest) * (p.near_m - mount.forward_m), mount.height_m)
+    cov, g = Coverage(p), room()
+    for yaw in np.linspace(-math.pi, math.pi, 24, endpoint=False):
+        cov.observe(g, RES, ORIGIN, 0.0, 0.0, float(yaw), math.radians(90))
+    assert not cov.looked_at(0.5, 0.0) and not cov.looked_at(0.0, -0.7)
+    assert cov.looked_at(1.5, 0.0) and cov.looked_at(0.0, -1.5)
 
 
 def test_the_view_sees_into_the_unknown_and_a_new_goal_forgets_it() -> None:

@@ -15,10 +15,10 @@ Rules
 - A fixed world lattice of `cell_m` cells, `size_m` a side round the odom origin (the map's cap);
   cells outside are never looked at.
 - A frame looks along `rays` rays spread over the camera's horizontal view (`view`, rad, centred on
-  the heading `yaw`), out to `range_m`, each stopping at the first costmap cell of `blocked` or more
-  (an obstacle, within the footprint's inscribed radius of one): the camera does not see through
-  walls. Unknown cells do not stop it (the camera sees what the lidar did not map); cells off the map
-  neither.
+  the heading `yaw`), from `near_m` (where the frame's lower edge meets the floor) out to `range_m`,
+  each stopping at the first costmap cell of `blocked` or more (an obstacle, within the footprint's
+  inscribed radius of one): the camera does not see through walls. Unknown cells do not stop it
+  (the camera sees what the lidar did not map); cells off the map neither.
 - `unlooked`: costmap cells a robot may stand on (0 <= cost < lethal) that no frame has looked at.
 - `unseen_visible`: of those, the ones in the line of sight of a place (rays all round, as a
   frame's), and which way to turn to see them soonest: a look there ends when they are seen, and a
@@ -32,6 +32,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from go2vlm.robot_profile.go2 import HEAD_CAMERA_FOVY_DEG
+from go2vlm.world.placement import CameraMount
+
 __all__ = ["AROUND_RAYS", "Coverage", "CoverageParams"]
 
 AROUND_RAYS = 180  # rays all round, for what a look from a place could still see (2 degrees apart)
@@ -40,6 +43,10 @@ AROUND_RAYS = 180  # rays all round, for what a look from a place could still se
 @dataclass(frozen=True)
 class CoverageParams:
     range_m: float = 4.0  # how far a frame's answers find an object (the oracle's boxes, a VLM's)
+    # ... and from how near: the floor nearer than where the frame's lower edge meets it is not in the
+    # picture (0.98 m from a Go2's base centre): a small thing on the floor beside the robot is not
+    # seen, and the cells round it must not count as looked at.
+    near_m: float = CameraMount().floor_seen_from(math.radians(HEAD_CAMERA_FOVY_DEG))
     cell_m: float = 0.1  # the lattice
     size_m: float = 60.0  # the lattice's side, round the odom origin (the map's cap)
     rays: int = 33  # rays across the view
@@ -99,7 +106,7 @@ class Coverage:
         value[on] = g[row[on], col[on]]
         stop = value >= p.blocked
         first = np.where(stop.any(axis=1), stop.argmax(axis=1), len(t))
-        return px, py, value, np.arange(len(t))[None, :] < first[:, None]
+        return px, py, value, (np.arange(len(t))[None, :] < first[:, None]) & (t >= p.near_m)[None, :]
 
     def observe(
         self,

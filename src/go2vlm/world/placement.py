@@ -70,6 +70,12 @@ class CameraMount:
     height_m: float = spec.HEAD_CAMERA_HEIGHT
     pitch_rad: float = 0.0
 
+    def floor_seen_from(self, fovy_rad: float) -> float:
+        """How far ahead of the base centre (m) the frame's lower edge meets the floor: nearer, a
+        small thing on the floor is below the picture."""
+        down = fovy_rad / 2.0 + self.pitch_rad
+        return self.forward_m + (self.height_m / math.tan(down) if down < math.pi / 2 else 0.0)
+
     @classmethod
     def of(cls, robot: RobotProfile) -> CameraMount:
         """The head camera of `robot`, as its profile has it (the one camera mount)."""
