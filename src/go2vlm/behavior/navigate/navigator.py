@@ -166,20 +166,15 @@ class Navigator:
             if self.progress.replanned(plan.length, now, p.setback_m):
                 self.counters["setbacks"] += 1
                 if self.progress.setbacks >= p.setbacks:
-                    self.counters["failures"] += 1
-                    least = self.progress.least_to_go
-                    self.reset()
-                    return NavStep(0.0, 0.0, "failed", f"the way there grew back {p.setbacks} times (by over "
-                                   f"{p.setback_m:g} m; {least:.1f} m to go at the least)")  # fmt: skip
+                    return self._give_up(f"the way there grew back {p.setbacks} times (by over {p.setback_m:g} m; "
+                                         f"{self.progress.least_to_go:.1f} m to go at the least)")  # fmt: skip
         if self.progress.stalled(now, p.progress_s, p.nearing_s):
             toward = self._toward(pose)
             name = self.recoveries.begin(pose, now, toward)
             if name is None:
-                self.counters["failures"] += 1
                 tried = self.recoveries.tried()
-                self.reset()
-                return NavStep(0.0, 0.0, "failed", f"no progress (moving {p.progress_m:g} m in {p.progress_s:g} s, "
-                               f"or nearing in {p.nearing_s:g} s) after every recovery ({tried})")  # fmt: skip
+                return self._give_up(f"no progress (moving {p.progress_m:g} m in {p.progress_s:g} s, or nearing in "
+                                     f"{p.nearing_s:g} s) after every recovery ({tried})")  # fmt: skip
             self.counters[f"recovery_{name}"] += 1
             if name == "replan":
                 self.route = None
@@ -196,6 +191,12 @@ class Navigator:
             self.recoveries.reset()  # nearer: the next stall starts from the first recovery again
         reason = f"{d.remaining:.1f} m along the route"
         return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)
+
+    def _give_up(self, reason: str) -> NavStep:
+        """`failed` for the goal (counted), and forget it: the caller gives the place up."""
+        self.counters["failures"] += 1
+        self.reset()
+        return NavStep(0.0, 0.0, "failed", reason)
 
     def _toward(self, pose: tuple[float, float, float]) -> float:
         """The route's way from the robot's heading (rad, + left); 0 without a route."""

@@ -65,7 +65,7 @@ class Progress:
             return a is not None
         return False
 
-    def stalled(self, now: float, allowance: float, nearing_s: float = math.inf) -> bool:
+    def stalled(self, now: float, allowance: float, nearing_s: float) -> bool:
         """No move since the anchor for `allowance` s, or no nearer for `nearing_s` (both clocks restart
         when it says so)."""
         a, t = self.anchor, self.neared_t
