@@ -16,6 +16,7 @@ from scipy import ndimage
 from go2vlm.behavior.navigate import Navigator, NavParams
 from go2vlm.behavior.navigate.controller import Leg, Rect, arc_clearance, pursue
 from go2vlm.behavior.navigate.params import RECOVERIES
+from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.geometry.footprint import Clearance
 
@@ -327,3 +328,30 @@ def test_a_goal_whose_way_keeps_growing_back_is_given_up() -> None:
     nav = Navigator(NavParams(), GlobalParams())
     status, reason, _ = door_shutting(nav, once=True)
     assert status == "arrived" and nav.counters["setbacks"] == 1, (status, reason, nav.status())
+
+
+def test_only_a_blocked_route_sets_the_way_back() -> None:
+    """The planner weighs cost, not length: as the map grows it may pick a way over a metre longer that
+    costs less, and two such ways can take turns with nothing wrong (houses 002 gave a frontier up
+    after three of those). A setback is a block that lengthens the way that was left by over
+    `setback_m`; nearing is still measured against the least way left."""
+    pr = Progress()
+    pr.new_goal()
+    pr.to_go(6.7, 0.0, 0.3)
+    assert not pr.replanned(10.5, 1.0, 1.0, None)  # the map grew: a longer, cheaper way
+    assert not pr.to_go(10.2, 2.0, 0.3)  # no nearer than the least
+    assert not pr.replanned(7.2, 3.0, 1.0, 6.7)  # blocked, a way hardly longer
+    assert pr.replanned(10.5, 4.0, 1.0, 6.7) and pr.setbacks == 1  # blocked, 3.8 m longer
+    assert pr.least_to_go == 10.5 and pr.to_go(10.1, 5.0, 0.3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.0, 50.0), st.one_of(st.none(), st.floats(0.0, 50.0))), max_size=30))
+def test_setbacks_come_only_from_blocks_that_lengthen_the_way(replans: list[tuple[float, float | None]]) -> None:
+    pr = Progress()
+    pr.new_goal()
+    want = 0
+    for k, (metres, left) in enumerate(replans):
+        want += left is not None and metres > left + 1.0
+        pr.replanned(metres, float(k), 1.0, left)
+    assert pr.setbacks == want

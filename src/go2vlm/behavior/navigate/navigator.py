@@ -48,7 +48,7 @@ from go2vlm.behavior.planner.global_path import (
     passable,
     plan_path,
 )
-from go2vlm.behavior.planner.route import Route
+from go2vlm.behavior.planner.route import BLOCKED, Route
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.occupancy import LETHAL
 
@@ -95,10 +95,12 @@ class Navigator:
         self._index = 0
         self._speed = 0.0
         self._leg: Leg | None = None  # the controller's driver's-turn leg, handed back to it each step
+        self._left = math.inf  # the way left along the route at the last step (m)
 
     def reset(self) -> None:
         """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
         self.goal, self.route, self._index, self._speed, self._leg = None, None, 0, 0.0, None
+        self._left = math.inf
         self.progress.new_goal()
         self.recoveries.reset()
 
@@ -156,14 +158,16 @@ class Navigator:
                 return NavStep(cmd[0], cmd[1], "recovering", f"recovering: {self.recoveries.active}")
             self.progress.reset()
         self.progress.moved(x, y, now, p.progress_m, yaw, math.radians(p.progress_deg))
-        if self.route is None or self.route.needs_replan(cm, x, y, now, self.planner):
+        why = "" if self.route is None else self.route.needs_replan(cm, x, y, now, self.planner)
+        if self.route is None or why:
+            self.counters["replans_blocked"] += why == BLOCKED
             tol = max(self.planner.goal_tolerance_m, tolerance)
             plan = self._plan(cm, (x, y), [goal], replace(self.planner, goal_tolerance_m=tol, goal_body_m=body))
             if not plan.ok:
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
             self.route, self._index = Route(plan, goal, now, cm.stamp), 0
-            if self.progress.replanned(plan.length, now, p.setback_m):
+            if self.progress.replanned(plan.length, now, p.setback_m, self._left if why == BLOCKED else None):
                 self.counters["setbacks"] += 1
                 if self.progress.setbacks >= p.setbacks:
                     return self._give_up(f"the way there grew back {p.setbacks} times (by over {p.setback_m:g} m; "
@@ -185,7 +189,7 @@ class Navigator:
                              body=body)  # fmt: skip
         d = pursue(self.route.plan.waypoints, pose, scan, self._speed, p, max_linear, max_angular, self._index,
                    self.footprint, self.clearance, self._leg, now)  # fmt: skip
-        self._index, self._speed, self._leg = d.index, d.vx, d.leg
+        self._index, self._speed, self._leg, self._left = d.index, d.vx, d.leg, d.remaining
         self.route.index = max(self.route.index, d.index + 1)  # Route.off_path and .blocked start there
         if self.progress.to_go(d.remaining, now, p.progress_m):
             self.recoveries.reset()  # nearer: the next stall starts from the first recovery again

@@ -101,8 +101,8 @@ class NavParams:
         "(only nearing starts the recoveries from the first again)", min=5.0, max=600.0, live=True,
     )  # fmt: skip
     setback_m: float = param(
-        1.0, help="navigate: a replan that makes the way left this much longer (m) than its least for the goal is a "
-        "setback ...", min=0.1, max=20.0, live=True,
+        1.0, help="navigate: a replan forced by a block, whose route is this much longer (m) than the way left on the "
+        "blocked one, is a setback ...", min=0.1, max=20.0, live=True,
     )  # fmt: skip
     setbacks: int = param(
         3, help="navigate: ... and after this many the goal is given up (failed: its way keeps growing back)", min=1,

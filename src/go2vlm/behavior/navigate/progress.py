@@ -6,10 +6,13 @@
 - Nearing: the way left to go (along the route) must fall `progress_m` below its least within
   `nearing_s`, else it is stalled too: a robot that shuffles by a place it cannot reach moves all the
   time. Only nearing starts the recoveries from the first again, so that they stay bounded.
-- Setbacks: a replan that makes the way left more than `setback_m` longer than its least is a
-  setback (the way is measured from the new route on). A robot whose route keeps growing back (the
-  near way closes as it comes near, a far way opens as it walks off) nears along every route and
-  never arrives: after `setbacks` of them the goal is given up.
+- Setbacks: a replan because the map blocked the route, whose new route is more than `setback_m`
+  longer than the way that was left on the blocked one, is a setback (the way is measured from the
+  new route on). A robot whose route keeps growing back (the near way closes as it comes near, a far
+  way opens as it walks off) nears along every route and never arrives: after `setbacks` of them the
+  goal is given up. Only a block counts: a replan as the map grows, or after a stray, may choose a
+  longer way that costs less (the planner weighs cost, not length), and two such ways can take turns
+  with nothing wrong; their nearing is still measured against the least way left.
 
 Pure, timestamp-driven."""
 
@@ -47,10 +50,11 @@ class Progress:
             return nearer
         return False
 
-    def replanned(self, metres: float, now: float, setback_m: float) -> bool:
-        """A new route `metres` long from the robot: is it a setback (counted; the way is measured from
-        it on)?"""
-        if metres <= self.least_to_go + setback_m:
+    def replanned(self, metres: float, now: float, setback_m: float, blocked_left: float | None) -> bool:
+        """A new route `metres` long from the robot, replanned because the map blocked the route with
+        `blocked_left` m left on it (None: for another reason): is it a setback (counted; the way is
+        measured from it on)?"""
+        if blocked_left is None or metres <= blocked_left + setback_m:
             return False
         self.setbacks += 1
         self.least_to_go, self.neared_t = metres, now

@@ -14,9 +14,11 @@ import numpy as np
 
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable
 
-__all__ = ["GROWN", "Route"]
+__all__ = ["BLOCKED", "GROWN", "OFF_ROUTE", "Route"]
 
 GROWN = "the map has grown"  # the one replan that says nothing is wrong with the route
+BLOCKED = "the route is blocked on the new map"  # the one that says the map took the way back
+OFF_ROUTE = "off the route"
 
 
 @dataclass
@@ -84,10 +86,10 @@ class Route:
     def needs_replan(self, cm: Costmap, x: float, y: float, now: float, p: GlobalParams) -> str:
         """Why to replan now ('' = keep the route)."""
         if self.off_path(x, y) > p.off_path_m:
-            return "off the route"
+            return OFF_ROUTE
         if cm.stamp != self.map_stamp:
             if self.blocked(cm, p, x, y):
-                return "the route is blocked on the new map"
+                return BLOCKED
             if now - self.t >= p.replan_period_s:
                 return GROWN
         return ""
