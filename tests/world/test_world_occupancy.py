@@ -320,11 +320,11 @@ def test_a_run_beside_a_near_object_is_the_lidars_shadow_not_an_opening() -> Non
     ranges[run] = np.inf
     ranges[57:59] = 0.2  # the near object, a beam before the run's bounding return
     grid = OccupancyMap()
-    grid.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, parallax_m=0.29), pose)
+    grid.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, sensor=(0.29, 0.0)), pose)
     assert _free_past_walls(grid) == 0
     without = OccupancyMap()  # the same run with no near object beside it is an opening
     ranges[57:59] = beams.ranges[57:59]
-    without.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, parallax_m=0.29), pose)
+    without.integrate(Beams(ranges, beams.angle_min, INC, beams.range_min, beams.range_max, sensor=(0.29, 0.0)), pose)
     assert _free_past_walls(without) > 0
 
 
@@ -379,3 +379,54 @@ def test_the_rays_between_beams_never_clear_what_the_map_holds() -> None:
         grid.integrate(room_scan(far), far)
     assert grid.values()[post] == LETHAL
     assert grid.values()[grid.cell_of(0.0, 0.025)] == FREE  # the wedge before it is seen
+
+
+def _seen(sensor: tuple[float, float], boxes: list[tuple[float, float, float, float]], n: int = 3600) -> np.ndarray:
+    """The points a lidar at `sensor` sees of axis-aligned boxes (x0, y0, x1, y1): its rays' first hits."""
+    a = np.arange(n) * 2 * math.pi / n
+    dx, dy = np.cos(a), np.sin(a)
+    best = np.full(n, np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for x0, y0, x1, y1 in boxes:  # the slab test
+            tx = np.sort(np.stack([(x0 - sensor[0]) / dx, (x1 - sensor[0]) / dx]), axis=0)
+            ty = np.sort(np.stack([(y0 - sensor[1]) / dy, (y1 - sensor[1]) / dy]), axis=0)
+            near, far = np.maximum(tx[0], ty[0]), np.minimum(tx[1], ty[1])
+            best = np.where((near <= far) & (near > 0) & (near < best), near, best)
+    ok = np.isfinite(best)
+    return np.column_stack([sensor[0] + best[ok] * dx[ok], sensor[1] + best[ok] * dy[ok]])
+
+
+def _binned(points: np.ndarray, pose: Pose2D) -> Beams:
+    """World points seen by a sensor, binned as /scan is: by bearing from the base origin, at their range."""
+    dx, dy = points[:, 0] - pose.x, points[:, 1] - pose.y
+    bearing = (np.arctan2(dy, dx) - pose.yaw + math.pi) % (2 * math.pi) - math.pi
+    rng = np.hypot(dx, dy)
+    ranges = np.full(360, np.inf)
+    k = np.floor((bearing + math.pi) / math.radians(1.0)).astype(int) % 360
+    np.minimum.at(ranges, k, rng)
+    return Beams(ranges, -math.pi + math.radians(0.5), math.radians(1.0), 0.05, 8.0, sensor=(0.29, 0.0))
+
+
+def test_a_robot_in_a_doorway_does_not_wear_away_the_wall_beside_it() -> None:
+    """A room 6 x 6 m cut in two along y = 0 by a wall 0.1 m thick with a 0.8 m door. The robot stands
+    in the door facing north, its base behind the wall's plane and its lidar, 0.29 m ahead, past it:
+    the lidar sees the wall's north face at a slant. Those returns prove free the segments from the
+    lidar, north of the wall; beams drawn from the base ran through the wall and wore it away."""
+    door = [(-3.0, -0.05, -0.4, 0.05), (0.4, -0.05, 3.0, 0.05)]
+    boxes = [*door, (-3.1, -3.0, -3.0, 3.0), (3.0, -3.0, 3.1, 3.0), (-3.0, 3.0, 3.0, 3.1), (-3.0, -3.1, 3.0, -3.0)]
+    before, in_door = Pose2D(0.0, -1.5, math.pi / 2), Pose2D(0.0, -0.15, math.pi / 2)
+    first = _binned(_seen((0.0, -1.21), boxes), before)  # from the south, base and lidar alike
+    scan = _binned(_seen((0.0, 0.14), boxes), in_door)
+    lost = {}
+    for sensor in ((0.29, 0.0), None):
+        grid = OccupancyMap()
+        for _ in range(5):
+            grid.integrate(first, before)
+        wall = [grid.cell_of(x, y) for x in np.arange(-2.5, -0.6, 0.05) for y in (-0.07, -0.03, 0.02)]
+        was = {c for c in wall if grid.values()[c] == 100}
+        for _ in range(10):
+            grid.integrate(Beams(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min,
+                                 scan.range_max, sensor=sensor), in_door)  # fmt: skip
+        lost[sensor] = sum(grid.values()[c] != 100 for c in was) / len(was)
+    assert lost[(0.29, 0.0)] == 0.0, lost
+    assert lost[None] > 0.3, lost  # the base's beams: the wall worn away

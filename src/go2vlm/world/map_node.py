@@ -121,8 +121,8 @@ __all__ = ["MapConfig", "MapNode"]
 
 MAX_PENDING = 16
 FIELD_EVERY = 5  # scans between two rebuilds of the matcher's field (the map changes slowly)
-# /scan is binned from the base origin, the lidar's rays start this far from it (geometry/scan.py).
-LIDAR_PARALLAX_M = math.hypot(spec.GO2.lidar.pos[0], spec.GO2.lidar.pos[1])
+# /scan is binned from the base origin; the lidar's rays start here, in the base frame (geometry/scan.py).
+LIDAR_XY = (spec.GO2.lidar.pos[0], spec.GO2.lidar.pos[1])
 _GRID = GridParams()
 
 
@@ -273,7 +273,7 @@ class MapNode(Node):
         if odom is None:
             return  # waits for its pose
         beams = Beams(np.asarray(msg.ranges, dtype=np.float32), msg.angle_min, msg.angle_increment, msg.range_min,
-                      msg.range_max, parallax_m=LIDAR_PARALLAX_M)  # fmt: skip
+                      msg.range_max, sensor=LIDAR_XY)  # fmt: skip
         points = beams.returns()
         pose, m = self.corrector.locate(self.grid, points, odom, self.config.scan_matching)
         if m is not None:

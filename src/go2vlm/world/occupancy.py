@@ -14,14 +14,19 @@ Frame and cells
   OccupancyGrid data order.
 
 Rules
-- A scan is placed at a pose (x, y, yaw in odom) with its rays starting at the scan frame's origin
+- A scan is placed at a pose (x, y, yaw in odom) with its beams starting at the scan frame's origin
   (`Beams.origin`, in the base frame: /scan is in base_link and its ranges are from the base origin).
+  A return proves free the segment from the sensor that measured it (`Beams.sensor`: the Go2's lidar
+  sits 0.29 m ahead of the base), not the beam from the origin: with the robot in a doorway, its base
+  behind the wall's plane and its lidar past it, beams from the base to the wall's far face ran
+  through the wall and wore it away beside the door. A beam without a return stays a ray from the
+  origin: the scan's bins are the origin's bearings, and nothing was seen in that one.
 - Each beam: a finite range in [range_min, range_max] is a hit: its end cell gains `hit` log-odds and
   the cells before it on the ray, up to a cell short of the end, lose `miss` (a range under
   range_min is a hit with no free ray: too close is not free). +inf, or a range beyond range_max,
   is no return (REP 117): the ray clears free space up to range_max, at most `no_return_m`, and
   marks nothing; but a run of them between two
-  beams with returns that is no wider than GAP_ANGLE (60 degrees), or than 1.2 x atan(parallax_m /
+  beams with returns that is no wider than GAP_ANGLE (60 degrees), or than 1.2 x atan(the parallax /
   the nearest return within NEAR_BEAMS of the run), is a gap in the sampling, not an opening (a /scan
   binned from a cloud leaves such holes: along walls, and wide ones beside a near object, as the
   Go2's lidar sits 0.29 m ahead of the base): it clears only up to the nearer of the two returns,
@@ -128,7 +133,13 @@ class Beams:
     range_min: float
     range_max: float
     origin: tuple[float, float] = (0.0, 0.0)
-    parallax_m: float = 0.0  # how far the sensor sits from `origin` (its rays are binned from there)
+    sensor: tuple[float, float] | None = None  # where the returns were measured from (base frame; None: origin)
+
+    @property
+    def parallax_m(self) -> float:
+        """How far the sensor sits from `origin` (the scan was binned from there)."""
+        sx, sy = self.sensor or self.origin
+        return math.hypot(sx - self.origin[0], sy - self.origin[1])
 
     def returns(self) -> np.ndarray:
         """The returns (finite ranges within [0, range_max]) as (N, 2) points in the base frame."""
@@ -226,6 +237,15 @@ class OccupancyMap:
         free_len[gap] = np.maximum(bound[gap] - res, 0.0)
         hx, hy = ox + r[hit] * dx[hit], oy + r[hit] * dy[hit]
         step = res / 2.0
+        # A return's ray is the segment from the sensor that measured it.
+        sx, sy = pose.to_world(*(beams.sensor or beams.origin))
+        rox, roy = np.full(len(r), ox), np.full(len(r), oy)
+        seg = np.nonzero(hit & (r >= beams.range_min))[0]
+        rox[seg], roy[seg] = sx, sy
+        vx, vy = ox + r[seg] * dx[seg] - sx, oy + r[seg] * dy[seg] - sy
+        seg_len = np.maximum(np.hypot(vx, vy), 1e-9)
+        ray_dx, ray_dy, ray_len = dx.copy(), dy.copy(), free_len.copy()
+        ray_dx[seg], ray_dy[seg], ray_len[seg] = vx / seg_len, vy / seg_len, np.maximum(seg_len - res, 0.0)
         # The free space a scan shows is the wedge between two neighbouring beams, out to the nearer of
         # their free lengths, not the beams alone: beyond res / increment (2.9 m at 5 cm and 1 degree)
         # the beams are more than a cell apart and leave unseen slivers between them (one across a
@@ -233,8 +253,9 @@ class OccupancyMap:
         # as weak as a gap's: they clear nothing the map holds occupied, nor anything past it.
         apart = SPREAD * res
         ex_dx, ex_dy, ex_len = _between(wa, free_len, usable, beams.angle_increment, apart, wraps)
-        dx, dy = np.concatenate((dx, ex_dx)), np.concatenate((dy, ex_dy))
-        free_len = np.concatenate((free_len, ex_len))
+        dx, dy = np.concatenate((ray_dx, ex_dx)), np.concatenate((ray_dy, ex_dy))
+        free_len = np.concatenate((ray_len, ex_len))
+        rox, roy = np.concatenate((rox, np.full(len(ex_len), ox))), np.concatenate((roy, np.full(len(ex_len), oy)))
         weak_ray = np.concatenate((gap, np.ones(len(ex_len), dtype=bool)))
         # ... from where the beams are `apart` (nearer, the beams' own samples cover the wedge), in
         # longer steps than a beam's: their neighbours fill what one steps over.
@@ -245,7 +266,7 @@ class OccupancyMap:
         total = int(n.sum())
         ray = np.repeat(np.arange(len(n)), n)
         t = start[ray] + (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) * steps[ray]
-        fx, fy = ox + t * dx[ray], oy + t * dy[ray]
+        fx, fy = rox[ray] + t * dx[ray], roy[ray] + t * dy[ray]
         # Lattice indices of everything this scan touches, then the window it may write.
         o_ix, o_iy = math.floor(ox / res), math.floor(oy / res)
         h_ix, h_iy = np.floor(hx / res).astype(np.int64), np.floor(hy / res).astype(np.int64)
