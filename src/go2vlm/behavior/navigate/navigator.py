@@ -194,7 +194,8 @@ class Navigator:
         if self.progress.to_go(d.remaining, now, p.progress_m):
             self.recoveries.reset()  # nearer: the next stall starts from the first recovery again
         reason = f"{d.remaining:.1f} m along the route"
-        return NavStep(d.vx, d.wz, "moving", reason if not d.note else f"{reason} ({d.note})", d.note)
+        notes = ", ".join(n for n in (d.note, f"replanned: {why}" if why else "") if n)
+        return NavStep(d.vx, d.wz, "moving", f"{reason} ({notes})" if notes else reason, d.note)
 
     def _give_up(self, reason: str) -> NavStep:
         """`failed` for the goal (counted), and forget it: the caller gives the place up."""
