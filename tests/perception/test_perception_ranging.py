@@ -50,3 +50,19 @@ def test_range_from_sim_frames(sim, color: str, shape: str, center: tuple[float,
         assert reading.distance is not None
         assert reading.distance == pytest.approx(d - forward, abs=0.1), (d, reading)
     assert est.calibrated and est.size == pytest.approx(radius, abs=0.03)
+
+
+@pytest.mark.parametrize("d", [1.0, 3.0, 5.0])
+def test_the_bodys_pitch_is_the_cameras_too(d: float) -> None:
+    """A Go2 stands 0.8 degrees nose down: the floor under an object d m away is that much nearer the
+    image's centre than a level camera would put it. Given the pitch the range is right; taken as
+    level, an object 5 m away read 1.2 m farther (the object memory's phantoms behind the sofa)."""
+    cam = PinholeCamera.from_hfov(640, 480, math.radians(75.0))
+    pitch = math.radians(0.8)
+    h = 0.36
+    bottom = cam.cy + cam.fy * math.tan(math.atan(h / d) - pitch)
+    box = (300.0, bottom - 20.0, 340.0, bottom)
+    level = RangeEstimator("box", camera_height=h).estimate(box, cam)
+    pitched = RangeEstimator("box", camera_height=h).estimate(box, cam, pitch)
+    assert pitched.method == "bottom" and pitched.distance == pytest.approx(d, rel=1e-6)
+    assert level.distance is not None and level.distance > d * (1.0 + 0.03 * d)  # farther, the more so far off

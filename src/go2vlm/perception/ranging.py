@@ -3,7 +3,8 @@
 Distance = camera -> the object's near surface:
 
 1. Bottom edge (size-free): objects stand on the floor, the camera is `camera_height` above it and
-   looks level (plus `camera_pitch`, + = down). The image row v of the object's lowest visible point
+   looks level (plus `camera_pitch`, + = down, and the body's pitch at the frame: a Go2 stands 0.8
+   degrees nose down, which read an object 5 m away 1.2 m farther). The image row v of the object's lowest visible point
    is a ray `beta = atan((v - cy) / fy) + pitch` below the horizon, meeting the floor at
    `h / tan(beta)`. For a box or a cylinder that point is the near edge of its footprint; for a
    ball the silhouette bottom and its angular radius give the centre distance in closed form
@@ -74,7 +75,8 @@ class RangeEstimator:
     def calibrated(self) -> bool:
         return bool(self._sizes)
 
-    def estimate(self, xyxy: tuple[float, float, float, float], cam: PinholeCamera) -> RangeReading:
+    def estimate(self, xyxy: tuple[float, float, float, float], cam: PinholeCamera, pitch: float = 0.0) -> RangeReading:
+        """The box's range; `pitch`: the body's at the frame (rad, + nose down), added to the camera's."""
         x1, y1, x2, y2 = xyxy
         b = self.border_px
         clip_l, clip_r = x1 <= b, x2 >= cam.width - 1 - b
@@ -84,7 +86,7 @@ class RangeEstimator:
         half = max(1e-4, (a2 - a1) / 2.0)
         width_ok = not (clip_l or clip_r)
         shape = self.shape or "box"
-        beta = math.atan((y2 - cam.cy) / cam.fy) + self.camera_pitch if bottom_visible else 0.0
+        beta = math.atan((y2 - cam.cy) / cam.fy) + self.camera_pitch + pitch if bottom_visible else 0.0
         if bottom_visible and beta > 0.02:
             h = self.camera_height
             if shape == "ball" and width_ok:

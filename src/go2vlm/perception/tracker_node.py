@@ -9,6 +9,9 @@ Topics
               <image_topic>          sensor_msgs/Image (/camera/image_raw, sensor-data QoS)
               <camera_info_topic>    sensor_msgs/CameraInfo (/camera/camera_info, sensor-data QoS):
                                      intrinsics for ranging and bearings; default_hfov_deg until one arrives
+              <odom_topic>           nav_msgs/Odometry (/odom, reliable): the body's pitch at each frame's
+                                     stamp, which the head camera shares (geometry/attitude.py); level
+                                     until one arrives
               /vlm/detections        vision_msgs/Detection2DArray (reliable), grounding=vlm only: the vlm
                                      node's answers (mode=detect), boxes in the image's pixels, stamped
                                      with the frame they describe, label = each detection's best hypothesis
@@ -60,16 +63,20 @@ from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import (
     CAMERA_IMAGE,
     CAMERA_INFO,
+    ODOM,
     TARGET_QUERY,
     TARGET_TRACKED,
     TRACKER_DETECTIONS,
     TRACKER_STATUS,
     VLM_DETECTIONS,
 )
+from go2vlm.geometry.attitude import PitchHistory
 from go2vlm.geometry.camera import PinholeCamera
+from go2vlm.geometry.rotations import quat_pitch
 from go2vlm.msgs.builtin_interfaces import Time
 from go2vlm.msgs.go2vlm_msgs import STATE_NAMES, TrackedTarget
 from go2vlm.msgs.image import camera_model, to_bgr
+from go2vlm.msgs.nav_msgs import Odometry
 from go2vlm.msgs.sensor_msgs import CameraInfo, Image
 from go2vlm.msgs.std_msgs import Header, String
 from go2vlm.msgs.vision_msgs import BoundingBox2D, Detection2DArray, bbox_2d, detection_array, detection_boxes
@@ -85,8 +92,6 @@ ROUTINE_REFUSALS = frozenset({"no_match", "stale"})  # refused in normal running
 STATE_CODES = {name: code for code, name in STATE_NAMES.items()}
 
 
-
-
 @dataclass
 class TargetTrackerConfig:
     """The target_tracker's parameters: those of the TargetTracking core are its TrackingParams' fields
@@ -96,6 +101,7 @@ class TargetTrackerConfig:
     grounding: str = from_core(TrackingParams, "grounding")
     image_topic: str = param(CAMERA_IMAGE.name, help="sensor_msgs/Image input")
     camera_info_topic: str = param(CAMERA_INFO.name, help="sensor_msgs/CameraInfo input")
+    odom_topic: str = param(ODOM.name, help="nav_msgs/Odometry input: the body's pitch, for ranging")
     reground_period_s: float = from_core(TrackingParams, "reground_period_s")
     min_shape_score: float = from_core(TrackingParams, "min_shape_score")
     min_label_color: float = from_core(TrackingParams, "min_label_color")
@@ -164,6 +170,7 @@ class TargetTrackerNode(Node):
         self.tracking = TargetTracking(cfg.tracking_params())
         self.tracking.set_query(cfg.query)
         self._cam: PinholeCamera | None = None
+        self.pitch = PitchHistory()
         self.frames = 0
         self.last: Observation | None = None
         self._last_status_key: tuple[str, str] | None = None
@@ -172,6 +179,7 @@ class TargetTrackerNode(Node):
         TARGET_QUERY.subscription(self, self.on_query)
         CAMERA_IMAGE.subscription(self, self.on_image, name=cfg.image_topic)
         CAMERA_INFO.subscription(self, self.on_camera_info, name=cfg.camera_info_topic)
+        ODOM.subscription(self, self.on_odom, name=cfg.odom_topic)
         if cfg.grounding == "vlm":
             VLM_DETECTIONS.subscription(self, self.on_detections)
         else:
@@ -202,6 +210,11 @@ class TargetTrackerNode(Node):
             n = self.count("bad_camera_info")
             self.log.throttled("error", 5.0, f"ignoring a CameraInfo ({n} so far): {exc}", key="caminfo")
 
+    def on_odom(self, msg: Odometry) -> None:
+        q = msg.pose.pose.orientation
+        if not self.pitch.add(msg.header.stamp.to_sec(), quat_pitch(q.w, q.x, q.y, q.z)):
+            self.count("odom_refused")
+
     def on_detections(self, msg: Detection2DArray) -> None:
         if not msg.detections:
             self.count("empty_answers")
@@ -227,7 +240,8 @@ class TargetTrackerNode(Node):
         cam = self._cam.scaled_to(w, h) if self._cam is not None else None
         if cam is None:
             cam = PinholeCamera.from_hfov(w, h, math.radians(self.config.default_hfov_deg))
-        obs = self.tracking.on_frame(header.stamp.to_sec(), bgr, cam)
+        t = header.stamp.to_sec()
+        obs = self.tracking.on_frame(t, bgr, cam, self.pitch.at(t))
         self.last = obs
         stamp = Time(sec=header.stamp.sec, nanosec=header.stamp.nanosec)
         self.pub_tracked.publish(tracked_msg(obs, Header(stamp=stamp, frame_id=header.frame_id), cam))

@@ -207,8 +207,10 @@ class TargetTracking:
             return self._refuse("stale", "no camera frame stored yet", miss=False)
         return self._apply(answer)
 
-    def on_frame(self, stamp: float, bgr: np.ndarray, camera: PinholeCamera | None = None) -> Observation:
-        """The next camera frame (stamps increasing): follow the target into it and report it."""
+    def on_frame(self, stamp: float, bgr: np.ndarray, camera: PinholeCamera | None = None,
+                 pitch: float = 0.0) -> Observation:  # fmt: skip
+        """The next camera frame (stamps increasing): follow the target into it and report it; `pitch`:
+        the body's then (rad, + nose down), for ranging."""
         h, w = bgr.shape[:2]
         if self._history and self._history[-1][1].shape != bgr.shape:
             self.counters["image_size_changed"] += 1
@@ -234,7 +236,7 @@ class TargetTracking:
         if self._box is not None and p.max_grounding_age_s > 0 and stamp - confirmed > p.max_grounding_age_s:
             self.counters["tracks_dropped.stale_grounding"] += 1
             self._drop_track()
-        return self._observe(stamp, w, h, camera)
+        return self._observe(stamp, w, h, camera, pitch)
 
     # -- internals -----------------------------------------------------------------------------
     def _drop_track(self) -> None:
@@ -360,7 +362,7 @@ class TargetTracking:
             return
         self._accept(stamp)
 
-    def _observe(self, stamp: float, w: int, h: int, camera: PinholeCamera | None) -> Observation:
+    def _observe(self, stamp: float, w: int, h: int, camera: PinholeCamera | None, pitch: float = 0.0) -> Observation:
         label = self.query.text if self.query else ""
         age = None if self._confirmed is None or self.query is None else max(0.0, stamp - self._confirmed)
         box = self._box
@@ -369,7 +371,7 @@ class TargetTracking:
         distance, method, bearing = None, "none", None
         if camera is not None:
             cam = camera.scaled_to(w, h)
-            reading = self._ranger.estimate(box, cam)
+            reading = self._ranger.estimate(box, cam, pitch)
             distance, method = reading.distance, reading.method
             bearing = cam.bearing((box[0] + box[2]) / 2.0)
         return Observation(stamp, label, "tracking", box, w, h, self._confidence, distance, method, age, bearing)

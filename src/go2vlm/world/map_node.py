@@ -101,7 +101,7 @@ from go2vlm.bus import Node, core_params, from_core, param
 from go2vlm.bus.topics import MAP, MAP_COSTMAP, MAP_FILE_SERVICE, MAP_ODOM, MAP_STATUS, ODOM, SCAN, TF
 from go2vlm.errors import ConfigError
 from go2vlm.geometry.footprint import Clearance
-from go2vlm.geometry.rotations import quat_yaw, yaw_quat
+from go2vlm.geometry.rotations import quat_mul, quat_yaw, yaw_quat
 from go2vlm.msgs.base_state import transform_stamped
 from go2vlm.msgs.geometry_msgs import Quaternion
 from go2vlm.msgs.go2vlm_msgs import MemoryFile, MemoryFile_Request, MemoryFile_Response
@@ -339,13 +339,17 @@ class MapNode(Node):
     # -- outputs -----------------------------------------------------------------------------
     def _publish_corrected(self, msg: Odometry, odom: Pose2D) -> None:
         assert self.pub_odom is not None
-        p = self.corrector.correction.compose(odom)
-        q = yaw_quat(p.yaw)
+        c = self.corrector.correction
+        p = c.compose(odom)
+        o = msg.pose.pose.orientation  # turned by the correction's yaw: its pitch and roll kept
+        q_in = np.array([o.w, o.x, o.y, o.z])
+        norm = float(np.linalg.norm(q_in))
+        q = quat_mul(yaw_quat(c.yaw), q_in / norm) if norm > 1e-6 else yaw_quat(p.yaw)
         out = Odometry(header=Header(stamp=msg.header.stamp, frame_id=self.config.map_frame),
                        child_frame_id=msg.child_frame_id, twist=msg.twist)  # fmt: skip
         out.pose.pose.position.x, out.pose.pose.position.y = p.x, p.y
         out.pose.pose.position.z = msg.pose.pose.position.z
-        out.pose.pose.orientation = Quaternion(x=0.0, y=0.0, z=float(q[3]), w=float(q[0]))
+        out.pose.pose.orientation = Quaternion(x=float(q[1]), y=float(q[2]), z=float(q[3]), w=float(q[0]))
         self.pub_odom.publish(out)
 
     def _publish_tf(self, scan: Header) -> None:

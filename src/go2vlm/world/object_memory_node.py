@@ -21,7 +21,8 @@ Topics
               <image_topic>         sensor_msgs/Image (sensor-data QoS; /camera/image_raw; '' = off): kept
                                     small (160 px wide) for history_s, for the colour check
               <odom_topic>          nav_msgs/Odometry (reliable; /odom): the pose history (odom ->
-                                    base_link), in world_frame
+                                    base_link), in world_frame, and the body's pitch, which the head
+                                    camera shares (ranging; geometry/attitude.py)
               <scan_topic>          sensor_msgs/LaserScan (sensor-data QoS; /scan, frame base_link; '' =
                                     off): lidar ranges where a scan at the answer's stamp covers the box,
                                     and what hides an object from view
@@ -108,8 +109,9 @@ from go2vlm.bus.topics import (
     WHERE_IS_SERVICE,
 )
 from go2vlm.errors import ConfigError
+from go2vlm.geometry.attitude import PitchHistory
 from go2vlm.geometry.camera import PinholeCamera
-from go2vlm.geometry.rotations import quat_yaw
+from go2vlm.geometry.rotations import quat_pitch, quat_yaw
 from go2vlm.geometry.scan import frame_scan_points
 from go2vlm.msgs.go2vlm_msgs import (
     MemoryFile,
@@ -218,6 +220,7 @@ class ObjectMemoryNode(Node):
         cfg: ObjectMemoryConfig = self.config
         self.memory = ObjectMemory(cfg.memory_params())
         self.poses = PoseHistory(horizon_s=cfg.history_s)
+        self.pitch = PitchHistory(horizon_s=cfg.history_s)  # the body's: the camera's, for ranging
         self.mount = cfg.mount()
         self.placement = PlacementParams()
         self._cam: PinholeCamera | None = None
@@ -281,7 +284,9 @@ class ObjectMemoryNode(Node):
             return
         p = msg.pose.pose
         q = p.orientation
-        if self.poses.add(msg.header.stamp.to_sec(), p.position.x, p.position.y, quat_yaw(q.w, q.x, q.y, q.z)):
+        t = msg.header.stamp.to_sec()
+        self.pitch.add(t, quat_pitch(q.w, q.x, q.y, q.z))
+        if self.poses.add(t, p.position.x, p.position.y, quat_yaw(q.w, q.x, q.y, q.z)):
             self._retry_pending()
 
     def on_scan(self, msg: LaserScan) -> None:
@@ -357,7 +362,7 @@ class ObjectMemoryNode(Node):
                 continue
             try:
                 placed.append(place(lab, box, stamp, pose, cam, self.mount, self._ranger(lab), scan_base,
-                                    self.placement))  # fmt: skip
+                                    self.placement, self.pitch.at(stamp)))  # fmt: skip
             except PlacementError as exc:
                 self._refuse(exc.reason, f"{lab!r}: {exc.detail}")
         covers: frozenset[str] | None = None

@@ -191,10 +191,12 @@ def place(
     ranger: RangeEstimator,
     scan_points: np.ndarray | None = None,
     params: PlacementParams | None = None,
+    pitch: float = 0.0,
 ) -> Placed:
     """`box` (pixels of `cam`'s image) about the frame taken at `pose` -> a Placed (module docstring).
     `ranger` is the label's range estimator (its size calibration carries across answers);
-    `scan_points` the scan nearest the stamp, in the base frame at `pose`. PlacementError: bad_box,
+    `scan_points` the scan nearest the stamp, in the base frame at `pose`; `pitch` the body's then (rad,
+    + nose down), added to the mount's. PlacementError: bad_box,
     out_of_range."""
     p = params or PlacementParams()
     x1, y1, x2, y2 = check_box(box, cam, p.min_box_px)
@@ -202,7 +204,7 @@ def place(
     b_r, b_l = cam.bearing(x2), cam.bearing(x1)
     b_c = (b_r + b_l) / 2.0  # the centre's bearing: between the edge rays (exact for a round object)
     lat_c = math.tan(b_c)  # + left
-    reading = ranger.estimate((x1, y1, x2, y2), cam)
+    reading = ranger.estimate((x1, y1, x2, y2), cam, pitch)
     size_known = ranger.size
     if shape in ROUND_SHAPES:
         half_depth, width = size_known, 2.0 * size_known
@@ -245,7 +247,8 @@ def place(
         height = 2.0 * size_known
     elif y1 > 3.0 and rng is not None:  # the top is in the picture
         depth_near = rng / stretch
-        height = max(0.0, mount.height_m - depth_near * math.tan(math.atan((y1 - cam.cy) / cam.fy) + mount.pitch_rad))
+        top = math.atan((y1 - cam.cy) / cam.fy) + mount.pitch_rad + pitch  # below the horizon
+        height = max(0.0, mount.height_m - depth_near * math.tan(top))
     if shape not in SHAPES:
         width = max(0.05, (rng if rng is not None else 1.0) * (math.tan(b_l) - math.tan(b_r)))
         # How deep it is, the picture does not show: no deeper than it is wide or (seen whole) tall, nor
