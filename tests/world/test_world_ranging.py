@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from go2vlm.world.objects_msg import Remembered
 from go2vlm.world.poses import Pose2D
-from go2vlm.world.ranging import SIZE_METHODS, RangingParams, TargetRanging, as_wide, remembered_on
+from go2vlm.world.ranging import SIZE_METHODS, RangingParams, TargetRanging, as_wide, is_surface, remembered_on
 
 CF = 0.3  # the camera ahead of the base centre (m)
 P = RangingParams()
@@ -27,6 +27,7 @@ class Seen:
     range_method: str = "bottom"
     bearing: float = 0.0
     width: float = math.nan
+    hfov: float = math.radians(70.0)
 
 
 def face(at: float, half_width: float = 0.4, n: int = 17) -> np.ndarray:
@@ -95,7 +96,8 @@ def test_without_a_bearing_the_tracker_s_range_stands() -> None:
 def test_a_near_return_as_wide_as_the_box_ranges_it_and_a_thin_one_or_a_far_one_does_not() -> None:
     r = TargetRanging()
     wide = math.radians(10.0)
-    assert r.base_distance(P, Seen(1.2, "size", 0.0, wide), 1.0, face(0.75), CF) == pytest.approx(0.75 + CF)
+    box = face(0.75, 0.75 * math.tan(wide / 2), 9)  # the object's face: as wide as its box
+    assert r.base_distance(P, Seen(1.2, "size", 0.0, wide), 1.0, box, CF) == pytest.approx(0.75 + CF)
     assert r.ranged_by == "lidar"
     leg = np.array([[CF + 0.75, 0.0], [CF + 0.76, 0.005]])
     assert r.base_distance(P, Seen(1.2, "size", 0.0, wide), 1.0, leg, CF) == pytest.approx(1.2 + CF)
@@ -107,6 +109,29 @@ def test_a_near_return_as_wide_as_the_box_ranges_it_and_a_thin_one_or_a_far_one_
     assert r.base_distance(P, Seen(None, "none"), 1.0, face(0.6), CF) == pytest.approx(0.6 + CF)
     assert r.base_distance(P, Seen(0.0, "fills_view", 0.0, 1.1), 1.0, face(0.9, 1.0, 41), CF) == pytest.approx(0.9 + CF)
     assert r.base_distance(P, Seen(0.0, "fills_view"), 1.0, np.zeros((0, 2)), CF) == pytest.approx(CF)
+
+
+def test_a_return_of_a_surface_that_runs_on_past_the_box_is_not_the_objects() -> None:
+    """A toy chest behind the end of a bed: the nearest return on its bearing is the bed's, which runs
+    on past the chest's box; taken for the chest, the robot stopped 0.84 m from the bed, 1.7 m from the
+    chest (houses 002). A box cut by the image's border may run on that side: the object goes on out
+    of view."""
+    r = TargetRanging()
+    wide = math.radians(12.0)
+    bed = face(1.0, 1.0, 41)  # 2 m across, 1 m ahead of the camera
+    assert r.base_distance(P, Seen(1.6, "bottom", 0.0, wide), 1.0, bed, CF) == pytest.approx(1.6 + CF)
+    assert r.ranged_by == "bottom"
+    chest = face(1.0, math.tan(wide / 2), 9)
+    assert r.base_distance(P, Seen(1.2, "bottom", 0.0, wide), 1.0, chest, CF) == pytest.approx(1.0 + CF)
+    assert r.ranged_by == "lidar"
+    half = math.radians(35.0)  # the box's left edge at the image's border: the face may go on past it
+    cut = Seen(1.2, "bottom", half - wide / 2, wide)
+    b_r, b_l = half - wide, half
+    side = np.column_stack([np.full(30, CF + 1.0), np.linspace(math.tan(b_r), 2.0, 30)])  # from its right edge on
+    d = r.base_distance(P, cut, 1.0, side, CF)
+    assert r.ranged_by == "lidar" and d is not None and d < 1.2 + CF
+    assert is_surface(P, side, (CF, 0.0), d - CF, b_r, b_l, (False, True))
+    assert not is_surface(P, side, (CF, 0.0), d - CF, b_r, b_l)
 
 
 def test_the_memory_overrules_a_range_far_short_and_holds_a_while() -> None:

@@ -17,10 +17,10 @@ Rules
   monocular range (nearer or farther by at most `lidar_agree_m` or `lidar_agree_frac` of it: a
   bottom edge drawn a few pixels low, as a model's box often is, reads a cylinder 2.5 m away half a
   metre near) or when there is no monocular range and the return is within `lidar_only_max_m`; and
-  only a return of a surface as wide as the box: one that spans its share of it (world/ranging.py
-  `as_wide`, the tracked target's rule: not a table leg before a tray) and does not run on past
-  either of its edges at that range (`surface_m`, `past_rad`: the wall behind a small object below
-  the scan, which a noisy bottom edge may happen to agree with, nearer or farther). Neither: a
+  only a return of the object's surface (world/ranging.py `is_surface`, the tracked target's rule):
+  as wide as the box (not a table leg before a tray) and running on past neither of its edges at
+  that range (the wall behind a small object below the scan, which a noisy bottom edge may happen
+  to agree with, nearer or farther). Neither: a
   bearing-only sighting (`range_m` None), which can confirm an object already remembered along that
   bearing but places nothing new. So is a
   box whose scan return is much nearer than its monocular range (`hidden`: something in front hides
@@ -47,7 +47,7 @@ from go2vlm.robot_profile import RobotProfile
 from go2vlm.robot_profile import go2 as spec
 from go2vlm.vocabulary.words import ROUND_SHAPES, SHAPES
 from go2vlm.world.poses import Pose2D, wrap_angle
-from go2vlm.world.ranging import RangingParams, as_wide
+from go2vlm.world.ranging import RangingParams, is_surface
 
 __all__ = ["CameraMount", "Placed", "PlacementError", "PlacementParams", "check_box", "place", "rebase"]
 
@@ -89,12 +89,9 @@ class PlacementParams:
     border_px: float = 3.0  # a box edge this close to the image's side is cut by it
     lidar_agree_m: float = 0.5  # lidar and monocular ranges agree within this ...
     lidar_agree_frac: float = 0.35  # ... or within this fraction of the monocular range
-    surface_m: float = 0.3  # returns this near the box's range are of the surface it hit ...
-    past_rad: float = 0.1  # ... and looked for this far (or the box's width) beyond each of its edges ...
-    past_gap_rad: float = 0.035  # ... past a gap of this (two of the scan's 2-degree bins: its edge's blur)
     lidar_only_max_m: float = 2.0  # without a monocular range, a scan return this close is the object
     max_range_m: float = 15.0  # a place farther than this is absurd
-    ranging: RangingParams = field(default_factory=RangingParams)  # as_wide's scan_depth_m and scan_cover
+    ranging: RangingParams = field(default_factory=RangingParams)  # is_surface's: the target's rule
     free_depth_m: float = 1.0  # an object of no known shape is taken no deeper than this (m)
 
 
@@ -152,30 +149,6 @@ def rebase(points: np.ndarray, from_pose: Pose2D, to_pose: Pose2D) -> np.ndarray
     return np.column_stack([c2 * wx + s2 * wy, -s2 * wx + c2 * wy])
 
 
-def _fits_box(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
-    """Is the surface the scan hit at range `d` as wide as the box (bearings `b_r`..`b_l` from the
-    camera) -- it spans its share of the box (world/ranging.py `as_wide`, the target's rule) and does
-    not run on past either of its edges?"""
-    origin = (mount.forward_m, mount.left_m)
-    wide = as_wide(p.ranging, points, origin, d, (b_r + b_l) / 2.0, b_l - b_r)
-    return wide and not _runs_past(points, mount, d, b_r, b_l, p)
-
-
-def _runs_past(points: np.ndarray, mount: CameraMount, d: float, b_r: float, b_l: float, p: PlacementParams) -> bool:
-    """Do scan returns at about the range `d` (within `surface_m`) lie beyond an edge of the box
-    (bearings `b_r`..`b_l` from the camera), by up to the box's width again? Then the return is of a
-    surface that runs on past the object (a wall behind it; one side is enough, as in a corner the
-    other wall lies at another range), not of the object, whose returns end where its box does. An
-    object against a wall at its own range loses the lidar too, and is placed by its bottom edge."""
-    rel = np.asarray(points, dtype=float).reshape(-1, 2) - (mount.forward_m, mount.left_m)
-    ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
-    at = (np.abs(rng - d) <= p.surface_m) & (rel[:, 0] > 0.0)
-    reach = max(b_l - b_r, p.past_rad)
-    left = at & (ang > b_l + p.past_gap_rad) & (ang <= b_l + reach)
-    right = at & (ang < b_r - p.past_gap_rad) & (ang >= b_r - reach)
-    return bool(left.any() or right.any())
-
-
 def _sigma(method: str, d: float) -> float:
     a, b, n = RANGE_SIGMA.get(method, RANGE_SIGMA["default_size"])
     return a + b * d**n
@@ -219,11 +192,15 @@ def place(
         d = max(0.0, float(reading.distance))
         mono = d * stretch if depth_reading else d
     quarter = (b_l - b_r) / 4.0
-    lidar = nearest_return(scan_points, (mount.forward_m, mount.left_m), b_r + quarter, b_l - quarter)
+    origin, ends = (mount.forward_m, mount.left_m), (b_r, b_l)
+    cut = (x2 >= cam.width - p.border_px, x1 <= p.border_px)  # right, left: the object may go on out of view
+    lidar = nearest_return(scan_points, origin, b_r + quarter, b_l - quarter)
     rng, method = mono, reading.method
     if lidar is not None and mono is not None and mono - lidar > max(p.lidar_agree_m, p.lidar_agree_frac * mono):
         rng, method = None, "hidden"  # something nearer along its bearings: its bottom edge may be the other's
-    elif lidar is not None and scan_points is not None and not _fits_box(scan_points, mount, lidar, b_r, b_l, p):
+    elif lidar is not None and (
+        scan_points is None or not is_surface(p.ranging, scan_points, origin, lidar, *ends, cut)
+    ):
         pass  # a surface narrower or wider than the box at that range (a leg, the wall behind): not the object
     elif lidar is not None:
         # Either side of the monocular range: the wall behind a small object is ruled out above (it runs

@@ -13,9 +13,14 @@ against what the world holds at the same moment:
   within `scan_range_m` of the camera is the range wherever it is nearer than the tracker's (a
   farther one may be what is behind a small object), but not below `scan_agree` of it (base frame:
   a much nearer return is something else on the bearing, a door jamb with the object beyond it),
-  and only where what it hits is as wide as the box: the returns within `scan_depth_m` behind it
-  span at least `scan_cover` of the box's angular width (a table leg is not the tray on it). A box
-  that fills the view ("fills_view": near, not how near) takes the scan's return alike.
+  and only where what it hits is the object's surface (`is_surface`): as wide as the box, the returns
+  within `scan_depth_m` behind it spanning at least `scan_cover` of the box's angular width (a table
+  leg is not the tray on it), and no wider: no returns within `surface_m` of its range beyond either
+  edge of the box (past a gap of `past_gap_rad`, out to the box's width or `past_rad`), or it is a
+  surface that runs on past the object (a bed before the toy chest behind it: the robot stopped
+  0.84 m from the bed, 1.7 m from the chest; the wall behind a small object). An object against a
+  wall at its own range loses the lidar, and is ranged by the tracker. A box that fills the view
+  ("fills_view": near, not how near) takes the scan's return alike.
 - The memory. The tracker's box can spread onto what stands before its object (a door leaf of the
   object's colour). A confident remembered object of the goal's label on the bearing (within
   `memory_cone_deg`, or half the box), seen in the last `memory_fresh_s`, whose surface lies more than
@@ -25,7 +30,7 @@ against what the world holds at the same moment:
   `far_hold_s` (`capped`): one frame of a sliver of the object can range it tens of metres away.
 
 The object memory's placement (world/placement.py) asks the scan the same question of an answer's
-box before a return ranges it (`as_wide`).
+box before a return ranges it (`is_surface`).
 
 Distances are base centre -> the object's surface (m); the tracker's are camera -> surface, and the
 camera sits `camera_forward_m` ahead of the base centre.
@@ -45,9 +50,19 @@ from go2vlm.geometry.scan import nearest_return
 from go2vlm.world.labels import label_fits
 from go2vlm.world.poses import Pose2D, wrap_angle
 
-__all__ = ["SIZE_METHODS", "MemoryEntry", "RangingParams", "Reading", "TargetRanging", "as_wide", "remembered_on"]
+__all__ = [
+    "SIZE_METHODS",
+    "MemoryEntry",
+    "RangingParams",
+    "Reading",
+    "TargetRanging",
+    "as_wide",
+    "is_surface",
+    "remembered_on",
+]
 
 SIZE_METHODS = ("size", "default_size")  # the tracker's methods that range by the object's size
+CUT_MARGIN = 0.02  # a box's edge within this share of the half field of view from the border is cut by it
 
 
 class Reading(Protocol):
@@ -64,6 +79,9 @@ class Reading(Protocol):
 
     @property
     def width(self) -> float: ...  # rad: the box's angular width; NaN: not known
+
+    @property
+    def hfov(self) -> float: ...  # rad: the camera's field of view (a box's edge at its border is cut); NaN
 
 
 class MemoryEntry(Protocol):
@@ -108,6 +126,18 @@ class RangingParams:
     scan_cover: float = param(
         0.4, help="ranging: ... and must span this share of the box's angular width", min=0.0, max=1.0
     )
+    surface_m: float = param(
+        0.3, help="ranging: returns this near a return's range beyond an edge of the box make it a surface that "
+        "runs on past the object (m) ...", min=0.0, max=2.0,
+    )  # fmt: skip
+    past_rad: float = param(
+        0.1, help="ranging: ... looked for this far beyond each edge, or the box's width if wider (rad) ...", min=0.0,
+        max=1.0,
+    )  # fmt: skip
+    past_gap_rad: float = param(
+        0.035, help="ranging: ... past a gap of this (rad: the scan's edge blur, two of its 2-degree bins)", min=0.0,
+        max=0.5,
+    )  # fmt: skip
     far_hold_s: float = param(
         1.0, help="ranging: a range by size beyond the go-to cap counts once held this long (s)", min=0.0,
         max=30.0,
@@ -168,7 +198,10 @@ class TargetRanging:
         agrees = (
             d is not None and d <= p.scan_range_m and (ref is None or p.scan_agree * (ref + cf) <= d + cf < ref + cf)
         )
-        if agrees and d is not None and scan is not None and as_wide(p, scan, (cf, 0.0), d, s.bearing, s.width):
+        b_r, b_l = s.bearing - s.width / 2.0, s.bearing + s.width / 2.0
+        border = s.hfov / 2.0 * (1.0 - CUT_MARGIN)  # NaN: not known, and no edge counts as cut
+        cut = (s.range_method == "fills_view" or b_r <= -border, s.range_method == "fills_view" or b_l >= border)
+        if agrees and d is not None and scan is not None and is_surface(p, scan, (cf, 0.0), d, b_r, b_l, cut):
             self.ranged_by, ranged = "lidar", d + cf
         elif own is None:
             return None
@@ -239,3 +272,31 @@ def as_wide(
     gaps = np.diff(np.unique(ang))
     step = min(float(np.median(gaps[gaps > 1e-9])), cone) if (gaps > 1e-9).any() else 0.0
     return bool(hit.any() and float(ang[hit].max() - ang[hit].min()) + step >= p.scan_cover * width)
+
+
+def is_surface(
+    p: RangingParams,
+    points: np.ndarray,
+    origin: tuple[float, float],
+    d: float,
+    b_r: float,
+    b_l: float,
+    cut: tuple[bool, bool] = (False, False),
+) -> bool:
+    """Is the scan's return at range `d` from `origin` the surface of the object in a box whose edges lie
+    at bearings `b_r`..`b_l` (rad, + left): as wide as the box (`as_wide`) and no wider (no returns at
+    about its range beyond either edge: a surface running on past the object, one side enough, as in a
+    corner the other wall lies at another range)? An edge `cut` by the image's border (right, left) may
+    run on: the object goes on out of view. A box of unknown width (NaN) asks only `as_wide`."""
+    width = b_l - b_r
+    if not as_wide(p, points, origin, d, (b_r + b_l) / 2.0, width):
+        return False
+    if not math.isfinite(width):
+        return True
+    rel = np.asarray(points, dtype=float).reshape(-1, 2) - origin
+    ang, rng = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
+    at = (np.abs(rng - d) <= p.surface_m) & (rel[:, 0] > 0.0)
+    reach = max(width, p.past_rad)
+    left = at & (ang > b_l + p.past_gap_rad) & (ang <= b_l + reach) & (not cut[1])
+    right = at & (ang < b_r - p.past_gap_rad) & (ang >= b_r - reach) & (not cut[0])
+    return not bool(left.any() or right.any())
