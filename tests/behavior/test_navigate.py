@@ -317,8 +317,8 @@ def door_shutting(nav: Navigator, once: bool, steps: int = 3000) -> tuple[str, s
 def test_a_goal_whose_way_keeps_growing_back_is_given_up() -> None:
     """Whichever door the robot nears shuts on the map and the other opens: it walks all the time (the
     moving check is content) and never nears the goal. The route's setbacks end it, where an unbounded
-    navigator walks between the doors until the time runs out; one door shut for good is one detour,
-    and it arrives."""
+    navigator walks between the doors until the time runs out; one door shut for good is one detour
+    (the first block of a goal is not a setback), and it arrives."""
     status, reason, _ = door_shutting(Navigator(NavParams(setbacks=1000), GlobalParams()), once=False)
     assert status == "timeout", (status, reason)
     nav = Navigator(NavParams(), GlobalParams())
@@ -327,31 +327,38 @@ def test_a_goal_whose_way_keeps_growing_back_is_given_up() -> None:
     assert nav.counters["setbacks"] == NavParams().setbacks
     nav = Navigator(NavParams(), GlobalParams())
     status, reason, _ = door_shutting(nav, once=True)
-    assert status == "arrived" and nav.counters["setbacks"] == 1, (status, reason, nav.status())
+    assert status == "arrived" and nav.counters["setbacks"] == 0, (status, reason, nav.status())
+    assert nav.counters["replans_blocked"] >= 1
 
 
-def test_only_a_blocked_route_sets_the_way_back() -> None:
-    """The planner weighs cost, not length: as the map grows it may pick a way over a metre longer that
-    costs less, and two such ways can take turns with nothing wrong (houses 002 gave a frontier up
-    after three of those). A setback is a block that lengthens the way that was left by over
-    `setback_m`; nearing is still measured against the least way left."""
+def test_only_blocks_with_no_nearing_between_them_set_the_way_back() -> None:
+    """The planner weighs cost, not length: as the map grows it may pick a longer way that costs less,
+    and two such ways can take turns with nothing wrong (houses 002 gave a frontier up after two of
+    those). A block is a setback when it lengthens the way and the robot has come no nearer since the
+    block before: in houses 002 a marginal gap by a frontier 1.7 m off shut and opened 25 times in
+    100 s while the robot turned about before it, each time less than a metre longer."""
     pr = Progress()
     pr.new_goal()
     pr.to_go(6.7, 0.0, 0.3)
-    assert not pr.replanned(10.5, 1.0, 1.0, None)  # the map grew: a longer, cheaper way
+    assert not pr.replanned(10.5, 1.0, None)  # the map grew: a longer, cheaper way
     assert not pr.to_go(10.2, 2.0, 0.3)  # no nearer than the least
-    assert not pr.replanned(7.2, 3.0, 1.0, 6.7)  # blocked, a way hardly longer
-    assert pr.replanned(10.5, 4.0, 1.0, 6.7) and pr.setbacks == 1  # blocked, 3.8 m longer
-    assert pr.least_to_go == 10.5 and pr.to_go(10.1, 5.0, 0.3)
+    assert not pr.replanned(7.2, 3.0, 6.7)  # the goal's first block: a detour
+    assert not pr.replanned(6.5, 3.5, 7.2)  # blocked, but a way no longer
+    pr.to_go(6.9, 4.0, 0.3)
+    assert pr.replanned(7.6, 4.5, 6.9) and pr.setbacks == 1  # longer, and no nearer than at the last block
+    pr.to_go(6.3, 5.0, 0.3)  # nearer: 0.4 m below the least at that block
+    assert not pr.replanned(7.0, 5.5, 6.3)
+    assert pr.replanned(7.4, 6.0, 7.0) and pr.setbacks == 2
 
 
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.tuples(st.floats(0.0, 50.0), st.one_of(st.none(), st.floats(0.0, 50.0))), max_size=30))
 def test_setbacks_come_only_from_blocks_that_lengthen_the_way(replans: list[tuple[float, float | None]]) -> None:
+    """Without the robot ever walking (no `to_go` between), every lengthening block but the first is one."""
     pr = Progress()
     pr.new_goal()
-    want = 0
+    blocks = 0
     for k, (metres, left) in enumerate(replans):
-        want += left is not None and metres > left + 1.0
-        pr.replanned(metres, float(k), 1.0, left)
-    assert pr.setbacks == want
+        blocks += left is not None and metres > left
+        pr.replanned(metres, float(k), left)
+    assert pr.setbacks == max(blocks - 1, 0)

@@ -88,7 +88,6 @@ class CommanderConfig:
     nav_progress_deg: float = from_core(NavParams, "progress_deg")
     nav_progress_s: float = from_core(NavParams, "progress_s")
     nav_nearing_s: float = from_core(NavParams, "nearing_s")
-    nav_setback_m: float = from_core(NavParams, "setback_m")
     nav_setbacks: int = from_core(NavParams, "setbacks")
     nav_spin_deg: float = from_core(NavParams, "spin_deg")
     nav_back_up_m: float = from_core(NavParams, "back_up_m")

@@ -167,11 +167,11 @@ class Navigator:
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
             self.route, self._index = Route(plan, goal, now, cm.stamp), 0
-            if self.progress.replanned(plan.length, now, p.setback_m, self._left if why == BLOCKED else None):
+            if self.progress.replanned(plan.length, now, self._left if why == BLOCKED else None):
                 self.counters["setbacks"] += 1
                 if self.progress.setbacks >= p.setbacks:
-                    return self._give_up(f"the way there grew back {p.setbacks} times (by over {p.setback_m:g} m; "
-                                         f"{self.progress.least_to_go:.1f} m to go at the least)")  # fmt: skip
+                    return self._give_up(f"the way there grew back {p.setbacks} times, no nearer in between "
+                                         f"({self.progress.best:.1f} m to go at the least)")  # fmt: skip
         if self.progress.stalled(now, p.progress_s, p.nearing_s):
             toward = self._toward(pose)
             name = self.recoveries.begin(pose, now, toward)

@@ -100,13 +100,9 @@ class NavParams:
         30.0, help="navigate: ... and the way left to go falling progress_m within this long (s); else a recovery "
         "(only nearing starts the recoveries from the first again)", min=5.0, max=600.0, live=True,
     )  # fmt: skip
-    setback_m: float = param(
-        1.0, help="navigate: a replan forced by a block, whose route is this much longer (m) than the way left on the "
-        "blocked one, is a setback ...", min=0.1, max=20.0, live=True,
-    )  # fmt: skip
     setbacks: int = param(
-        3, help="navigate: ... and after this many the goal is given up (failed: its way keeps growing back)", min=1,
-        max=100, live=True,
+        3, help="navigate: blocks that lengthen the way with the robot no nearer since the block before: after this "
+        "many the goal is given up (failed: its way keeps growing back)", min=1, max=100, live=True,
     )  # fmt: skip
     spin_deg: float = param(90.0, help="navigate: the spin recovery's turn (deg)", min=10.0, max=360.0, live=True)
     back_up_m: float = param(0.3, help="navigate: the back-up recovery's distance (m)", min=0.05, max=2.0, live=True)

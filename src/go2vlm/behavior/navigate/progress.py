@@ -6,13 +6,15 @@
 - Nearing: the way left to go (along the route) must fall `progress_m` below its least within
   `nearing_s`, else it is stalled too: a robot that shuffles by a place it cannot reach moves all the
   time. Only nearing starts the recoveries from the first again, so that they stay bounded.
-- Setbacks: a replan because the map blocked the route, whose new route is more than `setback_m`
-  longer than the way that was left on the blocked one, is a setback (the way is measured from the
-  new route on). A robot whose route keeps growing back (the near way closes as it comes near, a far
-  way opens as it walks off) nears along every route and never arrives: after `setbacks` of them the
-  goal is given up. Only a block counts: a replan as the map grows, or after a stray, may choose a
-  longer way that costs less (the planner weighs cost, not length), and two such ways can take turns
-  with nothing wrong; their nearing is still measured against the least way left.
+- Setbacks: the map blocks the route and the new one is longer than the way that was left on it,
+  and the robot has come no nearer (`progress_m` below the least way left at the block before)
+  since the block before: the map takes the way back faster than the robot wins any. Such a robot
+  moves all the time and never arrives: the near way closes as it comes near and a far one opens as
+  it walks off, or a marginal gap shuts and opens as it turns about before it (the first block of a
+  goal, or one after nearing, is a detour, not a setback). After `setbacks` of them the goal is given
+  up. Only a block counts: a replan as the map grows, or after a stray, may choose a longer way that
+  costs less (the planner weighs cost, not length), and two such ways can take turns with nothing
+  wrong.
 
 Pure, timestamp-driven."""
 
@@ -31,6 +33,9 @@ class Progress:
         self.least_to_go = math.inf  # the least way left to go (m) for this goal, since its last setback
         self.neared_t: float | None = None  # when it last fell
         self.setbacks = 0
+        self.best = math.inf  # the least way left for this goal, ever
+        self.block_best = math.inf  # ... as it was at the last block
+        self.neared_since_block = True
 
     def reset(self) -> None:
         """After a recovery: both clocks start again; what the goal's way has been is kept."""
@@ -39,22 +44,30 @@ class Progress:
     def new_goal(self) -> None:
         self.reset()
         self.least_to_go, self.setbacks = math.inf, 0
+        self.best = self.block_best = math.inf
+        self.neared_since_block = True
 
     def to_go(self, metres: float, now: float, by: float) -> bool:
         """The way left to go along the route now: is it `by` m below its least (the robot nears)?"""
         if self.neared_t is None:
             self.neared_t = now
+        self.best = min(self.best, metres)
+        if metres < self.block_best - by:
+            self.neared_since_block = True
         if metres < self.least_to_go - by or not math.isfinite(self.least_to_go):
             nearer = math.isfinite(self.least_to_go)
             self.least_to_go, self.neared_t = metres, now
             return nearer
         return False
 
-    def replanned(self, metres: float, now: float, setback_m: float, blocked_left: float | None) -> bool:
+    def replanned(self, metres: float, now: float, blocked_left: float | None) -> bool:
         """A new route `metres` long from the robot, replanned because the map blocked the route with
-        `blocked_left` m left on it (None: for another reason): is it a setback (counted; the way is
-        measured from it on)?"""
-        if blocked_left is None or metres <= blocked_left + setback_m:
+        `blocked_left` m left on it (None: for another reason): is it a setback (counted; the stall
+        clock is measured from it on)?"""
+        if blocked_left is None or metres <= blocked_left:
+            return False
+        neared, self.neared_since_block, self.block_best = self.neared_since_block, False, self.best
+        if neared:
             return False
         self.setbacks += 1
         self.least_to_go, self.neared_t = metres, now
