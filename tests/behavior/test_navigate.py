@@ -362,3 +362,26 @@ def test_setbacks_come_only_from_blocks_that_lengthen_the_way(replans: list[tupl
         blocks += left is not None and metres > left
         pr.replanned(metres, float(k), left)
     assert pr.setbacks == max(blocks - 1, 0)
+
+
+@pytest.mark.parametrize("gain", [0.0, NavParams().reroute_gain])
+def test_as_the_map_grows_a_route_is_left_only_for_a_much_cheaper_one(gain: float) -> None:
+    """Two doors, the goal beyond the wall between them: from where the robot set out the south door is
+    the cheaper way, a step later the north one, by a few per cent. As the map grew, each replan took
+    the cheaper, and a robot between two ways of about one cost walked back and forth between them
+    (houses 002: 3.7 and 12.8 m by turns for 100 s, each replan "the map has grown"). The route being
+    walked is kept unless the new one costs `reroute_gain` less."""
+    walls = two_doors(set())
+    nav = Navigator(NavParams(reroute_gain=gain), GlobalParams())
+    pts = wall_points(walls)
+    out = nav.step((-3.0, 0.0), 0.3, costmap(walls, 0.0), (3.0, -0.6, math.pi), scan_at(pts, 3.0, -0.6, math.pi), 0.0,
+                   max_linear=0.5, max_angular=0.8)  # fmt: skip
+    assert out.status == "moving" and nav.route is not None
+    assert nav.route.plan.waypoints[:, 1].min() < -2.0  # by the south door
+    later = GlobalParams().replan_period_s + 0.5
+    out = nav.step((-3.0, 0.0), 0.3, costmap(walls, later), (3.0, 0.2, math.pi), scan_at(pts, 3.0, 0.2, math.pi),
+                   later, max_linear=0.5, max_angular=0.8)  # fmt: skip
+    assert out.status == "moving" and nav.route is not None
+    south = nav.route.plan.waypoints[:, 1].min() < -2.0
+    assert south == (gain > 0.0), (gain, nav.route.plan.waypoints, nav.status())
+    assert nav.counters["routes_kept"] == (1 if gain > 0.0 else 0)

@@ -89,6 +89,7 @@ class CommanderConfig:
     nav_progress_s: float = from_core(NavParams, "progress_s")
     nav_nearing_s: float = from_core(NavParams, "nearing_s")
     nav_setbacks: int = from_core(NavParams, "setbacks")
+    nav_reroute_gain: float = from_core(NavParams, "reroute_gain")
     nav_spin_deg: float = from_core(NavParams, "spin_deg")
     nav_back_up_m: float = from_core(NavParams, "back_up_m")
     nav_back_up_speed: float = from_core(NavParams, "back_up_speed")

@@ -10,7 +10,7 @@ It owns, as Nav2 keeps them apart:
 - the route (behavior/planner/route.Route over planner/global_path.plan_path): planned for a new
   goal (one that moved more than `goal_moved_m`: a remembered place that shifts by centimetres with
   each answer keeps its route), replanned when the newest map blocks it, when the robot strays
-  from it, or as the map grows;
+  from it, or as the map grows (then kept unless the new route costs `reroute_gain` less);
 - the controller (navigate/controller.py: regulated pure pursuit, footprint-checked);
 - one progress checker (navigate/progress.py: moving `progress_m` within `progress_s`, nearing the goal
   by as much within `nearing_s`, and a way left to go that does not keep growing back: `setbacks`);
@@ -48,7 +48,7 @@ from go2vlm.behavior.planner.global_path import (
     passable,
     plan_path,
 )
-from go2vlm.behavior.planner.route import BLOCKED, Route
+from go2vlm.behavior.planner.route import BLOCKED, GROWN, Route
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.occupancy import LETHAL
 
@@ -166,12 +166,17 @@ class Navigator:
             if not plan.ok:
                 self.route = None
                 return NavStep(0.0, 0.0, "failed", f"no route: {plan.reason}")
-            self.route, self._index = Route(plan, goal, now, cm.stamp), 0
-            if self.progress.replanned(plan.length, now, self._left if why == BLOCKED else None):
-                self.counters["setbacks"] += 1
-                if self.progress.setbacks >= p.setbacks:
-                    return self._give_up(f"the way there grew back {p.setbacks} times, no nearer in between "
-                                         f"({self.progress.best:.1f} m to go at the least)")  # fmt: skip
+            new = Route(plan, goal, now, cm.stamp)
+            if why == GROWN and self.route is not None and not self._better(new, cm, x, y):
+                self.route.t, self.route.map_stamp, why = now, cm.stamp, ""  # kept: asked again a period on
+                self.counters["routes_kept"] += 1
+            else:
+                self.route, self._index = new, 0
+                if self.progress.replanned(plan.length, now, self._left if why == BLOCKED else None):
+                    self.counters["setbacks"] += 1
+                    if self.progress.setbacks >= p.setbacks:
+                        return self._give_up(f"the way there grew back {p.setbacks} times, no nearer in between "
+                                             f"({self.progress.best:.1f} m to go at the least)")  # fmt: skip
         if self.progress.stalled(now, p.progress_s, p.nearing_s):
             toward = self._toward(pose)
             name = self.recoveries.begin(pose, now, toward)
@@ -196,6 +201,14 @@ class Navigator:
         reason = f"{d.remaining:.1f} m along the route"
         notes = ", ".join(n for n in (d.note, f"replanned: {why}" if why else "") if n)
         return NavStep(d.vx, d.wz, "moving", f"{reason} ({notes})" if notes else reason, d.note)
+
+    def _better(self, new: Route, cm: Costmap, x: float, y: float) -> bool:
+        """Is `new` worth leaving the route being walked for (the map has grown, nothing is wrong with
+        it): cheaper by `reroute_gain`, both costed on `cm` from the robot? Two ways of about one cost
+        took turns as the robot moved, and it walked back and forth between them (houses 002)."""
+        assert self.route is not None
+        keep = self.route.cost_left(cm, self.planner, x, y)
+        return new.cost_left(cm, self.planner, x, y) < (1.0 - self.params.reroute_gain) * keep
 
     def _give_up(self, reason: str) -> NavStep:
         """`failed` for the goal (counted), and forget it: the caller gives the place up."""

@@ -100,6 +100,10 @@ class NavParams:
         30.0, help="navigate: ... and the way left to go falling progress_m within this long (s); else a recovery "
         "(only nearing starts the recoveries from the first again)", min=5.0, max=600.0, live=True,
     )  # fmt: skip
+    reroute_gain: float = param(
+        0.2, help="navigate: as the map grows, a new route replaces the one being walked only if it costs this share "
+        "less (the planner's cost, both from the robot on the newest map)", min=0.0, max=0.9, live=True,
+    )  # fmt: skip
     setbacks: int = param(
         3, help="navigate: blocks that lengthen the way with the robot no nearer since the block before: after this "
         "many the goal is given up (failed: its way keeps growing back)", min=1, max=100, live=True,

@@ -74,6 +74,7 @@ __all__ = [
     "Plan",
     "cell_costs",
     "chain_cost",
+    "costs_of",
     "footprint_fits",
     "goal_costs",
     "in_sight",
@@ -96,6 +97,11 @@ def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
         known = np.where(pad == UNKNOWN, np.int8(127), pad)
         d = known.reshape(hh // k, k, ww // k, k).min(axis=3).min(axis=1)
         d[d == 127] = UNKNOWN
+    return costs_of(d, p)
+
+
+def costs_of(d: np.ndarray, p: GlobalParams) -> np.ndarray:
+    """The cost of entering cells of costmap values `d` (inf: never): `cell_costs` cell by cell."""
     unknown = d == UNKNOWN
     v = d.astype(np.int16)
     c = 1.0 + p.cost_scale * np.clip(v, 0, 100) / 100.0

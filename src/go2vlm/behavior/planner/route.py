@@ -12,13 +12,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, line_cells, passable
+from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, costs_of, line_cells, passable
 
-__all__ = ["BLOCKED", "GROWN", "OFF_ROUTE", "Route"]
+__all__ = ["BLOCKED", "GROWN", "OFF_ROUTE", "Route", "path_cost"]
 
 GROWN = "the map has grown"  # the one replan that says nothing is wrong with the route
 BLOCKED = "the route is blocked on the new map"  # the one that says the map took the way back
 OFF_ROUTE = "off the route"
+
+
+def path_cost(cm: Costmap, points: np.ndarray, p: GlobalParams) -> float:
+    """The search's cost (as `chain_cost`) of walking the straight legs between world `points` on `cm`
+    (inf: a cell on them may not be entered, or lies off the grid)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(pts) < 2:
+        return 0.0
+    legs = [line_cells(cm.cell(*a), cm.cell(*b)) for a, b in zip(pts[:-1], pts[1:], strict=True)]
+    cells = np.concatenate([legs[0], *(leg[1:] for leg in legs[1:])])
+    h, w = cm.shape
+    if not ((cells[:, 0] >= 0) & (cells[:, 0] < h) & (cells[:, 1] >= 0) & (cells[:, 1] < w)).all():
+        return math.inf
+    v = costs_of(cm.data[cells[:, 0], cells[:, 1]], p)
+    step = np.hypot(*np.diff(cells, axis=0).T)
+    return float(np.sum(step * 0.5 * (v[1:] + v[:-1])))
 
 
 @dataclass
@@ -82,6 +98,12 @@ class Route:
             if not passable(cm, line, p).all():
                 return True
         return False
+
+    def cost_left(self, cm: Costmap, p: GlobalParams, x: float, y: float) -> float:
+        """The planner's cost on `cm` of the rest of the route from the robot at (x, y) on."""
+        w = self.plan.waypoints
+        i = max(1, min(self.index, len(w) - 1))
+        return path_cost(cm, np.vstack([[x, y], w[i:]]), p)
 
     def needs_replan(self, cm: Costmap, x: float, y: float, now: float, p: GlobalParams) -> str:
         """Why to replan now ('' = keep the route)."""
