@@ -51,7 +51,7 @@ import numpy as np  # noqa: E402
 from go2vlm.geometry.rotations import yaw_quat  # noqa: E402
 from go2vlm.geometry.scan import cloud_to_ranges, to_base  # noqa: E402
 from go2vlm.robot_profile.go2 import GO2  # noqa: E402
-from go2vlm.world.map_node import LIDAR_PARALLAX_M  # noqa: E402
+from go2vlm.world.map_node import LIDAR_XY  # noqa: E402
 from go2vlm.world.occupancy import Beams, OccupancyMap  # noqa: E402
 from go2vlm.world.poses import Pose2D, wrap_angle  # noqa: E402
 from go2vlm.world.scan_match import Corrector  # noqa: E402
@@ -125,7 +125,7 @@ class WorldLidar:
         self.mj.mj_kinematics(self.model, self.data)
         ranges = cloud_to_ranges(to_base(self.lidar.scan(self.data), self.tf), self.spec)
         s = self.spec
-        return Beams(ranges, s.angle_min, s.angle_increment, s.range_min, s.range_max, parallax_m=LIDAR_PARALLAX_M)
+        return Beams(ranges, s.angle_min, s.angle_increment, s.range_min, s.range_max, sensor=LIDAR_XY)
 
 
 def map_error(grid: OccupancyMap, reference: OccupancyMap) -> dict[str, float]:

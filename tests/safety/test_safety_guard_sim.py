@@ -103,13 +103,23 @@ def test_teleop_straight_at_a_wall_stops_at_the_margin(run: tuple[Procs, Probe],
     start(procs, probe, "[3.0, 1.5, 0.0]", "--param", f"max_vx_forward={speed}")
     gap0 = probe.gap(WALL_EAST)
     assert gap0 > 1.0
-    drive(probe, Twist(linear=Vector3(x=speed)), 8.0)
+    # Until the gate holds the robot at the wall (the sim may run behind the wall clock on a busy machine).
+    held = drive_until(
+        probe, Twist(linear=Vector3(x=speed)), lambda: probe.gap(WALL_EAST) < 1.0 and stopped(probe), 90.0
+    )
+    assert held, (probe.gap(WALL_EAST), probe.cmd.msgs()[-3:], probe.guard())
     gap = probe.gap(WALL_EAST)
     assert gap >= MARGIN - TOLERANCE, f"robot stopped {gap:.3f} m from the wall (margin {MARGIN})"
     assert gap <= gap0 - 0.5, f"the robot hardly moved ({gap0:.2f} -> {gap:.2f} m)"
     g = probe.guard()  # at the margin the gate creeps at most a step closer, then holds
     assert g["mode"] in ("limited", "clear") and g["nearest_m"] is not None and g["nearest_m"] < MARGIN + 0.1, g
     assert abs(probe.cmd.msgs()[-1].linear.x) < 0.05
+
+
+def stopped(probe: Probe) -> bool:
+    """The gate's last half second of /cmd_vel all but zero: it holds the robot."""
+    recent = probe.cmd.msgs()[-10:]
+    return len(recent) == 10 and all(abs(m.linear.x) < 0.05 and abs(m.linear.y) < 0.05 for m in recent)
 
 
 def test_teleop_sideways_into_a_wall_stops_at_the_margin(run: tuple[Procs, Probe]) -> None:
