@@ -12,7 +12,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, Plan, costs_of, line_cells, passable
+from go2vlm.behavior.planner.global_path import (
+    Costmap,
+    GlobalParams,
+    Plan,
+    chain_cost,
+    costs_of,
+    line_cells,
+    passable,
+)
 
 __all__ = ["BLOCKED", "GROWN", "OFF_ROUTE", "Route", "path_cost"]
 
@@ -32,9 +40,8 @@ def path_cost(cm: Costmap, points: np.ndarray, p: GlobalParams) -> float:
     h, w = cm.shape
     if not ((cells[:, 0] >= 0) & (cells[:, 0] < h) & (cells[:, 1] >= 0) & (cells[:, 1] < w)).all():
         return math.inf
-    v = costs_of(cm.data[cells[:, 0], cells[:, 1]], p)
-    step = np.hypot(*np.diff(cells, axis=0).T)
-    return float(np.sum(step * 0.5 * (v[1:] + v[:-1])))
+    (r0, c0), (r1, c1) = cells.min(axis=0), cells.max(axis=0) + 1  # the costs of the box they lie in only
+    return chain_cost(costs_of(cm.data[r0:r1, c0:c1], p), cells - (r0, c0))
 
 
 @dataclass
