@@ -14,7 +14,6 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import TERMINAL, ZERO_BURST_S, Mission, MissionParams, Sighting
-from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
 
 GOALS = [
     "go to the blue cylinder",
@@ -122,10 +121,8 @@ def test_no_sequence_makes_the_mission_unsafe(p: MissionParams, evs: list[tuple]
         out = m.step(now)
         state = out.state
         # Speeds within the limits, never backwards.
-        assert -BACK_SPEED <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
-        assert out.vx >= 0.0 or (out.vx == -BACK_SPEED and abs(out.wz) in (0.0, min(BACK_TURN, p.max_angular))), (
-            out
-        )  # only a back-away
+        back = p.nav.back_up_speed  # the navigator's, making room to turn: never faster
+        assert -back <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12, out
         # Terminal states, "stop" and goals it cannot parse: zero, no target for the follower, no query.
         if state in TERMINAL:
             if t_terminal is None:
@@ -278,8 +275,8 @@ def test_sit_and_stand_are_posture_commands() -> None:
 
 def test_a_search_turn_beside_a_table_backs_away_first() -> None:
     """The gate's guard would hold a turn in place that sweeps the footprint into a table edge: the
-    mission backs away (turning the way it wanted to), then turns (planner/local.py unstick). The
-    table stands 0.08 m ahead: the corners' sweep would come within a creep's clearance (0.11 m)."""
+    search asks the navigator for its turn, which backs away first (a leg of a driver's turn), then
+    turns. The table stands 0.08 m ahead: the corners' sweep would come within a creep's clearance."""
     m = Mission(MissionParams())
     m.set_goal("look for the blue cylinder", 0.0)
     ys = np.arange(-0.6, 0.6, 0.02)
@@ -287,32 +284,20 @@ def test_a_search_turn_beside_a_table_backs_away_first() -> None:
     m.observe_pose(0.0, 0.0, 0.0, 0.1)
     m.observe_scan(table, 0.1)
     out = m.step(0.1)
-    assert out.vx == -BACK_SPEED and abs(out.wz) in (0.0, BACK_TURN) and out.state == "searching", out
-    assert "backing away" in m.planner_note
-    m.observe_scan(table + [1.0, 0.0], 0.2)  # backed off: room to turn
-    out = m.step(0.2)
-    assert out.vx == 0.0 and out.wz != 0.0
+    assert out.vx < 0.0 and out.state == "searching" and "no room to turn" in out.reason, out
+    assert "no room to turn" in m.planner_note
+    m.observe_pose(0.0, 0.0, 0.0, 5.0)
+    m.observe_scan(table + [1.0, 0.0], 5.0)  # backed off, the leg over: room to turn
+    out = m.step(5.0)
+    assert out.vx == 0.0 and out.wz != 0.0, out
 
 
-def test_a_turn_sent_the_other_way_round_is_kept_for_half_a_turn() -> None:
-    """No room behind and the left turn held (rooms 0): the mission turns right instead and keeps
-    turning right though the search still asks left, until half a turn's time is up."""
-    from go2vlm.behavior.planner.local import PlannerParams
-
-    pp = PlannerParams(margin=0.35, margin_per_speed_s=0.0)  # the 0.35 m this spot was measured with
-    m = Mission(MissionParams(planner=pp))
+def test_with_avoid_obstacles_off_a_turn_is_sent_as_asked() -> None:
+    """avoid_obstacles off: the strategies' turns go out as they are (the guard alone holds them)."""
+    m = Mission(MissionParams(avoid_obstacles=False))
     m.set_goal("look for the blue cylinder", 0.0)
-    tail = np.array([[-0.3, -0.465]])  # a left turn swings the tail into it
-    posts = np.array([[-pp.half_length - 0.5, 0.0], [pp.half_length + 0.5, 0.0]])  # no 0.3 m ahead, nor behind
-    scan = np.vstack([tail, posts])
+    ys = np.arange(-0.6, 0.6, 0.02)
     m.observe_pose(0.0, 0.0, 0.0, 0.1)
-    m.observe_scan(scan, 0.1)
+    m.observe_scan(np.column_stack([np.full_like(ys, 0.43), ys]), 0.1)
     out = m.step(0.1)
-    assert out.vx == 0.0 and out.wz < 0.0 and "other way round" in m.planner_note, (out, m.planner_note)
-    m.observe_scan(np.vstack([posts]), 0.2)  # the left turn would be free now: it keeps turning right
-    out = m.step(0.2)
-    assert out.vx == 0.0 and out.wz < 0.0, out
-    late = 0.1 + math.pi / abs(out.wz) + 0.5
-    m.observe_pose(0.0, 0.0, 0.0, late)
-    m.observe_scan(np.vstack([posts]), late)
-    assert m.step(late).wz > 0.0  # half a turn later: the search's own way again
+    assert out.vx == 0.0 and out.wz != 0.0, out

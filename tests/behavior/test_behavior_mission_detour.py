@@ -13,7 +13,6 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from go2vlm.behavior.mission import Mission, MissionParams, Sighting
-from go2vlm.behavior.planner.local import BACK_SPEED, BACK_TURN
 from go2vlm.geometry.camera import fovy_to_hfov
 from go2vlm.geometry.footprint import Clearance, Footprint, clearance
 from go2vlm.geometry.scan import ScanSpec, cloud_to_ranges, scan_points
@@ -201,9 +200,8 @@ def test_forward_without_a_confirmed_target_only_on_a_fresh_blocked_detour(
         elif e[0] == "pose":
             m.observe_pose(e[1], e[2], e[3], now)
         out = m.step(now)
-        assert -BACK_SPEED <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12
-        back_turn = min(BACK_TURN, p.max_angular)
-        assert out.vx >= 0.0 or (out.vx == -BACK_SPEED and abs(out.wz) in (0.0, back_turn)), out  # only a back-away
+        back = p.nav.back_up_speed  # the navigator's, making room to turn: never faster
+        assert -back <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12, out
         confirmed = newest is not None and newest[1] and now - newest[0] < p.lost_timeout_s
         if out.vx > 0 and not confirmed:
             assert out.state == "detouring", out

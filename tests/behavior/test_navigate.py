@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from go2vlm.behavior.navigate import Navigator, NavParams
-from go2vlm.behavior.navigate.controller import Leg, Rect, arc_clearance, pursue
+from go2vlm.behavior.navigate.controller import Leg, Rect, arc_clearance, pursue, turn_in_place
 from go2vlm.behavior.navigate.params import RECOVERIES
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
@@ -279,6 +279,82 @@ def test_a_held_leg_runs_on_where_the_routes_arc_would_keep_again() -> None:
     assert d.vx == -0.15 and d.leg == held, d
     d = pursue(path, (0.0, 0.0, 0.0), wall, 0.0, p, 0.5, 0.8, held=held, now=1.0)
     assert d == free, d
+
+
+def edge(x: float, y0: float = -0.8, y1: float = 0.8) -> np.ndarray:
+    """A straight edge across the robot's way at `x` (base frame), points every 2 cm."""
+    ys = np.arange(y0, y1, 0.02)
+    return np.column_stack([np.full_like(ys, x), ys])
+
+
+def look_round(world: np.ndarray, wz: float, seconds: float = 60.0, dt: float = 0.05) -> tuple[float, float, int]:
+    """A strategy asking the navigator for a turn in place at `wz` every step (a look all round, from
+    the origin facing +x), each answer applied only as the guard would (never nearer than the rule
+    asks at its speed, or than it is, if nearer already): the net angle turned the asked way (rad),
+    the footprint's least clearance, and how often it changed between forward and back."""
+    nav, p = Navigator(), NavParams()
+    x = y = yaw = 0.0
+    turned, least, flips, last = 0.0, math.inf, 0, 0.0
+    for k in range(int(seconds / dt)):
+        scan = scan_at(world, x, y, yaw)
+        here = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
+        least = min(least, here)
+        out = nav.turn(wz, scan, k * dt, max_linear=0.5, max_angular=0.8)
+        assert -p.back_up_speed - 1e-9 <= out.vx <= p.min_speed + 1e-9 and abs(out.wz) <= 0.8 + 1e-9, out
+        flips += out.vx * last < 0
+        last = out.vx or last
+        nyaw = yaw + out.wz * dt
+        nx, ny = x + out.vx * dt * math.cos(nyaw), y + out.vx * dt * math.sin(nyaw)
+        keep = FP.need(Clearance(), out.vx, out.wz)
+        if arc_clearance(scan_at(world, nx, ny, nyaw), 0.0, 0.0, 0.0, FP) >= min(keep, here) - 1e-9:
+            turned += out.wz * dt * math.copysign(1.0, wz)
+            x, y, yaw = nx, ny, nyaw
+        if turned >= 2 * math.pi:
+            break
+    return turned, least, flips
+
+
+def test_a_turn_in_place_is_made_as_asked_where_its_sweep_keeps_the_clearance() -> None:
+    d = turn_in_place(0.5, edge(FP.half_length + 1.0), NavParams(), 0.5, 0.8)
+    assert (d.vx, d.wz, d.mode, d.leg) == (0.0, 0.5, "rotate", None)
+    assert turn_in_place(-0.5, None, NavParams(), 0.5, 0.8).wz == -0.5  # no scan: the guard's blind cap holds it
+    assert turn_in_place(1.5, None, NavParams(), 0.5, 0.8).wz == 0.8  # within its turn rate
+
+
+@pytest.mark.parametrize("wz", [0.5, -0.5])
+def test_a_look_round_beside_a_table_makes_room_then_turns_all_the_way_round(wz: float) -> None:
+    """A table edge 8 cm ahead of the footprint: the corners' sweep would come nearer than a creep's
+    clearance, and the guard would hold the turn at zero for ever. The navigator backs away (a leg of a
+    driver's turn) to where it can turn, then turns right round, never into the table."""
+    table = edge(FP.half_length + 0.08)
+    first = turn_in_place(wz, table, NavParams(), 0.5, 0.8)
+    assert first.vx < 0.0 and first.leg is not None and "no room to turn" in first.note, first
+    turned, least, flips = look_round(table, wz)
+    assert turned >= 2 * math.pi and least > 0.0 and flips <= 2, (turned, least, flips)
+
+
+def test_a_turn_with_no_room_anywhere_is_held_and_said() -> None:
+    """Boxed in ahead and behind, inside its clearance: no turn and no leg keeps it. Zero, and why."""
+    boxed = np.vstack([edge(FP.half_length + 0.05), edge(-FP.half_length - 0.05)])
+    nav = Navigator()
+    out = nav.turn(0.5, boxed, 0.0, max_linear=0.5, max_angular=0.8)
+    assert (out.vx, out.wz, out.status) == (0.0, 0.0, "waiting") and "no room to turn" in out.reason
+    assert nav.counters["turns_held"] == 1
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)), max_size=30), st.floats(-1.0, 1.0))
+def test_a_turn_in_place_moves_only_where_its_move_keeps_the_clearance(
+    obstacles: list[tuple[float, float]], wz: float
+) -> None:
+    p, scan = NavParams(), np.array(obstacles).reshape(-1, 2)
+    d = turn_in_place(wz, scan, p, 0.5, 0.8)
+    assert -p.back_up_speed - 1e-9 <= d.vx <= p.min_speed + 1e-9 and abs(d.wz) <= min(abs(wz), 0.8) + 1e-9 or d.leg
+    if d.mode == "rotate":
+        assert d.vx == 0.0 and math.copysign(1.0, d.wz) == math.copysign(1.0, wz)
+    if d.vx != 0.0 or d.wz != 0.0:
+        here = arc_clearance(scan, 0.0, 0.0, 0.0, FP)
+        assert arc_clearance(scan, d.vx, d.wz, p.horizon_s, FP) >= min(FP.need(Clearance(), d.vx, d.wz), here) - 1e-3
 
 
 def two_doors(shut: set[str]) -> np.ndarray:

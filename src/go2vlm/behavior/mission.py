@@ -75,11 +75,10 @@ Rules
   `search_yaw_rate`, as before. With stop and look, `not_found` also needs one whole turn looked at.
   Once turn-and-look is exhausted the next search strategy in the chain is asked; none left: `not_found`.
 - Speeds stay within 0 <= vx <= max_linear (the navigator's commands: `nav.max_speed`, and back to
-  -`nav.back_up_speed` in its back-up) and |wz| <= max_angular, with one exception: a turn in
-  place that the footprint cannot sweep (beside a table, facing a wall: the gate's guard would hold
-  it at zero for ever) becomes a back-away at the local planner's BACK_SPEED, turning the way it
-  wanted to where that is clear, while there is room behind, or towards a route's way on behind it at
-  REVERSE_SPEED (planner/local.py `unstick`, planner/escape.py; with avoid_obstacles and a fresh scan).
+  -`nav.back_up_speed`) and |wz| <= max_angular. The navigator makes every move that is not a plain
+  walk: its routes, and every turn in place a strategy asks for (`Context.turn`: where the footprint
+  cannot sweep the turn, beside a table or facing a wall, a driver's turn in short legs to where it
+  can, behavior/navigate/controller.py `turn_in_place`). Nothing rewrites a strategy's command after it.
 """
 
 from __future__ import annotations
@@ -93,9 +92,7 @@ import numpy as np
 
 from go2vlm.behavior.goals import POSTURE_GOALS, TIMED_KINDS, Goal, GoalParseError, parse_goal
 from go2vlm.behavior.lease import too_far
-from go2vlm.behavior.planner.escape import Escape
 from go2vlm.behavior.planner.global_path import Costmap
-from go2vlm.behavior.planner.local import BACK_SPEED
 from go2vlm.behavior.strategies.approach import Approach
 from go2vlm.behavior.strategies.base import Command, Context, Pose, SearchStrategy, Sighting, Strategy
 from go2vlm.behavior.strategies.decide import Decisions
@@ -134,7 +131,6 @@ class Mission:
         self.reason = "no goal yet"
         self.cmd = (0.0, 0.0)
         self.planner_note = ""  # what the local planner did on the last step ("" = nothing)
-        self.escape = Escape()  # out of the guard's way, step after step
         self.basis = ""  # what the current motion is based on: tracker | memory | ""
         self._postures: list[str] = []
         self._zero_until = -math.inf
@@ -315,7 +311,7 @@ class Mission:
         postures, self._postures = tuple(self._postures), []
         self.planner_note = ""
         goal = self.ctx.goal
-        toward, navigated = None, False
+        navigated = False
         if goal is None or not self.active:
             vx, wz, publish = 0.0, 0.0, now < self._zero_until
         else:
@@ -326,33 +322,15 @@ class Mission:
             self.planner_note = cmd.note
             if cmd.state != "aligning":
                 self.ctx.align_since = None
-            vx, wz, publish, toward, navigated = cmd.vx, cmd.wz, True, cmd.toward, cmd.navigated
+            vx, wz, publish, navigated = cmd.vx, cmd.wz, True, cmd.navigated
         p = self.params
-        back = p.nav.back_up_speed if navigated else 0.0  # only the navigator's back-up recovery reverses
+        back = p.nav.back_up_speed if navigated else 0.0  # only the navigator reverses
         top = p.nav.max_speed if navigated else p.max_linear  # the navigator's own regulations slow it
         vx = min(max(vx, -back), top) if math.isfinite(vx) else 0.0
         wz = max(-p.max_angular, min(p.max_angular, wz)) if math.isfinite(wz) else 0.0
-        if navigated:
-            self.escape.reset()  # the navigator owns its recoveries
-        elif goal is not None and self.active and p.avoid_obstacles:
-            vx, wz = self._unstick(vx, wz, now, toward)
-        else:
-            self.escape.reset()
         if publish:
             self.cmd = (vx, wz)
         return Intent(vx, wz, publish, postures, self.label if self.active else "", self.state, self.reason)
-
-    def _unstick(self, vx: float, wz: float, now: float, toward: float | None) -> tuple[float, float]:
-        """planner/escape.py on the command: out of the guard's way (a route's turn may walk on)."""
-        p = self.params
-        walk = BACK_SPEED if self.state == "exploring" else 0.0  # a route's turn: it walks on anyway
-        out = self.escape.step(
-            vx, wz, now, self.ctx.fresh_scan(now), p.planner, max_angular=p.max_angular, walk=walk, toward=toward
-        )
-        if out is None:
-            return vx, wz
-        self.planner_note = out[2]
-        return out[0], out[1]
 
     def _control(self, now: float) -> Command:
         """Ask the strategies, in order (the module docstring's rules): a VLM decision or a turn goal

@@ -26,6 +26,9 @@ the footprint checked along the command's arc. Pure: a path, a pose and a scan i
   (zero): the progress checker and the recoveries
   take it from there. Where the footprint is already nearer than that
   (inside a doorway), an arc that brings it no nearer passes.
+- A turn in place that a strategy asks for (`turn_in_place`: a look round, facing a target) is made
+  the same way: at the asked rate or slower where its sweep keeps the clearance, else the driver's
+  turn (`make_room`, towards the turn's side), else `blocked`.
 
 The safety gate's collision guard still has the last word on every command.
 """
@@ -42,7 +45,7 @@ from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.navigate.sweep import Rect, arc_clearance, fits
 from go2vlm.geometry.footprint import Clearance
 
-__all__ = ["Drive", "Leg", "Rect", "arc_clearance", "project", "pursue"]
+__all__ = ["Drive", "Leg", "Rect", "arc_clearance", "make_room", "project", "pursue", "turn_in_place"]
 
 
 @dataclass(frozen=True)
@@ -111,45 +114,12 @@ def pursue(
 
     def turn() -> Drive:
         """Face the carrot where it stands, when the whole turn keeps the clearance; no room: a driver's
-        turn in a narrow lane."""
-        slow = min(p.min_turn_rate, max_angular)
-        fast = min(max(p.rotate_gain * abs(alpha), slow), max_angular)
-        for rate in sorted({fast, max(fast / 2, slow), slow}, reverse=True):  # slower needs less room
-            # the whole turn to face the carrot must keep it, not only its first moments
-            w = math.copysign(rate, alpha)  # (the horizon checked at its own samples too)
-            if rate > 0 and keeps(0.0, w) and keeps(0.0, w, max(p.horizon_s, abs(alpha) / rate)):
-                return Drive(0.0, w, "rotate", "turning to the route", index, remaining)
-        # No room to turn where it stands: a driver's turn, in legs, each held for the rest of its
-        # length while that keeps its room (the search below checked it whole).
-        if held is not None and now < held.until and keeps(held.vx, held.wz, held.until - now):
-            return leg(held)
-        side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
-        behind = abs(alpha) > math.pi / 2
-        v, wz = slow_back, slow_back * kappa
-        if abs(wz) > max_angular:
-            v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
-        if behind and keeps(v, wz):  # the route lies behind: back along it
-            return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
-        found = first_leg(pts, (lx, ly), p, fp, rule, max_linear, max_angular)
-        if found is not None:
-            return leg(Leg(found[0], found[1], now + p.turn_leg_s, f"leg 1 of {found[2]} to where it can turn"))
-        # No pose to turn from within reach: creep on straight, out of the doorway it stands in, to turn
-        # where it is clear (first where the carrot lies ahead, last where behind); back or creep on
-        # while it turns towards it.
-        creep = min(p.min_speed, max_linear)
-        on = (creep, 0.0, "on straight to turn where it is clear")
-        moves = [(slow_back / 2, side, "backing while it turns"), (creep, side, "creeping while it turns")]
-        moves = [*moves, on] if behind else [on, *moves]
-        for v, wz, how in moves:
-            if abs(wz) > max_angular:
-                v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
-            if keeps(v, wz):
-                return leg(Leg(v, wz, now + p.turn_leg_s, how))
-        return Drive(0.0, 0.0, "blocked", "no room to turn to the route", index, remaining)
-
-    def leg(held: Leg) -> Drive:
-        mode = "reverse" if held.vx < 0 else "track"
-        return Drive(held.vx, held.wz, mode, f"no room to turn: {held.how}", index, remaining, held)
+        turn in a narrow lane (`make_room`)."""
+        fast = min(max(p.rotate_gain * abs(alpha), p.min_turn_rate), max_angular)
+        w = _turn_rate(pts, math.copysign(fast, alpha), abs(alpha), p, fp, rule, max_angular, now_clear)
+        if w is not None:
+            return Drive(0.0, w, "rotate", "turning to the route", index, remaining)
+        return make_room(pts, (lx, ly), kappa, p, fp, rule, max_linear, max_angular, held, now, index, remaining)
 
     # A held leg runs on, even where the route's arc would keep again: cut short, the arc walked
     # straight back to where it failed, and the robot rocked between the two (houses 005).
@@ -181,3 +151,82 @@ def pursue(
     if lined is not None and lined.mode != "blocked":
         return replace(lined, note=f"the route's arc does not keep its clearance: {lined.note}")
     return Drive(0.0, 0.0, "blocked", "the route's arc does not keep its clearance", index, remaining)
+
+
+def _turn_rate(pts: np.ndarray, wz: float, angle: float, p: NavParams, fp: Rect, rule: Clearance, max_angular: float,
+               here: float) -> float | None:  # fmt: skip
+    """The fastest of `wz`, half of it and `min_turn_rate` (a slower turn needs less room; none faster
+    than `wz`) whose sweep keeps the clearance for `horizon_s` and for the whole `angle` (rad) it is to
+    turn; None: none."""
+    fast = min(abs(wz), max_angular)
+    slow = min(p.min_turn_rate, fast)  # never faster than asked
+    for rate in sorted({fast, max(fast / 2, slow), slow}, reverse=True):
+        w = math.copysign(rate, wz)
+        spans = {p.horizon_s, max(p.horizon_s, angle / rate)} if rate > 0 else set()
+        if spans and all(fits(pts, 0.0, w, t, fp, rule, here) for t in spans):
+            return w
+    return None
+
+
+def make_room(
+    pts: np.ndarray, carrot: tuple[float, float], kappa: float, p: NavParams, fp: Rect, rule: Clearance,
+    max_linear: float, max_angular: float, held: Leg | None, now: float, index: int = 0, remaining: float = 0.0,
+) -> Drive:  # fmt: skip
+    """No room to turn in place towards `carrot` (base frame): a driver's turn, in legs (manoeuvre.py),
+    each held for the rest of its length while that keeps its room (the search checked it whole).
+    `kappa`: the curvature of the way back along a route (0: none)."""
+    here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
+
+    def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
+        return fits(pts, vx, wz, duration, fp, rule, here)
+
+    def leg(held: Leg) -> Drive:
+        mode = "reverse" if held.vx < 0 else "track"
+        return Drive(held.vx, held.wz, mode, f"no room to turn: {held.how}", index, remaining, held)
+
+    if held is not None and now < held.until and keeps(held.vx, held.wz, held.until - now):
+        return leg(held)
+    alpha = math.atan2(carrot[1], carrot[0])
+    slow = min(p.min_turn_rate, max_angular)
+    side, slow_back = math.copysign(slow, alpha), -p.back_up_speed
+    behind = abs(alpha) > math.pi / 2
+    v, wz = slow_back, slow_back * kappa
+    if abs(wz) > max_angular:
+        v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+    if behind and keeps(v, wz):  # the route lies behind: back along it
+        return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
+    found = first_leg(pts, carrot, p, fp, rule, max_linear, max_angular)
+    if found is not None:
+        return leg(Leg(found[0], found[1], now + p.turn_leg_s, f"leg 1 of {found[2]} to where it can turn"))
+    # No pose to turn from within reach: creep on straight, out of the doorway it stands in, to turn
+    # where it is clear (first where the carrot lies ahead, last where behind); back or creep on
+    # while it turns towards it.
+    creep = min(p.min_speed, max_linear)
+    on = (creep, 0.0, "on straight to turn where it is clear")
+    moves = [(slow_back / 2, side, "backing while it turns"), (creep, side, "creeping while it turns")]
+    moves = [*moves, on] if behind else [on, *moves]
+    for v, wz, how in moves:
+        if abs(wz) > max_angular:
+            v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
+        if keeps(v, wz):
+            return leg(Leg(v, wz, now + p.turn_leg_s, how))
+    return Drive(0.0, 0.0, "blocked", "no room to turn", index, remaining)
+
+
+def turn_in_place(
+    wz: float, scan: np.ndarray | None, p: NavParams, max_linear: float, max_angular: float,
+    fp: Rect | None = None, rule: Clearance | None = None, held: Leg | None = None, now: float = 0.0,
+) -> Drive:  # fmt: skip
+    """A turn in place at `wz` (rad/s) that a strategy asks for (a look round, facing a target): as it
+    is, or slower, where its sweep keeps the clearance; else a driver's turn to where it can
+    (`make_room`, towards the turn's side); else `blocked`. `scan` and `held` as `pursue`'s."""
+    rule, fp = rule or Clearance(), fp or Rect()
+    pts = scan if scan is not None else np.zeros((0, 2))
+    if wz == 0.0 or not math.isfinite(wz):
+        return Drive(0.0, 0.0, "blocked", "no turn", 0, 0.0)
+    if held is None or now >= held.until:
+        w = _turn_rate(pts, wz, 0.0, p, fp, rule, max_angular, arc_clearance(pts, 0.0, 0.0, 0.0, fp))
+        if w is not None:
+            return Drive(0.0, w, "rotate", "", 0, 0.0)
+    side = (0.0, math.copysign(1.0, wz))  # the way it turns, a quarter turn round
+    return make_room(pts, side, 0.0, p, fp, rule, max_linear, max_angular, held, now)

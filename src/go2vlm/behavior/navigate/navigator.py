@@ -16,6 +16,8 @@ It owns, as Nav2 keeps them apart:
   by as much within `nearing_s`, and a way left to go that does not keep growing back: `setbacks`);
 - the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
+`turn` makes a strategy's turn in place (a look round, facing a target) with the controller's
+footprint check and driver's turn: nothing else in behavior/ turns the robot where it cannot sweep.
 A caller choosing among places (the explorer, among frontiers) asks the navigator too: `costs`
 (the path cost to each, one search) and `choose` (a plan to the nearest, which becomes the route).
 `line_of_sight` asks the costmap whether a place is in plain view (a strategy that looks at a place
@@ -34,7 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from go2vlm.behavior.navigate.controller import Leg, Rect, pursue
+from go2vlm.behavior.navigate.controller import Leg, Rect, pursue, turn_in_place
 from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.navigate.recovery import Recoveries
@@ -95,11 +97,13 @@ class Navigator:
         self._index = 0
         self._speed = 0.0
         self._leg: Leg | None = None  # the controller's driver's-turn leg, handed back to it each step
+        self._turn_leg: Leg | None = None  # ... and a strategy's turn's (`turn`)
         self._left = math.inf  # the way left along the route at the last step (m)
 
     def reset(self) -> None:
         """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
         self.goal, self.route, self._index, self._speed, self._leg = None, None, 0, 0.0, None
+        self._turn_leg = None
         self._left = math.inf
         self.progress.new_goal()
         self.recoveries.reset()
@@ -201,6 +205,20 @@ class Navigator:
         reason = f"{d.remaining:.1f} m along the route"
         notes = ", ".join(n for n in (d.note, f"replanned: {why}" if why else "") if n)
         return NavStep(d.vx, d.wz, "moving", f"{reason} ({notes})" if notes else reason, d.note)
+
+    def turn(self, wz: float, scan: np.ndarray | None, now: float, *, max_linear: float,
+             max_angular: float) -> NavStep:  # fmt: skip
+        """A turn in place at `wz` that a strategy asks for (a look round, facing its target): the
+        controller's `turn_in_place`, with the footprint and the clearance rule the routes keep; where
+        there is no room to turn, a driver's turn (`moving`), or none (`waiting`: counted)."""
+        d = turn_in_place(wz, scan, self.params, max_linear, max_angular, self.footprint, self.clearance,
+                          self._turn_leg, now)  # fmt: skip
+        prev, self._turn_leg = self._turn_leg, d.leg
+        if d.mode == "blocked":
+            self.counters["turns_held"] += 1
+            return NavStep(0.0, 0.0, "waiting", d.note, d.note)
+        self.counters["turn_legs"] += d.leg is not None and d.leg is not prev
+        return NavStep(d.vx, d.wz, "moving", d.note or "turning", d.note)
 
     def _better(self, new: Route, cm: Costmap, x: float, y: float) -> bool:
         """Is `new` worth leaving the route being walked for (the map has grown, nothing is wrong with

@@ -27,24 +27,8 @@ It never drives faster than the `speed` it is given, and `steer` never backwards
 collision guard still has the last word on every command; the planner keeps the approach out of the
 guard's way, it does not replace it.
 
-- `unstick`: a turn whose sweep would bring the footprint within `margin` of a scan point (or closer
-  than it is, if already inside it) is one the guard holds: the robot would stand there at zero for
-  ever (beside a table, facing a wall). A walking turn whose next ARC_CHECK_S does so turns in place
-  instead, if that is clear; a turn in place that is not becomes a slow back-away (BACK_SPEED)
-  turning the way it wanted to at BACK_TURN, if that sweep is clear for BACK_CHECK_M, else straight
-  back while that is clear; a straight walk whose first HOLD_CHECK_M the guard would refuse (inside
-  the margin already, it allows no step closer) backs straight away; a walking turn with no room
-  behind walks on straight (at most BACK_SPEED) where that is clear (room to turn in later), and a turn
-  with no room behind turns the other way round where that is clear; a route's turn wedged in a spot
-  where none of these is clear edges out along a short forward arc (EDGE_CHECK_M) that gains
-  clearance: backed up to a wall inside the guard's margin, with something at the front corner, no
-  turn and no straight step kept the margin, and the robot stood at zero for 65 s (rooms 37); with
-  none of these clear the command stays as it was (the guard holds it, and says so).
-- A held turn towards a way on that lies behind the robot (`toward`, a route's waypoint) backs towards
-  it first (`reverse`: at REVERSE_SPEED, the rear turned onto it, or less where that is not clear), as
-  a driver reverses out of a narrow lane rather than turning in it. In a 1.5 m corridor a Go2
-  standing askew, off the middle, can turn neither way inside the guard's margin; backing away and
-  walking on in turn rocked it where it stood for a minute and more (rooms 12, 14, 18).
+A turn in place that the footprint cannot sweep is the navigator's (behavior/navigate/controller.py
+`turn_in_place`): the strategies ask it for every turn in place.
 """
 
 from __future__ import annotations
@@ -55,32 +39,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from go2vlm.declare import from_core
-from go2vlm.geometry.footprint import Clearance, rect_distance
+from go2vlm.geometry.footprint import Clearance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 __all__ = [
-    "BACK_SPEED",
-    "BACK_TURN",
     "KEEP_WINDOW",
-    "TURN_ONLY_VX",
     "PlannerParams",
     "Steer",
-    "behind",
     "corridor_free",
-    "reverse",
     "steer",
-    "unstick",
 ]
 
-TURN_ONLY_VX = 0.05  # m/s: a command this slow forward is a turn in place
-TURN_SWEEP = math.radians(30.0)  # how far ahead a turn in place is checked (the guard's stopping turn, and more)
-BACK_SPEED = 0.15  # m/s: backing away from what a turn in place would sweep into
-BACK_CHECK_M = 0.3  # m of room behind it needs to back away
-BACK_TURN = 0.4  # rad/s: the turn while backing away, towards the turn it could not make in place
-HOLD_CHECK_M = 0.03  # m: a straight walk whose first this much the guard would refuse is held at zero
-ARC_CHECK_S = 0.4  # s of a walking turn's arc that must keep the margin (about the guard's stopping path)
-REVERSE_SPEED = 0.25  # m/s: backing towards a way on behind the robot (a walk, not an escape)
-EDGE_CHECK_M = 0.15  # m of a short forward arc out of a wedge that must keep the margin and gain clearance
 # rad: a way this near the one chosen last is kept before one nearer the goal's bearing. Turning in a
 # kitchen pocket, a way 5 deg right and one 95 deg left were free in turn, and the robot swung between
 # them on the spot for two minutes (rooms 28, 32)
@@ -228,129 +197,3 @@ def steer(
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def _clearances(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> np.ndarray:
-    """The footprint's clearance from the nearest point at each pose (x, y, yaw in the base frame now)."""
-    dx, dy = points[None, :, 0] - x[:, None], points[None, :, 1] - y[:, None]
-    c, s = np.cos(th)[:, None], np.sin(th)[:, None]
-    d = rect_distance(c * dx + s * dy, -s * dx + c * dy, p.half_length, p.half_width)
-    return np.asarray(d.min(axis=1))
-
-
-def _sweep_ok(points: np.ndarray, x: np.ndarray, y: np.ndarray, th: np.ndarray, p: PlannerParams) -> bool:
-    """Does the footprint keep a creep's clearance (or what it has now, if less) along the poses (the first
-    is now)? These moves are slow: the guard lets them through at the speed whose margin they keep."""
-    d = _clearances(points, x, y, th, p)
-    return bool((d[1:] >= min(p.clearance.creep, float(d[0])) - 1e-9).all())  # as strict as the guard: no closer at all
-
-
-def unstick(
-    vx: float, wz: float, points: np.ndarray | None, p: PlannerParams, walk: float = 0.0, toward: float | None = None
-) -> Steer | None:
-    """What to do instead of a command the footprint cannot sweep (module docstring), or None: its
-    way is clear, or nothing better is (no room behind). `walk` (m/s): a turn in place may become a
-    straight walk this fast (its caller walks that way anyway: a route's turn); 0: never. `toward`
-    (rad, + left): the way on the command heads for (None: none, a search's turn)."""
-    straight = abs(wz) < 1e-3
-    if points is None or not (math.isfinite(vx) and math.isfinite(wz)) or vx < 0.0 or (straight and vx <= TURN_ONLY_VX):
-        return None
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    reach = math.hypot(p.half_length, p.half_width) + p.clearance.creep + BACK_CHECK_M + vx * ARC_CHECK_S
-    pts = pts[np.hypot(pts[:, 0], pts[:, 1]) <= reach]
-    if len(pts) == 0:
-        return None
-    n = 7
-    zero = np.zeros(n)
-    if straight:  # held at zero only if its very first step comes closer than the guard allows
-        if _sweep_ok(pts, np.linspace(0.0, HOLD_CHECK_M, n), zero, zero, p):
-            return None
-        return _back_away(pts, 0.0, p, n, "too near something to walk on")
-    turn = np.linspace(0.0, math.copysign(TURN_SWEEP, wz), n)
-    if vx > TURN_ONLY_VX:  # an arc: its next ARC_CHECK_S, as the guard would stop it
-        if _sweep_ok(pts, *_arc(vx, wz, np.linspace(0.0, ARC_CHECK_S, n)), p):
-            return None
-        if _sweep_ok(pts, zero, zero, turn, p):
-            return Steer(0.0, wz, wz, True, "too near something to walk on turning: turning in place first")
-    elif _sweep_ok(pts, zero, zero, turn, p):
-        return None
-    why = "too near something to turn"
-    if toward is not None and behind(toward):
-        back = reverse(pts, toward, p, why)
-        if back is not None:
-            return back
-    return _back_away(pts, wz, p, n, why, walk=vx if vx > TURN_ONLY_VX else walk)
-
-
-def behind(toward: float) -> bool:
-    """Does the way on at `toward` (rad, + left) lie behind the robot (backed towards, not turned to)?"""
-    return abs(_wrap(toward)) > math.pi / 2
-
-
-def reverse(points: np.ndarray | None, toward: float, p: PlannerParams, why: str = "") -> Steer | None:
-    """Back towards `toward` (rad, + left; behind the robot) at REVERSE_SPEED, turning the rear onto it
-    (at most BACK_TURN), where BACK_CHECK_M of that arc keeps the margin; else half that turn, none,
-    or a little the other way (askew in a gap, the full turn swings a corner into its side, and the
-    robot rocked where it stood: rooms 1); None: none of them does."""
-    if points is None or not math.isfinite(toward):
-        return None
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    want = max(-BACK_TURN, min(BACK_TURN, p.kp * _wrap(toward - math.pi)))
-    t = np.linspace(0.0, BACK_CHECK_M / REVERSE_SPEED, 7)
-    for bw in (want, want / 2.0, 0.0, -want / 4.0):
-        if not len(pts) or _sweep_ok(pts, *_arc(-REVERSE_SPEED, bw, t), p):
-            note = "backing towards the way on"
-            return Steer(-REVERSE_SPEED, bw, toward, True, f"{why}: {note}" if why else note)
-    return None
-
-
-def _arc(vx: float, wz: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Poses (x, y, yaw; base frame now) along the arc of (vx, wz) at times `t`."""
-    if abs(wz) < 1e-6:
-        return vx * t, 0.0 * t, 0.0 * t
-    th = wz * t
-    return vx * np.sin(th) / wz, vx * (1.0 - np.cos(th)) / wz, th
-
-
-def _back_away(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float = 0.0) -> Steer | None:
-    """Out of a spot where the command is held: back away turning the way it wants to turn (`wz`, 0:
-    straight) where that sweep is clear, as a driver reverses out of a tight spot (each back-away
-    then gains heading: a straight one alone, followed by the same blocked walk, rocked the robot
-    where it stood for ever); else straight back; else, with no room behind but a turn to make,
-    straight on, no faster than it was walking (`walk`, m/s; room ahead to turn in later; a turn in
-    place never becomes a walk), or the turn the other way round; None: nothing is clear (the guard holds it)."""
-    zero, room = np.zeros(n), np.linspace(0.0, BACK_CHECK_M, n)
-    if wz != 0.0:
-        bw = math.copysign(BACK_TURN, wz)
-        if _sweep_ok(pts, *_arc(-BACK_SPEED, bw, np.linspace(0.0, BACK_CHECK_M / BACK_SPEED, n)), p):
-            return Steer(-BACK_SPEED, bw, math.pi, True, f"{why}: backing away, turning")
-    if _sweep_ok(pts, -room, zero, zero, p):
-        return Steer(-BACK_SPEED, 0.0, math.pi, True, f"{why}: backing away")
-    if wz == 0.0:
-        return None
-    if walk > 0.0 and _sweep_ok(pts, room, zero, zero, p):
-        return Steer(min(walk, BACK_SPEED), 0.0, 0.0, True, f"{why}, nor back: walking on straight to turn later")
-    if _sweep_ok(pts, zero, zero, np.linspace(0.0, -math.copysign(TURN_SWEEP, wz), n), p):
-        return Steer(0.0, -wz, -wz, True, f"{why}, nor back: turning the other way round")
-    return _edge_out(pts, wz, p, n, why, walk)
-
-
-def _edge_out(pts: np.ndarray, wz: float, p: PlannerParams, n: int, why: str, walk: float) -> Steer | None:
-    """A route's turn wedged in (module docstring): the forward arc (no faster than `walk`, turning
-    BACK_TURN either way, the wanted way first) whose EDGE_CHECK_M keeps the margin and ends with the
-    most clearance, more than now; None: none does, or it may not walk (`walk` 0)."""
-    if walk <= 0.0:
-        return None
-    v = min(walk, BACK_SPEED)
-    t = np.linspace(0.0, EDGE_CHECK_M / v, 2 * n)
-    now = float(_clearances(pts, np.zeros(1), np.zeros(1), np.zeros(1), p)[0])
-    best: tuple[float, float] | None = None
-    for w in (math.copysign(BACK_TURN, wz), -math.copysign(BACK_TURN, wz)):
-        arc = _arc(v, w, t)
-        if _sweep_ok(pts, *arc, p):
-            end = float(_clearances(pts, arc[0][-1:], arc[1][-1:], arc[2][-1:], p)[0])
-            if end > now + 1e-3 and (best is None or end > best[1]):
-                best = (w, end)
-    if best is None:
-        return None
-    return Steer(v, best[0], 0.0, True, f"{why}, nor back: edging out of a tight spot")

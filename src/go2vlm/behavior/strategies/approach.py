@@ -60,7 +60,7 @@ class Approach:
                 return Command.still("found", f"the {label} is in view, {abs(off):.0f} deg to the "
                                      f"{'left' if off > 0 else 'right'} (not centred in {wait:g} s)"
                                      f"{ctx.where()}")  # fmt: skip
-            return Command(0.0, wz, "aligning", "target in view: turning to face it")
+            return ctx.turn(wz, "aligning", "target in view: turning to face it", now)
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)
         method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
@@ -84,7 +84,7 @@ class Approach:
                 if not follow and self.there and dist is not None and dist - ap.stop_distance <= slack:
                     return Command.still("reached", f"{dist:.2f} m from the {label} ({method}): as near as the "
                                          f"way lets it ({st.note})")  # fmt: skip
-                return Command.detour(st, f"target at {how}: {st.note}")
+                return ctx.detour(st, f"target at {how}: {st.note}", now)
         if follow:
             return Command(vx, wz, "tracking", "target in view: following")
         return Command(vx, wz, "approaching", f"target at {how}")
@@ -149,8 +149,8 @@ class Approach:
         if st is None:
             return None
         if st.blocked:
-            return Command.detour(st, f"the {ctx.label} is out of view: {st.note}")
+            return ctx.detour(st, f"the {ctx.label} is out of view: {st.note}", now)
         if abs(bearing) < p.planner.step:
             return None  # facing where it was, and still not seen: lost, then search
         reason = f"turning back towards where the {ctx.label} was last seen ({dist:.1f} m)"
-        return Command(0.0, turn, "detouring", reason, note="turning back towards the target")
+        return ctx.turn(turn, "detouring", reason, now, note="turning back towards the target")

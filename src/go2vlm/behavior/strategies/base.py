@@ -46,17 +46,11 @@ class Command:
     reason: str
     note: str = ""  # what the local planner did ("" = nothing)
     basis: str = ""  # what the motion is based on when not the tracker's confirmation: "memory"
-    toward: float | None = None  # rad (+ left): the way on it heads for (a route's waypoint), to back towards
-    navigated: bool = False  # the navigator's (behavior/navigate/): it owns its recoveries, and may back up
+    navigated: bool = False  # the navigator's (behavior/navigate/): its own checks, and it may back up
 
     @classmethod
     def still(cls, state: str, reason: str) -> Command:
         return cls(0.0, 0.0, state, reason)
-
-    @classmethod
-    def detour(cls, st: Steer, reason: str, basis: str = "", toward: float | None = None) -> Command:
-        """The planner's way round an obstacle (`st` blocked)."""
-        return cls(st.vx, st.wz, "detouring", reason, note=st.note, basis=basis, toward=toward)
 
 
 @dataclass(frozen=True)
@@ -258,6 +252,24 @@ class Context:
         planning: avoid_obstacles off, or no fresh scan)."""
         scan = self.fresh_scan(now) if self.params.avoid_obstacles else None
         return self.avoider.steer(scan, self.params.planner, vx, wz, ap, goal, now)
+
+    def turn(self, wz: float, state: str, reason: str, now: float, basis: str = "", note: str = "") -> Command:
+        """A turn in place at `wz` (rad/s), made by the navigator (`Navigator.turn`: the routes'
+        footprint and clearance rule; a driver's turn where there is no room); as asked with
+        avoid_obstacles off (the guard alone holds it)."""
+        p, nav = self.params, self.navigator
+        if not p.avoid_obstacles:
+            return Command(0.0, wz, state, reason, note=note, basis=basis)
+        nav.params, nav.clearance = p.nav, p.planner.clearance
+        out = nav.turn(wz, self.fresh_scan(now), now, max_linear=p.nav.max_speed, max_angular=p.max_angular)
+        why = f"{reason}: {out.note}" if out.note else reason
+        return Command(out.vx, out.wz, state, why, note=out.note or note, basis=basis, navigated=True)
+
+    def detour(self, st: Steer, reason: str, now: float, basis: str = "") -> Command:
+        """The local planner's way round an obstacle (`st` blocked); a turn in place, the navigator's."""
+        if st.vx == 0.0 and st.wz != 0.0:
+            return self.turn(st.wz, "detouring", reason, now, basis, st.note)
+        return Command(st.vx, st.wz, "detouring", reason, note=st.note, basis=basis)
 
     def look_at(self, key: object, now: float) -> str:
         """Hold still and look at `key` (look.Look.check with the mission's settings and answers)."""

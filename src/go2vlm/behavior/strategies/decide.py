@@ -66,8 +66,8 @@ class Decisions:
         wz = self.turn_dir * self.turn_rate(p)
         if goal is not None and goal.kind == "turn":
             if now < self.turn_until:
-                return Command(0.0, wz, "turning", f"turning {goal.angle_deg:+g} deg in place")
+                return ctx.turn(wz, "turning", f"turning {goal.angle_deg:+g} deg in place", now)
             return Command.still("done", f"turned {goal.angle_deg:+g} deg")
         if now < self.turn_until:
-            return Command(0.0, wz, "turning", "a VLM decision said turn")
+            return ctx.turn(wz, "turning", "a VLM decision said turn", now)
         return None

@@ -5,6 +5,7 @@ around at each frontier. Pure, timestamp-driven."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from go2vlm.behavior.control import search_command
 from go2vlm.behavior.strategies.base import Command, Context
@@ -119,7 +120,7 @@ class Explore:
         if self.look.stop_and_look(ctx):
             cmd = self.look.step(ctx, now) if self.look.turned < 2 * math.pi - 1e-6 else None
             if cmd is not None:
-                return Command(cmd.vx, cmd.wz, "exploring", f"{reason}: {cmd.reason}")
+                return replace(cmd, state="exploring", reason=f"{reason}: {cmd.reason}")
         else:
             pose = ctx.fresh_pose(now)
             wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
@@ -137,7 +138,7 @@ class Explore:
             if now - self._mark[0] >= ep.look_stall_s:  # its headway since the last check
                 held, self._mark = held or self._turned - self._mark[1] < ep.look_stall_rad, (now, self._turned)
             if self._turned < whole and not held:
-                return Command(0.0, wz, "exploring", reason)
+                return ctx.turn(wz, "exploring", reason, now)
             if self._turned < whole:
                 self.looking = False
                 self.explorer.looked(now, self._stand(ctx, now))

@@ -154,13 +154,13 @@ class GoToRemembered:
                 reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); {why}"
                 return Command(vx, wz, "approaching", reason, basis="memory")
             if not mapped:
-                return Command.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", basis="memory")
+                return ctx.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", now, basis="memory")
             # blocked with a map: as near as the way lets it; look (below)
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
             ctx.look.forget()
-            return Command(0.0, face_command(bearing, ap), state, f"turning to {where}")
+            return ctx.turn(face_command(bearing, ap), state, f"turning to {where}", now)
         # Hold still facing it (not sure enough to walk, or at its place) and look.
         look = ctx.look_at(key, now)
         if look == "answered":  # an answer about this view came back without it

@@ -62,7 +62,7 @@ class TurnAndLook:
             if self.more_after and self.turned >= 2 * math.pi - (ctx.view or 0.0):
                 return None
             wz = search_command(ctx.last_x, p.search_yaw_rate, p.max_angular)
-            return Command(0.0, wz, "searching", f"turning in place to find the {label}")
+            return ctx.turn(wz, "searching", f"turning in place to find the {label}", now)
         if self.phase == "look":
             if ctx.look_at(("search", self.turned), now) == "waiting":
                 lat = ctx.answers.latency
@@ -83,4 +83,4 @@ class TurnAndLook:
             self.phase = "look"
             ctx.look_at(("search", self.turned), now)
             return Command.still("searching", f"holding still, looking for the {label}")
-        return Command(0.0, wz, "searching", f"turning {p.search_step_deg:g} deg to look for the {label}")
+        return ctx.turn(wz, "searching", f"turning {p.search_step_deg:g} deg to look for the {label}", now)
