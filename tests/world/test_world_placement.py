@@ -184,3 +184,20 @@ def test_a_wall_across_the_view_is_placed_on_its_face_not_behind_it() -> None:
     narrow = (CAM.cx - 50.0, CAM.cy - 80.0, CAM.cx + 50.0, wall[3])  # seen whole: as deep as it is wide at most
     q = place("crate", narrow, 1.0, pose, CAM, MOUNT, r, scan)
     assert face < q.x - MOUNT.forward_m <= face + q.size[0] / 2 + 0.1
+
+
+def test_a_range_by_size_is_as_unsure_as_its_box_is_narrow() -> None:
+    """A mug 6 m ahead, its bottom out of the picture: ranged by its size over the box's width. A box
+    a few pixels wide read one pixel narrow puts it metres farther (a mug 6 m away read at 19 m), so
+    the range's sigma grows as the box narrows; so unsure, the memory starts no object from it."""
+    from go2vlm.world.memory import MemoryParams
+
+    mug = RangeEstimator("cylinder", camera_height=MOUNT.height_m, default_sizes={"cylinder": 0.045})
+    sigmas = []
+    for width in (16.0, 10.0, 6.0, 3.0):  # 6.5 px is the mug at 6 m (CAM)
+        box = (CAM.cx - width / 2, 200.0, CAM.cx + width / 2, CAM.height - 1.0)
+        p = place("mug", box, 1.0, Pose2D(0.0, 0.0, 0.0), CAM, MOUNT, mug)
+        assert p.method in ("size", "default_size") and p.range_m is not None
+        sigmas.append(math.sqrt(p.cov[0]))  # along the ray (the camera faces +x)
+        assert sigmas[-1] >= p.range_m * math.sqrt(2.0) / width  # one pixel per side, over the width
+    assert sigmas == sorted(sigmas) and sigmas[-1] > MemoryParams().new_max_sigma_m
