@@ -123,16 +123,14 @@ def test_a_narrow_doorway_is_walked_through_slowly_and_a_gap_too_narrow_is_not()
 
 def test_keeps_near_the_way_it_chose_while_that_stays_free() -> None:
     """Rooms 28: a way just right of the goal and one 95 deg left were free in turn as it turned, and
-    it swung between them on the spot for two minutes. Near the way chosen last (KEEP_WINDOW) wins
+    it swung between them on the spot for two minutes. Near the way chosen last (`keep_window`) wins
     while it is free; with that way blocked the nearest free way is taken as before."""
-    from go2vlm.behavior.planner.local import KEEP_WINDOW
-
     p = PlannerParams(margin=0.35, margin_per_speed_s=0.0)  # the clearance this spot was measured with
     wall = np.array([[1.5, y] for y in np.linspace(-0.2, 3.0, 65)])  # ahead and to the left; open right
     first = steer(0.0, 0.0, 0.4, 0.0, 3.5, wall, p, max_angular=W)
     assert first.blocked and first.heading < 0  # the nearest free way: round the wall's right end
     kept = steer(0.0, 0.0, 0.4, 0.0, 3.5, wall, p, max_angular=W, keep=math.radians(95))
-    assert kept.blocked and abs(kept.heading - math.radians(95)) <= KEEP_WINDOW + 1e-9
+    assert kept.blocked and abs(kept.heading - math.radians(95)) <= p.keep_window + 1e-9
     left_shut = np.vstack([wall, [[x, 0.8] for x in np.linspace(-1.5, 1.5, 61)]])
     again = steer(0.0, 0.0, 0.4, 0.0, 3.5, left_shut, p, max_angular=W, keep=math.radians(95))
     assert again.blocked and again.heading < 0

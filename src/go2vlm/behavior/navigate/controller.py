@@ -122,7 +122,7 @@ def pursue(
         return make_room(pts, (lx, ly), kappa, p, fp, rule, max_linear, max_angular, held, now, index, remaining)
 
     # A held leg runs on, even where the route's arc would keep again: cut short, the arc walked
-    # straight back to where it failed, and the robot rocked between the two (houses 005).
+    # straight back to where it failed, and the robot rocked between the two.
     turning = held is not None and now < held.until and abs(alpha) > math.radians(p.line_up_deg)
     if abs(alpha) > math.radians(p.rotate_to_heading_deg) or turning:
         return turn()

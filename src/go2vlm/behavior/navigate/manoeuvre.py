@@ -7,7 +7,7 @@ leg keeps the clearance rule for its whole length, as the controller's commands 
 Pure: scan points and the carrot in the base frame in, the first leg of the fewest out. The caller
 drives that leg and holds it while it keeps its clearance, up to `turn_leg_s`: chosen afresh at each
 step, the moves of a driver's turn swapped as the carrot crossed 90 degrees and the robot rocked on
-the spot (160 flips in a corridor, houses 002).
+the spot (160 flips in a corridor).
 """
 
 from __future__ import annotations

@@ -223,7 +223,7 @@ class Navigator:
     def _better(self, new: Route, cm: Costmap, x: float, y: float) -> bool:
         """Is `new` worth leaving the route being walked for (the map has grown, nothing is wrong with
         it): cheaper by `reroute_gain`, both costed on `cm` from the robot? Two ways of about one cost
-        took turns as the robot moved, and it walked back and forth between them (houses 002)."""
+        took turns as the robot moved, and it walked back and forth between them."""
         assert self.route is not None
         keep = self.route.cost_left(cm, self.planner, x, y)
         return new.cost_left(cm, self.planner, x, y) < (1.0 - self.params.reroute_gain) * keep

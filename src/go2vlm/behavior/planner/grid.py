@@ -64,7 +64,7 @@ class GlobalParams:
     goal_own_m: float = 0.0  # ... and a piece of obstacle wholly within goal_body_m plus this (the place's error)
     # a stand to look round from (a frontier): only cells where the footprint turns in place (cost under
     # CIRCUMSCRIBED), where any is near the goal; the last turn_reach of a path is left unchecked, and a
-    # route that ended in the band, 0.3 m from a bathtub, was never reached (houses 005)
+    # route that ended in the band, 0.3 m from a bathtub, was never reached
     goal_turnable: bool = False
     escape_m: float = 0.6  # a start on a lethal cell plans from the nearest passable cell this near
     off_path_m: float = 0.8  # the robot this far from the route: replan

@@ -14,7 +14,7 @@ front could go that way before it comes within that clearance of a scan point. S
   (a narrow doorway is walked through slowly, square-on, not steered away from).
 - Otherwise: the free heading closest to the goal's bearing, within `max_offset` of it, preferring
   the side chosen last time (`side`, so that a box dead ahead is not passed left and right in turn),
-  and, before all of these, near the way chosen last time (`keep`, within KEEP_WINDOW) while one there
+  and, before all of these, near the way chosen last time (`keep`, within `keep_window`) while one there
   is free at all.
   The robot turns towards it and drives at `speed`, slower the further it has to turn. With none free
   that far, half as far, then `min_free`, at a speed cut by the free length (progress, not a stall).
@@ -43,17 +43,11 @@ from go2vlm.geometry.footprint import Clearance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 
 __all__ = [
-    "KEEP_WINDOW",
     "PlannerParams",
     "Steer",
     "corridor_free",
     "steer",
 ]
-
-# rad: a way this near the one chosen last is kept before one nearer the goal's bearing. Turning in a
-# kitchen pocket, a way 5 deg right and one 95 deg left were free in turn, and the robot swung between
-# them on the spot for two minutes (rooms 28, 32)
-KEEP_WINDOW = math.radians(20.0)
 
 
 @dataclass(frozen=True)
@@ -71,6 +65,10 @@ class PlannerParams:
     goal_radius: float = 0.5  # m round the goal's surface point that is the goal itself
     kp: float = 1.5  # rad/s per rad of heading error (not the approach's kp_angular, which is per offset x)
     turn_only: float = math.radians(60.0)  # |heading| beyond which it only turns
+    # a way this near the one chosen last is kept before one nearer the goal's bearing: in a pocket two
+    # ways far apart were free in turn as the robot turned, and it swung between them on the spot
+    keep_window: float = math.radians(20.0)
+    keep_s: float = 3.0  # s the way (and the side) chosen last is kept
     half_length: float = FOOTPRINT_LENGTH / 2
     half_width: float = FOOTPRINT_WIDTH / 2
 
@@ -86,6 +84,8 @@ class PlannerParams:
             "goal_radius",
             "kp",
             "turn_only",
+            "keep_window",
+            "keep_s",
         )
         for name in names:
             v = getattr(self, name)
@@ -144,7 +144,7 @@ def steer(
     place the goal; `reach_m` is how far the robot still has to go (default: up to the goal).
     `speed` (>= 0) is the forward speed the approach would like on a free way, `max_angular` its turn
     rate ceiling; `side` (-1, 0, +1) the side chosen last time; `keep` (rad from the goal's bearing)
-    the way chosen last time: a way within KEEP_WINDOW of it that is free at all (min_free, at the
+    the way chosen last time: a way within `keep_window` of it that is free at all (min_free, at the
     clearance of its speed or of a creep) comes before any other."""
     if not (math.isfinite(bearing) and math.isfinite(speed)) or speed <= 0.0:
         return Steer(vx, wz, bearing, False, "")
@@ -180,7 +180,7 @@ def steer(
     # A shorter free way is still progress. Near the way kept, any free way comes first.
     kept = [(keep, t) for t in tiers] if keep is not None else []
     for k, (ways, how, fast, want) in kept + [(None, t) for t in tiers]:
-        ok = [(h, f) for h, f in ways if f >= want and (k is None or abs(_wrap(h - bearing - k)) <= KEEP_WINDOW)]
+        ok = [(h, f) for h, f in ways if f >= want and (k is None or abs(_wrap(h - bearing - k)) <= p.keep_window)]
         if ok:
             h, f = _wrap(ok[0][0]), ok[0][1]
             turn = max(-max_angular, min(max_angular, p.kp * h))

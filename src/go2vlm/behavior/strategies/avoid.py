@@ -12,9 +12,7 @@ import numpy as np
 from go2vlm.behavior.control import ApproachParams, approach_command
 from go2vlm.behavior.planner import PlannerParams, Steer, steer
 
-__all__ = ["SIDE_MEMORY_S", "Avoider"]
-
-SIDE_MEMORY_S = 3.0  # the side chosen last is kept this long
+__all__ = ["Avoider"]
 
 
 class Avoider:
@@ -38,8 +36,8 @@ class Avoider:
             return None
         bearing, dist = goal
         speed, _, _ = approach_command(0.0, dist, ap)
-        side = self.side if now - self.side_t < SIDE_MEMORY_S else 0.0
-        keep = self.keep if now - self.keep_t < SIDE_MEMORY_S else None
+        side = self.side if now - self.side_t < planner.keep_s else 0.0
+        keep = self.keep if now - self.keep_t < planner.keep_s else None
         st = steer(
             vx, wz, speed, bearing, dist, points, planner, max_angular=ap.max_angular,
             reach_m=dist - ap.stop_distance, side=side, keep=keep,
