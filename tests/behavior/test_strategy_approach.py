@@ -79,7 +79,7 @@ def test_the_approach_acts_only_on_a_confirmed_or_hidden_target(
             assert kind != "look_for"
             assert cmd.state == "detouring" and ctx.last_seen is not None
             assert now - ctx.last_seen <= p.detour_memory_s and scan
-            assert cmd.vx == 0.0 or ctx.avoider.detour_t == now  # walks only round a blocked way
+            assert cmd.vx == 0.0 or ctx.navigator.steering.detour_t == now  # walks only round a blocked way
 
 
 def test_go_to_a_target_the_tracker_cannot_range_is_ranged_by_the_scan_on_its_bearing() -> None:

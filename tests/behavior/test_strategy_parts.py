@@ -1,5 +1,5 @@
 """Property tests of the strategies' shared tools (behavior/strategies/): the answers' measured latency
-(latency.py), a look (look.py) and the local planner's side memory (avoid.py)."""
+(latency.py), a look (look.py) and the local planner's side memory (navigate/steer.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from go2vlm.behavior.strategies.avoid import Avoider
+from go2vlm.behavior.navigate.steer import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
 from go2vlm.behavior.strategies.params import MissionParams

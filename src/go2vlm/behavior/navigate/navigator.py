@@ -16,7 +16,8 @@ It owns, as Nav2 keeps them apart:
   by as much within `nearing_s`, and a way left to go that does not keep growing back: `setbacks`);
 - the recoveries (navigate/recovery.py: replan, spin, back up, wait, each bounded), tried in order
   on a stall; all tried and stalled again: `failed`, and the caller gives the place up.
-`turn` makes a strategy's turn in place (a look round, facing a target) with the controller's
+`steering` steers towards a bearing and a distance where there is no route to follow (the local
+planner, steer.py). `turn` makes a strategy's turn in place (a look round, facing a target) with the controller's
 footprint check and driver's turn: nothing else in behavior/ turns the robot where it cannot sweep.
 A caller choosing among places (the explorer, among frontiers) asks the navigator too: `costs`
 (the path cost to each, one search) and `choose` (a plan to the nearest, which becomes the route).
@@ -40,6 +41,7 @@ from go2vlm.behavior.navigate.controller import Leg, Rect, pursue, turn_in_place
 from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.navigate.recovery import Recoveries
+from go2vlm.behavior.navigate.steer import Avoider
 from go2vlm.behavior.planner.global_path import (
     Costmap,
     GlobalParams,
@@ -91,6 +93,7 @@ class Navigator:
         self.clearance = Clearance()  # the planners' and the guard's rule (the host sets its own)
         self.counters: Counter[str] = Counter()  # plans, failures: the commander's status
         self.recoveries = Recoveries()
+        self.steering = Avoider()  # towards a bearing where there is no route (steer.py): its own reset
         self.progress = Progress()
         self.goal: tuple[float, float] | None = None
         self.route: Route | None = None

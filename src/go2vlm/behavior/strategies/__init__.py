@@ -6,11 +6,11 @@ The interface (base.py)
 - `Context`: what the mission knows, shared by all strategies: `params` (MissionParams), `goal`,
   the newest `sighting`, odometry `pose`, `scan`, object `memory`, `answers` (the answers' measured
   latency, latency.py), the camera's `view`, the target's track (`last_seen`, `last_x`, `goal_xy`),
-  the chosen remembered object (`target_obj`), and three shared tools: `look` (hold still until an
-  answer about a frame taken since the stop is back, look.py), `avoider` (the local planner's
-  side memory, avoid.py; `ctx.avoid(...)` steers round the fresh scan: the tracked approach's) and
-  `navigator` (behavior/navigate/: `ctx.navigate(place, ...)` walks to a place: route, controller,
-  progress, recoveries; the only planner caller).
+  the chosen remembered object (`target_obj`), and two shared tools: `look` (hold still until an
+  answer about a frame taken since the stop is back, look.py) and `navigator` (behavior/navigate/,
+  the only planner caller: `ctx.navigate(place, ...)` walks to a place: route, controller, progress,
+  recoveries; `ctx.turn(...)` turns in place; `ctx.avoid(...)` steers towards a bearing round the
+  fresh scan where there is no route, its `steering`).
 - `Strategy`: `reset(now)` when a goal starts; `step(ctx, now) -> Command | None`, None meaning
   "nothing for me to do now: ask the next".
 - `Command`: (vx, wz, state, reason) and the planner's note; a terminal state (found, reached,

@@ -135,7 +135,7 @@ class Approach:
                 self.routed = False
                 return None
             return self._walk(ctx, place, now, f"the {ctx.label} is out of view: walking on to where it was seen")
-        detour_t = ctx.avoider.detour_t
+        detour_t = ctx.navigator.steering.detour_t
         if last is None or detour_t is None or detour_t < last - p.lost_timeout_s:
             return None
         if now - last > p.detour_memory_s:

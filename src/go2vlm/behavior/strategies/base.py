@@ -19,7 +19,6 @@ from go2vlm.behavior.planner import Steer
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams
 from go2vlm.behavior.planner.route import Route
 from go2vlm.behavior.sighting import Sighting
-from go2vlm.behavior.strategies.avoid import Avoider
 from go2vlm.behavior.strategies.latency import Answers
 from go2vlm.behavior.strategies.look import Look
 from go2vlm.behavior.strategies.params import MissionParams
@@ -68,7 +67,7 @@ class Context:
     """What the mission knows, kept for the strategies: its parameters and goal, the newest
     observations (a sighting, the odometry pose, the scan, the object memory, the answers' latency,
     the camera's view) and the target's track (when and where it was last confirmed). The mission
-    writes the observations; strategies read them and use the shared tools (`look`, `avoider`)."""
+    writes the observations; strategies read them and use the shared tools (`look`, `navigator`)."""
 
     params: MissionParams
     counters: Counter[str] = field(default_factory=Counter)
@@ -85,7 +84,6 @@ class Context:
     last_x: float = 0.0  # its offset x (a search turns that way)
     goal_xy: tuple[float, float] | None = None  # the target's last confirmed place (odometry frame)
     look: Look = field(default_factory=Look)
-    avoider: Avoider = field(default_factory=Avoider)
     costmap: Costmap | None = None  # the map's newest inflated costmap (/map/costmap), for the global planner
     route: Route | None = None  # the global route being walked (explore, or a remembered place out of sight): /plan
     coverage: Coverage = field(default_factory=Coverage)  # where the camera has looked during this goal
@@ -112,7 +110,7 @@ class Context:
         self.align_since = None
         self.route = None
         self.navigator.reset()
-        self.avoider.reset()
+        self.navigator.steering.reset()
         self.look.forget()
         self.coverage.reset()
         self.viewed_through = self.answers.through if self.answers.through is not None else -math.inf
@@ -251,7 +249,7 @@ class Context:
         """The planner's way round the fresh scan towards `goal` (bearing, base distance), or None (no
         planning: avoid_obstacles off, or no fresh scan)."""
         scan = self.fresh_scan(now) if self.params.avoid_obstacles else None
-        return self.avoider.steer(scan, self.params.planner, vx, wz, ap, goal, now)
+        return self.navigator.steering.steer(scan, self.params.planner, vx, wz, ap, goal, now)
 
     def turn(self, wz: float, state: str, reason: str, now: float, basis: str = "", note: str = "") -> Command:
         """A turn in place at `wz` (rad/s), made by the navigator (`Navigator.turn`: the routes'

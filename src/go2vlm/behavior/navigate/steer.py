@@ -1,7 +1,9 @@
-"""The local planner's bookkeeping for every approach (a tracked target, a remembered place, a
-detour out of view): when it last had to steer round something, the side it went round on and the
-way it chose, so that an obstacle dead ahead is not passed left and right in turn. The steering itself is
-behavior/planner/local.py's; pure, timestamp-driven."""
+"""The navigator's steering where there is no route to follow (a follow, a go to without a map, the
+last bit to a remembered object, a detour out of view): the local planner (behavior/planner/local.py)
+towards a bearing and a distance, with what it keeps from one step to the next: when it last had to
+steer round something, the side it went round on and the way it chose, so that an obstacle dead
+ahead is not passed left and right in turn. Pure, timestamp-driven; the navigator owns it
+(`Navigator.steering`), and nothing else in behavior/ calls the local planner."""
 
 from __future__ import annotations
 
