@@ -203,7 +203,10 @@ def test_forward_without_a_confirmed_target_only_on_a_fresh_blocked_detour(
         back = p.nav.back_up_speed  # the navigator's, making room to turn: never faster
         assert -back <= out.vx <= p.max_linear + 1e-12 and abs(out.wz) <= p.max_angular + 1e-12, out
         confirmed = newest is not None and newest[1] and now - newest[0] < p.lost_timeout_s
-        if out.vx > 0 and not confirmed:
+        if out.vx > 0 and not confirmed and "no room to turn" in out.reason:  # a leg making room to turn
+            assert out.vx <= p.nav.min_speed + 1e-12, out  # at a creep, not towards anything
+            event("a leg of a driver's turn")
+        elif out.vx > 0 and not confirmed:
             assert out.state == "detouring", out
             assert last_confirmed is not None and now - last_confirmed <= p.detour_memory_s
             assert scan_t is not None and now - scan_t <= p.scan_timeout_s

@@ -281,6 +281,26 @@ def test_a_held_leg_runs_on_where_the_routes_arc_would_keep_again() -> None:
     assert d == free, d
 
 
+def test_once_there_nearer_is_still_there() -> None:
+    """A go to's last bit is the approach law's: it walks past the route's end to the stop distance.
+    The navigator, asked again, said "not there" (the route's end behind it by more than `arrive_m`)
+    and backed the robot to it, and the two took turns. Nearer than where it arrived is still there;
+    farther is not."""
+    g = house()
+    g[66:74, 196:204] = True  # a box round the goal at (4.0, 0.0): the route ends short of it
+    cm, pts = costmap(g), wall_points(g)
+    nav, goal, tol = Navigator(), (4.0, 0.0), 0.1
+    kw = {"max_linear": 0.5, "max_angular": 0.8}
+    assert nav.step(goal, tol, cm, (1.0, 0.0, 0.0), scan_at(pts, 1.0, 0.0, 0.0), 0.0, **kw).status == "moving"
+    assert nav.route is not None
+    end = nav.route.plan.waypoints[-1]
+    assert nav.step(goal, tol, cm, (end[0], end[1], 0.0), scan_at(pts, *end, 0.0), 1.0, **kw).status == "arrived"
+    past = (end[0] + 0.3, end[1])  # the approach law walked on, nearer the goal
+    assert nav.step(goal, tol, cm, (*past, 0.0), scan_at(pts, *past, 0.0), 2.0, **kw).status == "arrived"
+    back = (end[0] - 0.6, end[1])  # pushed farther than where it arrived: it walks back
+    assert nav.step(goal, tol, cm, (*back, 0.0), scan_at(pts, *back, 0.0), 3.0, **kw).status == "moving"
+
+
 def edge(x: float, y0: float = -0.8, y1: float = 0.8) -> np.ndarray:
     """A straight edge across the robot's way at `x` (base frame), points every 2 cm."""
     ys = np.arange(y0, y1, 0.02)

@@ -216,17 +216,21 @@ def make_room(
 def turn_in_place(
     wz: float, scan: np.ndarray | None, p: NavParams, max_linear: float, max_angular: float,
     fp: Rect | None = None, rule: Clearance | None = None, held: Leg | None = None, now: float = 0.0,
+    angle: float = math.pi / 2,
 ) -> Drive:  # fmt: skip
-    """A turn in place at `wz` (rad/s) that a strategy asks for (a look round, facing a target): as it
-    is, or slower, where its sweep keeps the clearance; else a driver's turn to where it can
-    (`make_room`, towards the turn's side); else `blocked`. `scan` and `held` as `pursue`'s."""
+    """A turn in place at `wz` (rad/s) that a strategy asks for (a look round, facing a target), `angle`
+    (rad) still to turn, a quarter turn at most counted: as it is, or slower, where the sweep of that
+    much keeps the clearance; else a driver's turn to where it can (`make_room`, towards that
+    heading), so that a turn checked only a moment ahead does not stop a few degrees on and ask for
+    another leg; else `blocked`. `scan` and `held` as `pursue`'s."""
     rule, fp = rule or Clearance(), fp or Rect()
     pts = scan if scan is not None else np.zeros((0, 2))
     if wz == 0.0 or not math.isfinite(wz):
         return Drive(0.0, 0.0, "blocked", "no turn", 0, 0.0)
+    a = min(abs(angle), math.pi / 2) if math.isfinite(angle) else math.pi / 2
     if held is None or now >= held.until:
-        w = _turn_rate(pts, wz, 0.0, p, fp, rule, max_angular, arc_clearance(pts, 0.0, 0.0, 0.0, fp))
+        w = _turn_rate(pts, wz, a, p, fp, rule, max_angular, arc_clearance(pts, 0.0, 0.0, 0.0, fp))
         if w is not None:
             return Drive(0.0, w, "rotate", "", 0, 0.0)
-    side = (0.0, math.copysign(1.0, wz))  # the way it turns, a quarter turn round
-    return make_room(pts, side, 0.0, p, fp, rule, max_linear, max_angular, held, now)
+    toward = (math.cos(a), math.copysign(math.sin(a), wz))  # the heading it turns to, 1 m out
+    return make_room(pts, toward, 0.0, p, fp, rule, max_linear, max_angular, held, now)

@@ -25,7 +25,10 @@ A caller choosing among places (the explorer, among frontiers) asks the navigato
 rather than walks to it asks it first).
 `arrived`: within `tolerance` of the goal (and, for a planner with `goal_in_sight`, in sight of it on
 the map: no obstacle cell between but its own, within `body` of it, planner/global_path.py
-`in_sight`), or within `arrive_m` of the route's end (the passable cell the plan reached). `failed`
+`in_sight`), or within `arrive_m` of the route's end (the passable cell the plan reached); and once
+there, for as long as it is no farther from the goal (less `arrive_m`) than where it arrived: a
+caller that closes the last of the way itself (the approach law, to the stop distance) walks past
+the route's end, and a navigator that took that for "not there" backed it to the end again. `failed`
 also when no route can be planned (the planner's reason).
 """
 
@@ -102,12 +105,14 @@ class Navigator:
         self._leg: Leg | None = None  # the controller's driver's-turn leg, handed back to it each step
         self._turn_leg: Leg | None = None  # ... and a strategy's turn's (`turn`)
         self._left = math.inf  # the way left along the route at the last step (m)
+        self._there: float | None = None  # how far from the goal it was when it arrived (m)
 
     def reset(self) -> None:
         """Forget the goal and its route (a new goal, or the strategy gave the place up)."""
         self.goal, self.route, self._index, self._speed, self._leg = None, None, 0, 0.0, None
         self._turn_leg = None
         self._left = math.inf
+        self._there = None
         self.progress.new_goal()
         self.recoveries.reset()
 
@@ -155,8 +160,11 @@ class Navigator:
         if near and self.planner.goal_in_sight:
             own = self.planner.goal_own_m / cm.resolution
             near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution, own)[0])
-        if near or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
+        off = math.hypot(goal[0] - x, goal[1] - y)
+        nearer = self._there is not None and off <= self._there + p.arrive_m  # nearer than where it arrived
+        if near or nearer or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
             self._speed = 0.0
+            self._there = off if self._there is None else min(self._there, off)
             return NavStep(0.0, 0.0, "arrived", "there")
         if self.recoveries.active is not None:
             cmd = self.recoveries.step(pose, scan, now, p, max_angular, self.footprint, self.clearance)
@@ -209,13 +217,14 @@ class Navigator:
         notes = ", ".join(n for n in (d.note, f"replanned: {why}" if why else "") if n)
         return NavStep(d.vx, d.wz, "moving", f"{reason} ({notes})" if notes else reason, d.note)
 
-    def turn(self, wz: float, scan: np.ndarray | None, now: float, *, max_linear: float,
-             max_angular: float) -> NavStep:  # fmt: skip
-        """A turn in place at `wz` that a strategy asks for (a look round, facing its target): the
-        controller's `turn_in_place`, with the footprint and the clearance rule the routes keep; where
-        there is no room to turn, a driver's turn (`moving`), or none (`waiting`: counted)."""
+    def turn(self, wz: float, scan: np.ndarray | None, now: float, *, max_linear: float, max_angular: float,
+             angle: float = math.pi / 2) -> NavStep:  # fmt: skip
+        """A turn in place at `wz` that a strategy asks for (a look round, facing its target), `angle`
+        still to turn: the controller's `turn_in_place`, with the footprint and the clearance rule the
+        routes keep; where there is no room to turn, a driver's turn (`moving`), or none (`waiting`:
+        counted)."""
         d = turn_in_place(wz, scan, self.params, max_linear, max_angular, self.footprint, self.clearance,
-                          self._turn_leg, now)  # fmt: skip
+                          self._turn_leg, now, angle)  # fmt: skip
         prev, self._turn_leg = self._turn_leg, d.leg
         if d.mode == "blocked":
             self.counters["turns_held"] += 1

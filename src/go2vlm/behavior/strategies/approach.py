@@ -60,7 +60,8 @@ class Approach:
                 return Command.still("found", f"the {label} is in view, {abs(off):.0f} deg to the "
                                      f"{'left' if off > 0 else 'right'} (not centred in {wait:g} s)"
                                      f"{ctx.where()}")  # fmt: skip
-            return ctx.turn(wz, "aligning", "target in view: turning to face it", now)
+            off = abs(s.bearing) if math.isfinite(s.bearing) else math.pi / 2
+            return ctx.turn(wz, "aligning", "target in view: turning to face it", now, angle=off)
         follow = goal.kind == "follow"
         dist = ctx.base_distance(now)
         method = ctx.ranged_by  # the tracker's, or what ctx.base_distance took instead (lidar, memory)
@@ -153,4 +154,4 @@ class Approach:
         if abs(bearing) < p.planner.step:
             return None  # facing where it was, and still not seen: lost, then search
         reason = f"turning back towards where the {ctx.label} was last seen ({dist:.1f} m)"
-        return ctx.turn(turn, "detouring", reason, now, note="turning back towards the target")
+        return ctx.turn(turn, "detouring", reason, now, note="turning back towards the target", angle=abs(bearing))

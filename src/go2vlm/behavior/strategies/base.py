@@ -251,15 +251,18 @@ class Context:
         scan = self.fresh_scan(now) if self.params.avoid_obstacles else None
         return self.navigator.steering.steer(scan, self.params.planner, vx, wz, ap, goal, now)
 
-    def turn(self, wz: float, state: str, reason: str, now: float, basis: str = "", note: str = "") -> Command:
-        """A turn in place at `wz` (rad/s), made by the navigator (`Navigator.turn`: the routes'
-        footprint and clearance rule; a driver's turn where there is no room); as asked with
-        avoid_obstacles off (the guard alone holds it)."""
+    def turn(self, wz: float, state: str, reason: str, now: float, basis: str = "", note: str = "",
+             angle: float = math.pi / 2) -> Command:  # fmt: skip
+        """A turn in place at `wz` (rad/s), `angle` (rad) still to turn (a look round: a quarter turn at
+        a time), made by the navigator (`Navigator.turn`: the routes' footprint and clearance rule; a
+        driver's turn where there is no room); as asked with avoid_obstacles off (the guard alone
+        holds it)."""
         p, nav = self.params, self.navigator
         if not p.avoid_obstacles:
             return Command(0.0, wz, state, reason, note=note, basis=basis)
         nav.params, nav.clearance = p.nav, p.planner.clearance
-        out = nav.turn(wz, self.fresh_scan(now), now, max_linear=p.nav.max_speed, max_angular=p.max_angular)
+        top = min(p.max_linear, p.nav.max_speed)  # a leg's creep: no faster than the mission's own walk
+        out = nav.turn(wz, self.fresh_scan(now), now, max_linear=top, max_angular=p.max_angular, angle=angle)
         why = f"{reason}: {out.note}" if out.note else reason
         return Command(out.vx, out.wz, state, why, note=out.note or note, basis=basis, navigated=True)
 

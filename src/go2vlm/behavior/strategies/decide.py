@@ -64,10 +64,11 @@ class Decisions:
         if now < self.hold_until:
             return Command.still("holding", "a VLM decision said stop")
         wz = self.turn_dir * self.turn_rate(p)
+        left = abs(wz) * max(0.0, self.turn_until - now)  # rad still to turn
         if goal is not None and goal.kind == "turn":
             if now < self.turn_until:
-                return ctx.turn(wz, "turning", f"turning {goal.angle_deg:+g} deg in place", now)
+                return ctx.turn(wz, "turning", f"turning {goal.angle_deg:+g} deg in place", now, angle=left)
             return Command.still("done", f"turned {goal.angle_deg:+g} deg")
         if now < self.turn_until:
-            return ctx.turn(wz, "turning", "a VLM decision said turn", now)
+            return ctx.turn(wz, "turning", "a VLM decision said turn", now, angle=left)
         return None

@@ -160,7 +160,7 @@ class GoToRemembered:
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
             ctx.look.forget()
-            return ctx.turn(face_command(bearing, ap), state, f"turning to {where}", now)
+            return ctx.turn(face_command(bearing, ap), state, f"turning to {where}", now, angle=abs(bearing))
         # Hold still facing it (not sure enough to walk, or at its place) and look.
         look = ctx.look_at(key, now)
         if look == "answered":  # an answer about this view came back without it

@@ -83,4 +83,5 @@ class TurnAndLook:
             self.phase = "look"
             ctx.look_at(("search", self.turned), now)
             return Command.still("searching", f"holding still, looking for the {label}")
-        return ctx.turn(wz, "searching", f"turning {p.search_step_deg:g} deg to look for the {label}", now)
+        why = f"turning {p.search_step_deg:g} deg to look for the {label}"
+        return ctx.turn(wz, "searching", why, now, angle=math.radians(p.search_step_deg))
