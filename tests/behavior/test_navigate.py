@@ -377,6 +377,24 @@ def test_a_turn_in_place_moves_only_where_its_move_keeps_the_clearance(
         assert arc_clearance(scan, d.vx, d.wz, p.horizon_s, FP) >= min(FP.need(Clearance(), d.vx, d.wz), here) - 1e-3
 
 
+def test_between_the_legs_of_a_drivers_turn_its_next_leg_comes_before_backing_along_the_route() -> None:
+    """Beside a table (no room to turn), the route behind on the left: backing along the route keeps
+    its clearance, and so does the search's plan. Afresh, it backs along the route; with a leg of a
+    plan of several just driven, the plan's next leg comes first. Backing first undid each leg, and
+    the robot went forward and back a leg at a time (8 changes of direction in 10 s)."""
+    from go2vlm.behavior.navigate.controller import make_room
+
+    p, table = NavParams(), edge(FP.half_length + 0.08)
+    carrot, kappa = (-1.0, 0.5), 0.8
+    fresh = make_room(table, carrot, kappa, p, FP, Clearance(), 0.5, 0.8, None, 10.0)
+    assert fresh.mode == "reverse" and "backing along the route" in fresh.note, fresh
+    done = Leg(0.08, 0.0, 9.99, "leg 1 of 2 to where it can turn", more=True)
+    d = make_room(table, carrot, kappa, p, FP, Clearance(), 0.5, 0.8, done, 10.0)
+    assert d.leg is not None and "leg 1 of" in d.note, d
+    last = Leg(0.08, 0.0, 9.99, "leg 1 of 1 to where it can turn")  # the plan's last leg: afresh again
+    assert make_room(table, carrot, kappa, p, FP, Clearance(), 0.5, 0.8, last, 10.0) == fresh
+
+
 def two_doors(shut: set[str]) -> np.ndarray:
     """The toy house with two doors 1.0 m clear in its wall: "near" at y = -2.5, "far" at y = +2.5."""
     g = house()

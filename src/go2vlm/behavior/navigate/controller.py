@@ -193,11 +193,17 @@ def make_room(
     v, wz = slow_back, slow_back * kappa
     if abs(wz) > max_angular:
         v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
-    if behind and keeps(v, wz):  # the route lies behind: back along it
+    # The route lies behind: back along it; but between the legs of a driver's turn, its next leg first
+    # (the backing undid the leg just driven: forward a leg, back to where it began, and so on).
+    back = behind and keeps(v, wz)
+    if back and not (held is not None and held.more):
         return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
     found = first_leg(pts, carrot, p, fp, rule, max_linear, max_angular)
     if found is not None:
-        return leg(Leg(found[0], found[1], now + p.turn_leg_s, f"leg 1 of {found[2]} to where it can turn"))
+        how = f"leg 1 of {found[2]} to where it can turn"
+        return leg(Leg(found[0], found[1], now + p.turn_leg_s, how, found[2] > 1))
+    if back:
+        return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
     # No pose to turn from within reach: creep on straight, out of the doorway it stands in, to turn
     # where it is clear (first where the carrot lies ahead, last where behind); back or creep on
     # while it turns towards it.

@@ -35,6 +35,7 @@ class Leg:
     wz: float
     until: float  # the caller's time the leg ends
     how: str  # what it is, for the status
+    more: bool = False  # the search's plan has legs after this one: the turn goes on with its next
 
 
 def _moved(x: float, y: float, th: float, vx: float, wz: float, t: float) -> tuple[float, float, float]:
