@@ -196,3 +196,36 @@ def test_a_look_begun_at_the_place_is_answered_before_it_walks_again(latency: fl
         if cmd.state == "reached":
             return
     raise AssertionError(f"not reached in 60 s: {cmd.reason}")
+
+
+def test_a_last_bit_the_guard_holds_is_not_walked_for_ever() -> None:
+    """The local planner passes the last bit (the object's surroundings are its goal), the gate's guard
+    holds it (the counter under a mug), and the robot stood walking into it for 160 s (houses 006).
+    After the navigator's `progress_s` without nearing it holds still and looks before it walks again;
+    once the way opens it walks on and is reached."""
+    p = MissionParams(nav=NavParams(arrive_m=0.5))
+    ctx = Context(p, goal=parse_goal("go to the blue cylinder"), view=1.27)
+    ctx.costmap = Costmap(np.zeros((80, 120), np.int8), 0.05, (-1.5, -2.0), 0.0)  # open and known
+    nav = GoToRemembered()
+    x, now, dt, latency = 2.0, 0.0, 0.05, 0.3  # the navigator is there (its route's end), 0.4 m short
+    walking, held = 0.0, 0.0
+    while now < 90.0:
+        now += dt
+        ctx.answers.take(now - latency, now)  # every answer sees it straight ahead
+        ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, now - latency)]
+        ctx.pose = Pose(x, 0.0, 0.0, now)
+        ctx.target_obj = nav.pick(ctx)
+        cmd = nav.step(ctx, now)
+        assert cmd is not None
+        if cmd.state == "reached":
+            break
+        if now < 40.0:  # the guard holds every walk: the robot stands
+            walking += dt * (cmd.vx > 0.0)
+            held += dt * (cmd.vx == 0.0 and "holding still" in cmd.reason)
+        else:
+            x += cmd.vx * dt
+    else:
+        raise AssertionError(f"not reached in 90 s: {cmd.reason}")
+    assert ctx.counters["last_bit_held"] >= 3 and held > 0.0, (ctx.counters, held)
+    assert walking < 40.0 - held, (walking, held)
+    assert now > 40.0  # reached only once the way opened

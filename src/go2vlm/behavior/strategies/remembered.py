@@ -10,7 +10,10 @@ view is. Pure, timestamp-driven.
   within reach of it (stop_distance_m + its radius + distance_tolerance_m); a place the navigator
   gives up on (no route: a misplaced memory beyond a wall; or no progress after every recovery) is
   given up (`remembered_unreachable`). Without a costmap: turn, then walk straight with the local
-  planner, the guard having the last word. At its remembered place it turns to face it, stops and
+  planner, the guard having the last word. The navigator there short of the stop distance, the last
+  bit is walked straight the same way, and like a route it must near (by `distance_tolerance_m`
+  within the navigator's `progress_s`): else it is held (`last_bit_held`) and looks from there
+  before it walks again. At its remembered place it turns to face it, stops and
   looks: `reached` only when an answer about a frame taken there placed it within reach
   (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A look begun is held until answered
   while the place stays within that reach: its range flickers about the stop distance's edge.
@@ -28,6 +31,7 @@ import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
 from go2vlm.behavior.navigate import line_of_sight
+from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.world.labels import label_fits
 from go2vlm.world.objects_msg import Remembered
@@ -65,10 +69,14 @@ class GoToRemembered:
     def __init__(self) -> None:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
+        self.closing = Progress()  # the last bit's nearing, the navigator's rule (navigate/progress.py)
+        self.held: str | None = None  # the object whose last bit came no nearer: look before walking again
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
+        self.closing.new_goal()
+        self.held = None
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -126,6 +134,9 @@ class GoToRemembered:
             if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
+            if seen_here and self.held == o.id:  # seen from as near as it got: the last bit afresh
+                self.held = None
+                self.closing.new_goal()
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
         reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
         if goal.kind == "look_for" and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
@@ -137,7 +148,9 @@ class GoToRemembered:
                     return out
         # A look begun at its place is answered before it walks again, while within the reach slack:
         # the range flickers about the stop distance's edge, and each flicker out forgot the look.
-        looking = ctx.look.key == key and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m
+        # So is one begun where the last bit came no nearer (`held`).
+        looking = ctx.look.key == key and (surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m
+                                           or self.held == o.id)  # fmt: skip
         if goal.kind == "go_to" and o.confidence >= p.memory_confirm_confidence and not at_place and not looking:
             ctx.look.forget()
             self.failed_looks = 0
@@ -149,13 +162,14 @@ class GoToRemembered:
             # No map, or the navigator is there (near its route's end) short of the stop distance: turn,
             # then walk the last bit straight; the local planner steers round what the scan shows.
             st = ctx.avoid(vx, wz, ap, (bearing, surface), now)
-            if st is None or not st.blocked:
+            held = mapped and self._no_nearer(ctx, o, surface, now)  # the guard holds what the planner passed
+            if not held and (st is None or not st.blocked):
                 why = "the last bit" if mapped else "no map"
                 reason = f"{where}, {surface:.2f} m away (memory, confidence {o.confidence:.2f}); {why}"
                 return Command(vx, wz, "approaching", reason, basis="memory")
-            if not mapped:
+            if not mapped and st is not None:
                 return ctx.detour(st, f"{where}, {surface:.2f} m (memory): {st.note}", now, basis="memory")
-            # blocked with a map: as near as the way lets it; look (below)
+            # blocked, or no nearer, with a map: as near as the way lets it; look (below)
         state = "aligning" if goal.kind == "look_for" else "approaching"
         facing = p.planner.step if goal.kind == "look_for" else 0.25
         if abs(bearing) > facing:  # turn to it (looks are only taken facing it)
@@ -164,12 +178,29 @@ class GoToRemembered:
         # Hold still facing it (not sure enough to walk, or at its place) and look.
         look = ctx.look_at(key, now)
         if look == "answered":  # an answer about this view came back without it
+            self.held = None
             if self._looked_without(ctx, o):
                 return None
         elif look == "timeout":
             ctx.look.forget()  # no answer at all: look again (the search's timeout still runs)
         why = "confirming it is there" if at_place or goal.kind == "look_for" else "looking again before walking"
         return Command.still(state, f"holding still facing {where} ({surface:.2f} m): {why}")
+
+    def _no_nearer(self, ctx: Context, o: Remembered, surface: float, now: float) -> bool:
+        """Has the last bit to `o` come no nearer (by `distance_tolerance_m`) within the navigator's
+        `progress_s`? Then it is `held`: it looks from there before it walks again. A walk the local
+        planner passed (the object's own surroundings are the goal to it), the gate's guard held at
+        zero, and the robot stood by a mug for 160 s."""
+        if self.held == o.id:
+            return True
+        self.closing.to_go(surface, now, ctx.params.distance_tolerance_m)
+        t = self.closing.neared_t
+        if t is None or now - t < ctx.params.nav.progress_s:
+            return False
+        self.held = o.id
+        self.closing.new_goal()
+        ctx.counters["last_bit_held"] += 1
+        return True
 
     def _walk(self, ctx: Context, o: Remembered, reach: float, now: float, state: str, why: str) -> Command | None:
         """The navigator's step to `o`'s place; None: it is there (the caller faces it and looks), or it
