@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from go2vlm.behavior.goals import parse_goal
 from go2vlm.behavior.navigate.params import NavParams
 from go2vlm.behavior.planner.grid import Costmap
-from go2vlm.behavior.strategies.base import Context, Pose
+from go2vlm.behavior.strategies.base import Command, Context, Pose
 from go2vlm.behavior.strategies.params import MissionParams
 from go2vlm.behavior.strategies.remembered import GoToRemembered
 from go2vlm.world.labels import label_fits
@@ -141,6 +141,18 @@ def test_answered_looks_without_it_give_it_up_until_it_is_seen_again(looks: int,
     assert nav.pick(ctx) is not None
 
 
+def seen_ahead(ctx: Context, nav: GoToRemembered, x: float, now: float, latency: float) -> Command:
+    """One step of `nav` with the robot at (x, 0) facing +x, every answer `latency` s old seeing the
+    blue cylinder remembered at (3.5, 0) straight ahead."""
+    ctx.answers.take(now - latency, now)
+    ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, now - latency)]
+    ctx.pose = Pose(x, 0.0, 0.0, now)
+    ctx.target_obj = nav.pick(ctx)
+    cmd = nav.step(ctx, now)
+    assert cmd is not None
+    return cmd
+
+
 @settings(max_examples=30)
 @given(arrive=st.floats(0.25, 1.0), latency=st.floats(0.1, 3.0), x0=st.floats(-1.0, 0.5))
 def test_a_go_to_the_navigator_calls_there_short_of_the_stop_walks_the_last_bit(
@@ -153,16 +165,10 @@ def test_a_go_to_the_navigator_calls_there_short_of_the_stop_walks_the_last_bit(
     ctx = Context(p, goal=parse_goal("go to the blue cylinder"), view=1.27)
     ctx.costmap = Costmap(np.zeros((80, 120), np.int8), 0.05, (-1.5, -2.0), 0.0)  # open and known
     nav = GoToRemembered()
-    x, now, dt, last_seen = x0, 0.0, 0.05, 0.0
+    x, now, dt = x0, 0.0, 0.05
     while now < 120.0:
         now += dt
-        last_seen = now - latency  # every answer sees it straight ahead
-        ctx.answers.take(now - latency, now)
-        ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, last_seen)]
-        ctx.pose = Pose(x, 0.0, 0.0, now)
-        ctx.target_obj = nav.pick(ctx)
-        cmd = nav.step(ctx, now)
-        assert cmd is not None
+        cmd = seen_ahead(ctx, nav, x, now, latency)
         if cmd.state == "reached":
             break
         x += cmd.vx * dt
@@ -211,12 +217,7 @@ def test_a_last_bit_the_guard_holds_is_not_walked_for_ever() -> None:
     walking, held = 0.0, 0.0
     while now < 90.0:
         now += dt
-        ctx.answers.take(now - latency, now)  # every answer sees it straight ahead
-        ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, now - latency)]
-        ctx.pose = Pose(x, 0.0, 0.0, now)
-        ctx.target_obj = nav.pick(ctx)
-        cmd = nav.step(ctx, now)
-        assert cmd is not None
+        cmd = seen_ahead(ctx, nav, x, now, latency)
         if cmd.state == "reached":
             break
         if now < 40.0:  # the guard holds every walk: the robot stands
