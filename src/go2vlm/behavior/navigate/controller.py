@@ -119,7 +119,8 @@ def pursue(
         w = _turn_rate(pts, math.copysign(fast, alpha), abs(alpha), p, fp, rule, max_angular, now_clear)
         if w is not None:
             return Drive(0.0, w, "rotate", "turning to the route", index, remaining)
-        return make_room(pts, (lx, ly), kappa, p, fp, rule, max_linear, max_angular, held, now, index, remaining)
+        return make_room(pts, (lx, ly), kappa, p, fp, rule, max_linear, max_angular, held, now, index, remaining,
+                         now_clear)  # fmt: skip
 
     # A held leg runs on, even where the route's arc would keep again: cut short, the arc walked
     # straight back to where it failed, and the robot rocked between the two.
@@ -171,11 +172,14 @@ def _turn_rate(pts: np.ndarray, wz: float, angle: float, p: NavParams, fp: Rect,
 def make_room(
     pts: np.ndarray, carrot: tuple[float, float], kappa: float, p: NavParams, fp: Rect, rule: Clearance,
     max_linear: float, max_angular: float, held: Leg | None, now: float, index: int = 0, remaining: float = 0.0,
+    here: float | None = None,
 ) -> Drive:  # fmt: skip
     """No room to turn in place towards `carrot` (base frame): a driver's turn, in legs (manoeuvre.py),
     each held for the rest of its length while that keeps its room (the search checked it whole).
-    `kappa`: the curvature of the way back along a route (0: none)."""
-    here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
+    `kappa`: the curvature of the way back along a route (0: none); `here`: the footprint's clearance
+    where it stands, when the caller has it."""
+    if here is None:
+        here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
 
     def keeps(vx: float, wz: float, duration: float = p.horizon_s) -> bool:
         return fits(pts, vx, wz, duration, fp, rule, here)
@@ -195,15 +199,17 @@ def make_room(
         v, wz = v * max_angular / abs(wz), math.copysign(max_angular, wz)
     # The route lies behind: back along it; but between the legs of a driver's turn, its next leg first
     # (the backing undid the leg just driven: forward a leg, back to where it began, and so on).
-    back = behind and keeps(v, wz)
-    if back and not (held is not None and held.more):
-        return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
+    back: Drive | None = None
+    if behind and keeps(v, wz):
+        back = Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
+        if not (held is not None and held.more):
+            return back
     found = first_leg(pts, carrot, p, fp, rule, max_linear, max_angular)
     if found is not None:
         how = f"leg 1 of {found[2]} to where it can turn"
         return leg(Leg(found[0], found[1], now + p.turn_leg_s, how, found[2] > 1))
-    if back:
-        return Drive(v, wz, "reverse", "no room to turn: backing along the route", index, remaining)
+    if back is not None:
+        return back
     # No pose to turn from within reach: creep on straight, out of the doorway it stands in, to turn
     # where it is clear (first where the carrot lies ahead, last where behind); back or creep on
     # while it turns towards it.
@@ -234,9 +240,10 @@ def turn_in_place(
     if wz == 0.0 or not math.isfinite(wz):
         return Drive(0.0, 0.0, "blocked", "no turn", 0, 0.0)
     a = min(abs(angle), math.pi / 2) if math.isfinite(angle) else math.pi / 2
+    here = arc_clearance(pts, 0.0, 0.0, 0.0, fp)
     if held is None or now >= held.until:
-        w = _turn_rate(pts, wz, a, p, fp, rule, max_angular, arc_clearance(pts, 0.0, 0.0, 0.0, fp))
+        w = _turn_rate(pts, wz, a, p, fp, rule, max_angular, here)
         if w is not None:
             return Drive(0.0, w, "rotate", "", 0, 0.0)
     toward = (math.cos(a), math.copysign(math.sin(a), wz))  # the heading it turns to, 1 m out
-    return make_room(pts, toward, 0.0, p, fp, rule, max_linear, max_angular, held, now)
+    return make_room(pts, toward, 0.0, p, fp, rule, max_linear, max_angular, held, now, here=here)

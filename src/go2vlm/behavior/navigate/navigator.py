@@ -156,11 +156,11 @@ class Navigator:
         self.goal = goal
         x, y, yaw = pose
         end = self.route.plan.waypoints[-1] if self.route is not None else None
-        near = math.hypot(goal[0] - x, goal[1] - y) <= tolerance
+        off = math.hypot(goal[0] - x, goal[1] - y)
+        near = off <= tolerance
         if near and self.planner.goal_in_sight:
             own = self.planner.goal_own_m / cm.resolution
             near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution, own)[0])
-        off = math.hypot(goal[0] - x, goal[1] - y)
         nearer = self._there is not None and off <= self._there + p.arrive_m  # nearer than where it arrived
         if near or nearer or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
             self._speed = 0.0

@@ -143,14 +143,20 @@ class Context:
         nav = self.params.nav
         return replace(GlobalParams(), unknown_cost=nav.unknown_cost, goal_in_sight=True, goal_own_m=nav.place_error_m)
 
+    def _navigator(self) -> Navigator:
+        """The navigator with the mission's newest parameters and clearance rule (both live)."""
+        nav, p = self.navigator, self.params
+        nav.params, nav.clearance = p.nav, p.planner.clearance
+        return nav
+
     def navigate(
         self, goal: tuple[float, float], tolerance: float, now: float, planner: GlobalParams, body: float = 0.0
     ) -> NavStep:
         """The navigator's step towards `goal` (odometry frame; `tolerance` m and in sight counts as there,
         the obstacle cells within `body` m being the goal's own), planning with `planner` on the newest
         costmap, at up to `nav.max_speed` and the mission's turn rate; `route` is its route."""
-        nav, p = self.navigator, self.params
-        nav.params, nav.planner, nav.clearance = p.nav, planner, p.planner.clearance
+        nav, p = self._navigator(), self.params
+        nav.planner = planner
         pose = self.fresh_pose(now)
         out = nav.step(goal, tolerance, self.costmap, None if pose is None else (pose.x, pose.y, pose.yaw),
                        self.fresh_scan(now), now, max_linear=p.nav.max_speed, max_angular=p.max_angular,
@@ -257,10 +263,10 @@ class Context:
         a time), made by the navigator (`Navigator.turn`: the routes' footprint and clearance rule; a
         driver's turn where there is no room); as asked with avoid_obstacles off (the guard alone
         holds it)."""
-        p, nav = self.params, self.navigator
+        p = self.params
         if not p.avoid_obstacles:
             return Command(0.0, wz, state, reason, note=note, basis=basis)
-        nav.params, nav.clearance = p.nav, p.planner.clearance
+        nav = self._navigator()
         top = min(p.max_linear, p.nav.max_speed)  # a leg's creep: no faster than the mission's own walk
         out = nav.turn(wz, self.fresh_scan(now), now, max_linear=top, max_angular=p.max_angular, angle=angle)
         why = f"{reason}: {out.note}" if out.note else reason

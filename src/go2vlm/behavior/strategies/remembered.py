@@ -70,13 +70,14 @@ class GoToRemembered:
         self.given_up: dict[str, float] = {}  # remembered object id -> its last_seen when given up
         self.failed_looks = 0
         self.closing = Progress()  # the last bit's nearing, the navigator's rule (navigate/progress.py)
+        self.closing_to: str | None = None  # ... to this object, walked since the navigator was there
         self.held: str | None = None  # the object whose last bit came no nearer: look before walking again
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
         self.closing.new_goal()
-        self.held = None
+        self.closing_to = self.held = None
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -136,7 +137,6 @@ class GoToRemembered:
                                      f"placed it here ({where})")  # fmt: skip
             if seen_here and self.held == o.id:  # seen from as near as it got: the last bit afresh
                 self.held = None
-                self.closing.new_goal()
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
         reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
         if goal.kind == "look_for" and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
@@ -193,12 +193,14 @@ class GoToRemembered:
         zero, and the robot stood by a mug for 160 s."""
         if self.held == o.id:
             return True
+        if self.closing_to != o.id:  # a last bit begins: its clock starts now
+            self.closing.new_goal()
+            self.closing_to = o.id
         self.closing.to_go(surface, now, ctx.params.distance_tolerance_m)
         t = self.closing.neared_t
         if t is None or now - t < ctx.params.nav.progress_s:
             return False
-        self.held = o.id
-        self.closing.new_goal()
+        self.held, self.closing_to = o.id, None
         ctx.counters["last_bit_held"] += 1
         return True
 
@@ -208,6 +210,7 @@ class GoToRemembered:
         nav = ctx.navigate((o.x, o.y), reach, now, ctx.place_planner, o.radius)
         if nav.status == "arrived":
             return None
+        self.closing_to = None  # walking with the navigator: a later last bit starts afresh
         if nav.status == "failed":
             self.give_up(ctx, o, "remembered_unreachable")
             ctx.navigator.reset()
