@@ -11,8 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from go2vlm.behavior.planner.by_heading import footprint_free, path_headings, turn_free, turn_reach
 from go2vlm.behavior.planner.global_path import Costmap, GlobalParams, footprint_fits, line_cells, plan_path
 from go2vlm.behavior.strategies.explore_params import ExploreParams
+from go2vlm.geometry.footprint import rect_distance
 from go2vlm.robot_profile.go2 import FOOTPRINT_LENGTH, FOOTPRINT_WIDTH
 from go2vlm.world.occupancy import CIRCUMSCRIBED, FREE, INSCRIBED, LETHAL, CostmapParams, inflate
 
@@ -152,16 +154,21 @@ def test_through_rooms_every_door_is_crossed_square_on(door: float) -> None:
     assert crossing.sum() >= 4 * 8, "four doors crossed"
 
 
+def recorded(name: str) -> tuple[Costmap, tuple[float, float]]:
+    """A costmap the map node drew (tests/data/NAME.npz), and where the Go2 stood in it."""
+    from pathlib import Path
+
+    z = np.load(Path(__file__).parents[1] / "data" / f"{name}.npz")
+    x, y = (float(v) for v in z["start"][:2])
+    return Costmap(z["data"], float(z["resolution"]), (float(z["origin"][0]), float(z["origin"][1]))), (x, y)
+
+
 def recorded_doorway() -> tuple[Costmap, tuple[float, float]]:
     """A costmap the map node drew (tests/data/doorway_costmap.npz: 4 x 4 m of house 1002's, the houses
     suite's episode 2), and where the Go2 stood in it: at the kitchen's mouth of its 0.8 m door to the
     living room, 0.15 m off the door's middle, turned 40 degrees off its axis, the jamb's inscribed
     cells beside it."""
-    from pathlib import Path
-
-    z = np.load(Path(__file__).parents[1] / "data" / "doorway_costmap.npz")
-    x, y, _ = (float(v) for v in z["start"])
-    return Costmap(z["data"], float(z["resolution"]), (float(z["origin"][0]), float(z["origin"][1]))), (x, y)
+    return recorded("doorway_costmap")
 
 
 @pytest.mark.parametrize("goal", [(4.89, 4.77), (5.5, 4.8), (6.0, 4.8)])
@@ -177,3 +184,53 @@ def test_a_robot_standing_in_a_doorway_off_its_middle_plans_on(goal: tuple[float
     assert (cm.data[plan.cells[:, 0], plan.cells[:, 1]] < INSCRIBED).all()
     xy = cm.world(plan.cells[:, 0], plan.cells[:, 1])
     assert xy[-1, 1] > 4.2, "through the door into the living room"
+
+
+@pytest.mark.parametrize("goal", [(5.6, 6.6), (5.7, 6.8), (5.8, 7.0)])
+def test_among_furniture_a_path_turns_where_the_rectangle_sweeps_clear(goal: tuple[float, float]) -> None:
+    """tests/data/cluttered_doorway_costmap.npz: 4.2 x 2.7 m of the houses suite's house 1037, drawn
+    by the map node: a kitchen with a fridge, a tray and a mug on the floor before its 0.8 m door
+    (x 4.56, y 6.38-7.18), the Go2 at its start west of them. Nowhere between it and the door does
+    the circumscribed disc fit, so a search that turned only where the disc fits found no way to
+    the bedroom; the Go2 turns in place where its rectangle sweeps clear, and goes through square-on."""
+    cm, start = recorded("cluttered_doorway_costmap")
+    p = ExploreParams().global_params  # as the explorer plans
+    plan = plan_path(cm, start, [goal], p)
+    assert plan.ok, plan.reason
+    cells = plan.cells
+    assert (cm.data[cells[:, 0], cells[:, 1]] < INSCRIBED).all()
+    xy = cm.world(cells[:, 0], cells[:, 1])
+    assert xy[-1, 0] > 4.7, "through the door into the bedroom"
+    # past the start's turn_reach and before the goal's, the disc fits or the rectangle along a line
+    # does, and the path turns in the band only where the rectangle sweeps clear
+    skip = turn_reach(p, cm.resolution)
+    inner = cells[skip : len(cells) - skip]
+    disc = cm.data[inner[:, 0], inner[:, 1]] < CIRCUMSCRIBED
+    assert (disc | footprint_free(cm, p)[:, inner[:, 0], inner[:, 1]].any(axis=0)).all()
+    step = np.diff(cells, axis=0)
+    turned = (step[1:] != step[:-1]).any(axis=1)  # the path's direction changes at cells[1:-1]
+    band = ~(cm.data[cells[:, 0], cells[:, 1]] < CIRCUMSCRIBED)
+    at = cells[1:-1][turned & band[:-2] & band[1:-1] & band[2:]]
+    assert len(at) and turn_free(cm, p)[:, at[:, 0], at[:, 1]].any(axis=0).all()
+    heads = path_headings(cells)
+    door = np.abs(xy[:, 0] - 4.56) < 0.1
+    assert door.any() and (np.abs(xy[door, 1] - 6.78) < 0.2).all(), "in the door's middle"
+    assert (np.abs(np.sin(heads[door])) < 0.2).all(), "square-on"
+
+
+@settings(max_examples=60, deadline=None)
+@given(dr=st.integers(-9, 9), dc=st.integers(-9, 9), k=st.integers(0, 3))
+def test_a_turn_in_place_is_free_where_no_obstacle_lies_in_its_sweep(dr: int, dc: int, k: int) -> None:
+    """turn_free against the rectangles at 91 headings across the turn: an obstacle cell the sweep
+    (plus the clearance) covers blocks the turn; one clear of it by a millimetre does not."""
+    p = GlobalParams()
+    data = np.zeros((41, 41), np.int8)
+    data[20 + dr, 20 + dc] = LETHAL
+    free = bool(turn_free(Costmap(data, RES, (0.0, 0.0)), p)[k, 20, 20])
+    x, y = dc * RES, dr * RES
+    th = k * math.pi / 4 + np.linspace(0.0, math.pi / 4, 91)
+    d = rect_distance(np.cos(th) * x + np.sin(th) * y, -np.sin(th) * x + np.cos(th) * y, p.half_length, p.half_width)
+    if d.min() < p.clearance_m - 1e-3:
+        assert not free
+    if d.min() > p.clearance_m + 1e-3:
+        assert free

@@ -1,7 +1,10 @@
 """The global planner's footprint check and its search by heading (behavior/planner/global_path.py's
 module docstring): where a path's footprint touches in the band out to the circumscribed radius, the
 rectangle is checked at its heading, and the search is run again over (cell, line) states so that a
-doorway is crossed square-on. Pure (no DDS)."""
+doorway is crossed square-on. In the band the robot turns in place from one line to the next (45
+degrees) where its rectangle sweeps clear (`turn_free`), as a Go2 does: the circumscribed disc is the
+sweep of a whole turn, and among furniture a path that may turn only where that fits found none.
+Pure (no DDS)."""
 
 from __future__ import annotations
 
@@ -14,7 +17,7 @@ from go2vlm.behavior.planner.grid import Costmap, Found, GlobalParams
 from go2vlm.geometry.footprint import rect_distance
 from go2vlm.world.occupancy import CIRCUMSCRIBED, LETHAL
 
-__all__ = ["LINES", "by_heading", "footprint_fits", "footprint_free", "path_headings", "turn_reach"]
+__all__ = ["LINES", "by_heading", "footprint_fits", "footprint_free", "path_headings", "turn_free", "turn_reach"]
 
 
 def turn_reach(p: GlobalParams, res: float) -> int:
@@ -86,6 +89,30 @@ def footprint_free(cm: Costmap, p: GlobalParams) -> np.ndarray:
     return out
 
 
+def turn_free(cm: Costmap, p: GlobalParams, steps: int = 6) -> np.ndarray:
+    """bool (4, rows, cols): does the footprint's rectangle (plus `clearance_m`, as `footprint_fits`),
+    turning in place on the cell from LINES[k] to LINES[k + 1] (45 degrees; the last to the first,
+    the rectangle being the same turned half round), keep clear of every obstacle cell throughout?
+    The sweep is the rectangles at `steps` + 1 headings across the turn (a cell of error at the
+    corners' radius from 6 on); an obstacle within it, found by one FFT convolution a turn."""
+    from scipy.signal import fftconvolve
+
+    res = cm.resolution
+    obstacle = (cm.data == LETHAL).astype(np.float32)
+    reach = int(math.ceil((math.hypot(p.half_length, p.half_width) + p.clearance_m) / res))
+    dr, dc = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    x, y = dc * res, dr * res
+    out = np.zeros((4, *cm.shape), bool)
+    for k in range(4):
+        swept = np.zeros(x.shape, bool)
+        for th in k * math.pi / 4 + np.linspace(0.0, math.pi / 4, steps + 1):
+            cs, sn = math.cos(th), math.sin(th)
+            swept |= rect_distance(cs * x + sn * y, -sn * x + cs * y, p.half_length, p.half_width) < p.clearance_m
+        hits = fftconvolve(obstacle, swept[::-1, ::-1].astype(np.float32), mode="same")
+        out[k] = hits < 0.5
+    return out
+
+
 def _box_count(img: np.ndarray, r: np.ndarray, q: np.ndarray, hr: int, hq: int) -> np.ndarray:
     """How many True cells of `img` lie within +-hr rows and +-hq cols of each (r, q)."""
     s = np.zeros((img.shape[0] + 1, img.shape[1] + 1), np.int32)
@@ -100,7 +127,11 @@ def by_heading(cm: Costmap, c: np.ndarray, found: Found, p: GlobalParams) -> Fou
     where the footprint's disc fits is one state (it may turn there); a cell of the band is one state
     for each line along which the rectangle fits there, entered and left along that line only (a
     doorway is crossed square-on). Dijkstra (scipy's csgraph) on that graph, over the box of the
-    cells that may be entered (a corridor round a coarse guide); None: no way."""
+    cells that may be entered (a corridor round a coarse guide); None: no way. A step between a band
+    cell and a cell where the disc fits may go any of the 8 ways (the rectangle fits at both, at the
+    band cell's line: a cell's sidestep at the band's edge). A band cell's state
+    on one line turns to the next line's where the rectangle sweeps clear between them (`turn_free`),
+    at the cost of walking `turn_cost_m` there."""
     rows, cols = np.nonzero(np.isfinite(c))
     reach = turn_reach(p, cm.resolution)
     pad = reach + 1
@@ -140,18 +171,34 @@ def by_heading(cm: Costmap, c: np.ndarray, found: Found, p: GlobalParams) -> Fou
     src: list[np.ndarray] = []
     dst: list[np.ndarray] = []
     wgt: list[np.ndarray] = []
+
+    def edge(ia: np.ndarray, ib: np.ndarray, m: np.ndarray, cost: np.ndarray) -> None:
+        src.append(ia[m])
+        dst.append(ib[m])
+        wgt.append(cost[m])
+
     for k, (dr, dc) in enumerate(LINES):
         for sr, sc in ((dr, dc), (-dr, -dc)):
             ra, rb = slice(max(0, -sr), h - max(0, sr)), slice(max(0, sr), h + min(0, sr) or None)
             ca, cb = slice(max(0, -sc), w - max(0, sc)), slice(max(0, sc), w + min(0, sc) or None)
-            fa, fb = free[ra, ca], free[rb, cb]
-            va, vb = fa | fit[k][ra, ca], fb | fit[k][rb, cb]
-            m = va & vb
-            ia = np.where(fa, flat[ra, ca], n * (1 + k) + flat[ra, ca])[m]
-            ib = np.where(fb, flat[rb, cb], n * (1 + k) + flat[rb, cb])[m]
-            src.append(ia)
-            dst.append(ib)
-            wgt.append(math.hypot(sr, sc) * 0.5 * (c[ra, ca][m] + c[rb, cb][m]))
+            fa, fb, ia, ib = free[ra, ca], free[rb, cb], flat[ra, ca], flat[rb, cb]
+            cost = math.hypot(sr, sc) * 0.5 * (c[ra, ca] + c[rb, cb])
+            edge(ia, ib, fa & fb, cost)
+            for j in range(4):  # a band cell's state on line j: along j to the next; on or off the band, any way
+                ja, jb = fit[j][ra, ca], fit[j][rb, cb]
+                if j == k:
+                    edge(n * (1 + j) + ia, n * (1 + j) + ib, ja & jb, cost)
+                edge(ia, n * (1 + j) + ib, fa & jb, cost)
+                edge(n * (1 + j) + ia, ib, ja & fb, cost)
+    sweep = turn_free(cm, p) & band[None]
+    turn = p.turn_cost_m / cm.resolution
+    for k in range(4):
+        k2 = (k + 1) % 4
+        m = sweep[k] & fit[k] & fit[k2]
+        i = flat[m]
+        src += [n * (1 + k) + i, n * (1 + k2) + i]
+        dst += [n * (1 + k2) + i, n * (1 + k) + i]
+        wgt += [turn * c[m], turn * c[m]]
     graph = csr_matrix((np.concatenate(wgt), (np.concatenate(src), np.concatenate(dst))), shape=(5 * n, 5 * n))
 
     def states(rc: tuple[int, int]) -> list[int]:

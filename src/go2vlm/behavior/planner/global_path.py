@@ -12,7 +12,8 @@ circumscribed radius (a doorway, a gap between furniture), the robot's rectangle
 kept at a creep (geometry/footprint.py `Clearance`), is checked at the heading the path gives it there
 (the robot walks along its path) against the obstacle cells. A path whose rectangle would touch is
 searched again by heading (planner/by_heading.py: over (cell, line) states, a band cell entered and
-left along a line the rectangle fits), which through a doorway is square-on. Waypoints keep the
+left along a line the rectangle fits, turning to the next line where the rectangle sweeps clear),
+which through a doorway is square-on. Waypoints keep the
 check: a shortcut through the band is taken only where the rectangle fits along it.
 
 Search: scikit-image's `graph.MCP_Geometric` (Dijkstra, 8-connected, each step costing its length
