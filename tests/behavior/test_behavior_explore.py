@@ -302,6 +302,31 @@ def test_a_look_where_the_camera_has_seen_everything_near_ends_at_once() -> None
     assert cmd2 is not None and cmd2.wz != 0.0
 
 
+def test_a_refresh_turns_all_round_where_the_camera_has_seen_everything() -> None:
+    """No frontier reachable: the turn where it stands is for the map (the lidar's view round it), so
+    it turns all round although the camera has looked all round from there; then it plans again."""
+    from go2vlm.behavior.strategies.base import Pose
+
+    s, ctx = _explore_from_the_room()
+    cm = ctx.costmap
+    assert cm is not None
+    for k in range(12):
+        ctx.coverage.observe(cm.data, cm.resolution, cm.origin, 3.0, -2.0, k * math.pi / 6, math.radians(73))
+    s.explorer.set_map(cm)
+    s.explorer.phase, s.explorer.reason = "refresh", "no reachable frontier now: turning round where it stands"
+    yaw, now, turned = 0.0, 1.0, 0.0
+    for _ in range(2000):
+        ctx.pose = Pose(3.0, -2.0, yaw, now)
+        cmd = s.step(ctx, now)
+        assert cmd is not None and cmd.vx == 0.0
+        if s.explorer.phase != "refresh":
+            break
+        yaw, turned, now = yaw + cmd.wz * 0.05, turned + abs(cmd.wz) * 0.05, now + 0.05
+    assert s.explorer.phase != "refresh" and "looked all round" in cmd.reason, cmd.reason
+    assert turned >= 2 * math.pi - math.radians(73) - 0.1
+    assert s.explorer.status()["visited"] == 0  # a turn for the map: no place marked as looked from
+
+
 def test_with_coverage_it_walks_to_what_the_camera_has_not_seen_and_ends_with_the_house_seen() -> None:
     """The toy robot's lidar sees 8 m round it, its camera (73 degrees, 4 m) where it faces; the
     explorer walks to the map's frontiers and to free space the camera has not seen, and ends with
@@ -442,9 +467,10 @@ def test_a_door_seen_from_beside_it_is_still_walked_through() -> None:
 
 def test_no_reachable_frontier_ends_the_search_only_once_it_has_held() -> None:
     """One failed plan is not the last word (a plan from a doorway at an angle, a scan that shut a gap):
-    with the door shut on the map the explorer holds still and plans again on each new map; the door
-    open again within explore_unreachable_wait_s, it walks through; shut all along, it ends not_found
-    with how long it held."""
+    with the door shut on the map the explorer first turns all round where it stands (standing still,
+    the map the plan failed on does not change), then holds still and plans again on each new map; the
+    door open again within explore_unreachable_wait_s, it walks through; shut all along, it ends
+    not_found with how long it held."""
     known = right_room_known()
     shut = known.copy()
     shut[58:82, 119:121] = 100  # the door shut on the map, with what the lidar saw past it before
@@ -454,6 +480,11 @@ def test_no_reachable_frontier_ends_the_search_only_once_it_has_held() -> None:
         ex = Explorer(ExploreParams())
         ex.reset(0.0)
         ex.set_map(costmap(shut, 0.0))
+        turn = ex.step(3.5, -1.5, 0.0, 0.0)
+        assert turn.action == "refresh" and "turning round" in turn.reason, turn
+        assert ex.step(3.5, -1.5, 0.0, 0.0).action == "refresh"  # until the host has turned all round
+        ex.looked(0.0)
+        assert ex.status()["refreshes"] == 1
         first = ex.step(3.5, -1.5, 0.0, 0.0)
         assert first.action == "wait" and "planning again" in first.reason, first
         assert ex.step(3.5, -1.5, 0.0, 0.5).action == "wait"  # no new map: no new plan

@@ -35,9 +35,12 @@ Rules
   navigator's own `arrive_m` of the goal, `route_params`, so the robot stands within `arrive_m` of
   it): `look` (the host turns and looks), then `looked(at)`: where it stood is a place looked from,
   and the next frontier is chosen.
+- None reachable (and none given up to bring back): first `refresh`, a whole turn where it stands
+  (the host turns, then `looked()`): the map round the robot is seen again, from every side, before
+  its gaps are taken for walls (standing still, the map the plan failed on does not change).
 - `done` (the goal ends not_found, with the reason) when no frontier is left, or none has been
-  reachable for `unreachable_wait_s` (planned again on each new map meanwhile, holding still), or
-  `timeout_s` after the goal began (an open world has frontiers without end).
+  reachable, after that turn, for `unreachable_wait_s` (planned again on each new map meanwhile,
+  holding still), or `timeout_s` after the goal began (an open world has frontiers without end).
   `wait` (hold still) without a map or a pose; after `map_timeout_s` without any map: done.
 """
 
@@ -61,7 +64,7 @@ __all__ = ["FRONTIER_CHOICES", "ExploreParams", "ExploreStep", "Explorer"]
 
 @dataclass(frozen=True)
 class ExploreStep:
-    action: str  # walk | look | wait | done
+    action: str  # walk | look | refresh | wait | done
     reason: str
     goal: tuple[float, float] = (0.0, 0.0)  # walk: the frontier's goal, for the navigator
 
@@ -88,6 +91,8 @@ class Explorer:
         self.reveal: np.ndarray | None = None  # gain: the cells a look could reveal (unknown, or unseen free)
         self._frontier_stamp: float | None = None
         self._no_way: tuple[float, float] | None = None  # no frontier reachable: since when, on which map
+        self._refreshed = False  # ... and the turn round where it stands made since a frontier was last reachable
+        self.refreshes = 0
         self.reason = ""
 
     def set_map(self, cm: Costmap) -> None:
@@ -96,7 +101,7 @@ class Explorer:
     # -- status ---------------------------------------------------------------------------------
     def status(self) -> dict[str, object]:
         return {
-            "exploring": self.phase in ("choose", "walk", "look"),
+            "exploring": self.phase in ("choose", "walk", "look", "refresh"),
             "phase": self.phase,
             "frontier": None if self.frontier is None else self.frontier.to_dict(),
             "frontiers_left": len(self.frontiers),
@@ -104,6 +109,7 @@ class Explorer:
             "visited": len(self.visited),
             "given_up": self.given_up,
             "retried_given_up": self.retried,
+            "refreshes": self.refreshes,  # whole turns where it stood, no frontier reachable
             "views_scored": self.values.views,  # vlm: the scored views placed on the value map
         }
 
@@ -115,7 +121,7 @@ class Explorer:
 
     def looked(self, now: float, at: tuple[float, float] | None = None) -> None:
         """The look-around at the chosen frontier is over: where the robot stood, `at` (else the
-        frontier's goal), is a place looked from."""
+        frontier's goal), is a place looked from. (Or the turn of a `refresh` is: nothing marked.)"""
         if self.phase == "look" and self.frontier is not None:
             self.visited.append(at if at is not None else self.frontier.goal)
         self.frontier, self.phase = None, "choose"
@@ -239,6 +245,11 @@ class Explorer:
         if not plan.ok:
             if self.dropped:  # none reachable now: those given up may be, from here
                 return self._retry_given_up(f"no reachable frontier of those left ({plan.reason})")
+            if not self._refreshed:
+                self._refreshed, self._no_way, self.phase = True, None, "refresh"
+                self.refreshes += 1
+                self.reason = f"no reachable frontier now ({plan.reason}): turning round where it stands to see again"
+                return ExploreStep("refresh", self.reason)
             since = now if self._no_way is None else self._no_way[0]
             if now - since < p.unreachable_wait_s:  # one plan is not the last word: plan again on new maps
                 self._no_way = (since, cm.stamp)
@@ -247,7 +258,7 @@ class Explorer:
             self.phase = "done"
             self.reason = f"no reachable frontier ({len(self.frontiers)} left) for {now - since:.0f} s: {plan.reason}"
             return ExploreStep("done", self.reason)
-        self._no_way = None
+        self._no_way, self._refreshed = None, False
         self.frontier = cands[plan.goal_index]
         self.phase = "walk"
         return None
@@ -280,6 +291,8 @@ class Explorer:
             return ExploreStep("wait", "no fresh pose: holding still")
         if self.phase == "look":
             return ExploreStep("look", self.where())
+        if self.phase == "refresh":
+            return ExploreStep("refresh", self.reason)
         if self._no_way is not None and self.phase == "choose" and self._no_way[1] == cm.stamp:
             since = self._no_way[0]
             if now - since < p.unreachable_wait_s:

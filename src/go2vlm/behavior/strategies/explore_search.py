@@ -93,6 +93,8 @@ class Explore:
             return Command.still("not_found", f"no {ctx.label} found: {st.reason}")
         if st.action == "wait":
             return Command.still("exploring", st.reason)
+        if st.action == "refresh":
+            return self._look(ctx, now, st.reason, for_map=True)
         return self._look(ctx, now, st.reason if st.action == "look" else self.explorer.where())
 
     @staticmethod
@@ -101,8 +103,9 @@ class Explore:
         pose = ctx.fresh_pose(now)
         return None if pose is None else (pose.x, pose.y)
 
-    def _look(self, ctx: Context, now: float, reason: str) -> Command:
-        """A whole turn where it stands, then the explorer is told (looked)."""
+    def _look(self, ctx: Context, now: float, reason: str, for_map: bool = False) -> Command:
+        """A whole turn where it stands, then the explorer is told (looked): done early where the
+        camera has seen all it can from there, unless `for_map` (a refresh: the lidar's view round it)."""
         p = ctx.params
         if not self.looking:
             self.looking = True
@@ -111,7 +114,7 @@ class Explore:
         pose = ctx.fresh_pose(now)
         if pose is not None:
             area, left, right = self.explorer.unseen_visible(pose.x, pose.y, pose.yaw, ctx.view or DEFAULT_VIEW)
-            if area < self.params.look_done_m2:
+            if area < self.params.look_done_m2 and not for_map:
                 self.looking = False  # the camera has looked at all it can see from here (on the way, or now)
                 self.explorer.looked(now, self._stand(ctx, now))
                 return Command.still("exploring", f"{reason}: nothing in sight left unseen")
