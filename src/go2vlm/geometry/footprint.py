@@ -22,7 +22,7 @@ from go2vlm.declare import param
 
 Num = float | np.ndarray  # a number, or a column of them (one a rectangle)
 
-__all__ = ["Clearance", "Footprint", "clearance", "rect_distance", "surface_distance"]
+__all__ = ["Clearance", "Footprint", "clearance", "hull_distance", "hull_outline", "rect_distance", "surface_distance"]
 
 
 @dataclass(frozen=True)
@@ -71,13 +71,14 @@ class Clearance:
 
 @dataclass(frozen=True)
 class Footprint:
-    kind: str  # circle | rect
+    kind: str  # circle | rect | hull
     x: float
     y: float
     yaw: float = 0.0
     r: float = 0.0  # circle radius
-    hx: float = 0.0  # rect half sizes (along its own x and y)
+    hx: float = 0.0  # rect half sizes (along its own x and y); a hull's bounding box's
     hy: float = 0.0
+    pts: tuple[tuple[float, float], ...] = ()  # hull: its convex outline (counter-clockwise, its own frame)
 
     @staticmethod
     def rect(x: float, y: float, yaw: float, length: float, width: float) -> Footprint:
@@ -134,6 +135,32 @@ def _least_rect_dist(px: np.ndarray, py: np.ndarray, rect: Footprint) -> np.ndar
     return _least_dist(px, py, rect.x, rect.y, rect.yaw, rect.hx, rect.hy)
 
 
+def hull_outline(sh: Footprint) -> np.ndarray:
+    """A hull's vertices in the world (N, 2), counter-clockwise."""
+    v = np.asarray(sh.pts, dtype=float).reshape(-1, 2)
+    c, s = math.cos(sh.yaw), math.sin(sh.yaw)
+    return np.column_stack((sh.x + c * v[:, 0] - s * v[:, 1], sh.y + s * v[:, 0] + c * v[:, 1]))
+
+
+def hull_distance(px: np.ndarray, py: np.ndarray, verts: np.ndarray) -> np.ndarray:
+    """Signed distance from points to the convex polygon `verts` (N, 2, counter-clockwise; negative
+    inside): to its nearest edge, inside where the point is on the inner side of every edge."""
+    a, b = verts, np.roll(verts, -1, axis=0)
+    ab = b - a
+    px, py = np.asarray(px, dtype=float)[..., None], np.asarray(py, dtype=float)[..., None]
+    t = np.clip(((px - a[:, 0]) * ab[:, 0] + (py - a[:, 1]) * ab[:, 1]) / np.maximum((ab**2).sum(axis=1), 1e-12), 0, 1)
+    d = np.hypot(px - (a[:, 0] + t * ab[:, 0]), py - (a[:, 1] + t * ab[:, 1])).min(axis=-1)
+    inside = ((ab[:, 0] * (py - a[:, 1]) - ab[:, 1] * (px - a[:, 0])) >= 0).all(axis=-1)
+    return np.where(inside, -d, d)
+
+
+def _hull_points(verts: np.ndarray, per_edge: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Points along a hull's outline: its vertices and `per_edge` - 1 more along each edge."""
+    f = np.arange(per_edge)[:, None, None] / per_edge
+    pts = (verts[None] + f * (np.roll(verts, -1, axis=0) - verts)[None]).reshape(-1, 2)
+    return pts[:, 0], pts[:, 1]
+
+
 def clearance(robot: Footprint, shape: Footprint) -> float:
     """Gap between a rectangular robot footprint and an object's footprint (negative: they overlap).
     Rectangle against rectangle is sampled along both outlines (12 points a side: a few mm)."""
@@ -145,7 +172,13 @@ def clearances(robot: Footprint, shapes: list[Footprint]) -> np.ndarray:
     every piece of furniture)."""
     out = np.empty(len(shapes))
     circles = [i for i, sh in enumerate(shapes) if sh.kind == "circle"]
-    rects = [i for i, sh in enumerate(shapes) if sh.kind != "circle"]
+    rects = [i for i, sh in enumerate(shapes) if sh.kind == "rect"]
+    px, py = _rect_points(robot)
+    for i, sh in enumerate(shapes):
+        if sh.kind == "hull":  # the hull's outline against the robot, and the robot's against the hull
+            verts = hull_outline(sh)
+            hx, hy = _hull_points(verts)
+            out[i] = min(float(_least_rect_dist(hx, hy, robot)), float(hull_distance(px, py, verts).min()))
     if circles:
         cx, cy = np.array([shapes[i].x for i in circles]), np.array([shapes[i].y for i in circles])
         out[circles] = _least_rect_dist(cx[:, None], cy[:, None], robot) - [shapes[i].r for i in circles]
@@ -153,7 +186,6 @@ def clearances(robot: Footprint, shapes: list[Footprint]) -> np.ndarray:
         rs = [shapes[i] for i in rects]
         sx, sy = (np.stack(v) for v in zip(*(_rect_points(sh) for sh in rs), strict=True))
         to_robot = _least_rect_dist(sx, sy, robot)  # the shapes' outlines against the robot
-        px, py = _rect_points(robot)
         x, y, yaw, hx, hy = np.array([[sh.x, sh.y, sh.yaw, sh.hx, sh.hy] for sh in rs]).T[..., None]
         to_shape = _least_dist(px[None, :], py[None, :], x, y, yaw, hx, hy)  # our outline against each of theirs
         out[rects] = np.minimum(to_robot, to_shape)
@@ -162,7 +194,9 @@ def clearances(robot: Footprint, shapes: list[Footprint]) -> np.ndarray:
 
 def surface_distance(x: float, y: float, shape: Footprint) -> float:
     """A point (the robot's base centre) -> the object's surface: centre distance minus the radius,
-    or the distance to a box's footprint."""
+    or the distance to a box's footprint or a hull's."""
     if shape.kind == "circle":
         return math.hypot(shape.x - x, shape.y - y) - shape.r
+    if shape.kind == "hull":
+        return float(hull_distance(np.array(x), np.array(y), hull_outline(shape)))
     return _rect_dist(x, y, shape)

@@ -249,9 +249,10 @@ def gazebo_rpy_to_xyaxes(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 def world_footprints(model: mujoco.MjModel) -> dict[str, Footprint]:
     """Floor footprints of the named world bodies at their initial poses (spheres, cylinders and
-    capsules as circles, boxes as oriented rectangles, meshes as the rectangle of their bounding box;
-    the first geom of a body counts). A moving body (the mocap ball) takes its pose from ground truth
-    at run time (`Footprint.moved`)."""
+    capsules as circles, boxes as oriented rectangles, meshes as the convex hull of their vertices,
+    which is what MuJoCo collides: a teddy bear's bounding box, a third larger, had the robot
+    "collide" with air; the first geom of a body counts). A moving body (the mocap ball) takes its
+    pose from ground truth at run time (`Footprint.moved`)."""
     circles = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE)
     bodies = labelled_bodies(model)
     out: dict[str, Footprint] = {}
@@ -267,25 +268,28 @@ def world_footprints(model: mujoco.MjModel) -> dict[str, Footprint]:
             out[name] = Footprint("circle", float(pos[0]), float(pos[1]), r=float(size[0]))
         elif t == mujoco.mjtGeom.mjGEOM_BOX:
             out[name] = Footprint("rect", float(pos[0]), float(pos[1]), yaw, hx=float(size[0]), hy=float(size[1]))
-        elif t == mujoco.mjtGeom.mjGEOM_MESH:  # the box of its vertices in the body frame, turned by the body's yaw
-            lo, hi = _mesh_xy_bounds(model, g)
+        elif t == mujoco.mjtGeom.mjGEOM_MESH:  # the hull of its vertices in the body frame, turned by the body's yaw
+            from scipy.spatial import ConvexHull
+
+            xy = _mesh_xy(model, g)
+            lo, hi = xy.min(axis=0), xy.max(axis=0)
+            (mx, my), (hx, hy) = (lo + hi) / 2, (hi - lo) / 2  # its bounding box: x, y its middle
             c, s = math.cos(yaw), math.sin(yaw)
-            mx, my = (lo + hi) / 2
             cx, cy = pos[0] + c * mx - s * my, pos[1] + s * mx + c * my
-            hx, hy = (hi - lo) / 2
-            out[name] = Footprint("rect", float(cx), float(cy), yaw, hx=float(hx), hy=float(hy))
+            pts = tuple((float(a - mx), float(b - my)) for a, b in xy[ConvexHull(xy).vertices])  # counter-clockwise
+            out[name] = Footprint("hull", float(cx), float(cy), yaw, hx=float(hx), hy=float(hy), pts=pts)
     return out
 
 
-def _mesh_xy_bounds(model: mujoco.MjModel, g: int) -> tuple[np.ndarray, np.ndarray]:
-    """x, y bounds of a mesh geom's vertices in its body's frame (MuJoCo re-centres meshes on their
+def _mesh_xy(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """x, y of a mesh geom's vertices in its body's frame (MuJoCo re-centres meshes on their
     inertial frame, so the geom's pose is applied)."""
     mesh = int(model.geom_dataid[g])
     adr, n = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, model.geom_quat[g])
     pts = model.mesh_vert[adr : adr + n] @ rot.reshape(3, 3).T + model.geom_pos[g]
-    return pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
+    return np.asarray(pts[:, :2], dtype=float)
 
 
 def world_model(name: str, spawn: tuple[float, float, float] | None = None) -> tuple[mujoco.MjModel, WorldInfo]:

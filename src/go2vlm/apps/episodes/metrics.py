@@ -19,7 +19,8 @@ Per episode (every task):
   time_to_goal_s   sim seconds from the start to `reached` / `found`.
   path_length_m    the base's path (ground truth at 20 Hz).
   collisions       times the robot's footprint (0.70 x 0.31 m around the base: the Go2's size,
-                   its robot profile, robot_profile/go2.py) began to overlap an object's footprint; min_clearance_m is
+                   its robot profile, robot_profile/go2.py) began to overlap an object's footprint (a mesh's
+                   convex hull, as MuJoCo collides it: sim/worlds.py `world_footprints`); min_clearance_m is
                    the smallest gap; collided_with names the bodies. Geometric, so it is the same
                    in kinematic and dynamic physics (and a moving body, such as a world's red
                    ball, that runs into a robot standing still counts too).

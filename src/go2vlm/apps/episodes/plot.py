@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, TypedDict, cast
 
 import numpy as np
 
-from go2vlm.geometry.footprint import Footprint
+from go2vlm.geometry.footprint import Footprint, hull_outline
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -97,6 +97,10 @@ def _top_view(ax: Any, m: dict[str, Any], s: dict[str, Any], shapes: dict[str, F
         face, alpha, lw = (colour, 0.5, 0.0) if fill else ("none", 0.8, 0.8)
         if sh.kind == "circle":
             ax.add_patch(mp.Circle((sh.x, sh.y), sh.r, facecolor=face, edgecolor=colour, alpha=alpha, lw=lw))
+        elif sh.kind == "hull":
+            ax.add_patch(
+                mp.Polygon(hull_outline(sh), closed=True, facecolor=face, edgecolor=colour, alpha=alpha, lw=lw)
+            )
         else:
             corner = np.array([sh.x, sh.y]) + _rot(sh.yaw) @ np.array([-sh.hx, -sh.hy])
             ax.add_patch(mp.Rectangle((float(corner[0]), float(corner[1])), 2 * sh.hx, 2 * sh.hy,
