@@ -262,6 +262,45 @@ def test_a_turn_goal_turns_in_place_by_its_angle_then_is_done() -> None:
     assert m.step(t).state == "rejected" and m.step(t).wz == 0.0
 
 
+@pytest.mark.parametrize("speed", [1.0, 0.5])
+def test_a_turn_goal_turns_its_angle_by_odometry_however_slowly_the_robot_turns(speed: float) -> None:
+    """The robot turns at `speed` times the commanded rate (the navigator slows a turn where its
+    sweep nears something): the turn goes on until odometry says 20 degrees, not for 20 degrees' time."""
+    m = Mission(MissionParams(decision_turn_rate=0.5))
+    m.set_goal("turn left 20 degrees", 0.0)
+    yaw, t = 0.0, 0.0
+    for _ in range(2000):
+        m.observe_pose(0.0, 0.0, yaw, t)
+        out = m.step(t)
+        if out.state != "turning":
+            break
+        yaw += out.wz * speed * 0.01
+        t += 0.01
+    assert out.state == "done" and out.reason == "turned +20 deg", out.reason
+    assert yaw == pytest.approx(math.radians(20), abs=0.01)
+    assert t == pytest.approx(math.radians(20) / (0.5 * speed), abs=0.05)
+
+
+def test_a_turn_held_ends_after_its_slack_and_says_how_far_it_turned() -> None:
+    """The robot does not turn at all (no room): after turn_slack times the turn's time it is done,
+    and says it turned 0 of the 20 degrees."""
+    p = MissionParams(decision_turn_rate=0.5)
+    m = Mission(p)
+    m.set_goal("turn right 20 degrees", 0.0)
+    t = 0.0
+    while t < 60.0:
+        m.observe_pose(0.0, 0.0, 0.0, t)
+        out = m.step(t)
+        if out.state != "turning":
+            break
+        t += 0.01
+    assert t == pytest.approx(p.turn_slack * math.radians(20) / 0.5, abs=0.05)
+    assert out.state == "done" and out.vx == out.wz == 0.0
+    assert out.reason == "turned +0 of -20 deg: held (no room to turn)", out.reason
+    m.observe_pose(0.0, 0.0, 0.0, t + 0.1)
+    assert m.step(t + 0.1).reason == out.reason  # still says so
+
+
 def test_sit_and_stand_are_posture_commands() -> None:
     m = Mission()
     m.set_goal("go to the blue cylinder", 0.0)

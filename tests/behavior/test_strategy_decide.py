@@ -1,6 +1,7 @@
 """Property tests of the VLM decisions strategy (behavior/strategies/decide.py): whatever the answers
-and timings, a decision never moves the robot forward, turns only at the bounded turn rate and for no
-longer than its angle asks, holds exactly `decision_hold_s` after a stop, and counts every answer."""
+and timings, a decision never moves the robot forward, turns only at the bounded turn rate and (with
+no pose to measure it by) for no longer than its angle asks, holds exactly `decision_hold_s` after a
+stop, and counts every answer."""
 
 from __future__ import annotations
 
@@ -37,7 +38,19 @@ def test_decisions_are_bounded_timing_only(
     ctx = Context(p, goal=parse_goal("go to the blue cylinder"))
     d, counters, now = Decisions(), Counter[str](), 0.0
     held_until, turn_end, turn_dir = -math.inf, -math.inf, 0.0
-    for text, dt in evs:
+
+    def check(t: float) -> None:
+        cmd = d.step(ctx, t)
+        if t < held_until:
+            assert cmd is not None and cmd.state == "holding" and cmd.vx == cmd.wz == 0.0
+        elif t < turn_end:
+            assert cmd is not None and cmd.state == "turning" and cmd.vx == 0.0
+            assert cmd.wz == turn_dir * min(rate, max_angular)
+        else:
+            assert cmd is None
+
+    for text, dt in evs:  # time runs on: a step halfway to each answer, then one as it is taken
+        check(now + dt / 2)
         now += dt
         dec = d.parse(text, p, counters)
         assert counters["decisions_accepted"] + counters["decisions_rejected"] > 0
@@ -53,15 +66,7 @@ def test_decisions_are_bounded_timing_only(
                 r = min(rate, max_angular)
                 turn_end = now + (math.radians(abs(dec.angle_deg)) / r if r > 0 else 0.0)
                 turn_dir = math.copysign(1.0, dec.angle_deg) if dec.angle_deg else 0.0
-        for t in (now, now + dt / 2):
-            cmd = d.step(ctx, t)
-            if t < held_until:
-                assert cmd is not None and cmd.state == "holding" and cmd.vx == cmd.wz == 0.0
-            elif t < turn_end:
-                assert cmd is not None and cmd.state == "turning" and cmd.vx == 0.0
-                assert cmd.wz == turn_dir * min(rate, max_angular)
-            else:
-                assert cmd is None
+        check(now)
 
 
 @given(angle=st.floats(-30.0, 30.0), rate=st.floats(0.05, 1.0), t=st.floats(0.0, 20.0))

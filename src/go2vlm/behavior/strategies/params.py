@@ -43,6 +43,10 @@ class MissionParams:
     camera_forward_m: float = spec.HEAD_CAMERA_POS[0]  # the node's: its robot profile's head camera
     decision_hold_s: float = param(3.0, help="a 'stop' decision holds still this long", min=0.1, max=60.0, live=True)
     decision_turn_rate: float = param(0.5, help="turn rate of a 'turn' decision (rad/s)", min=0.05, max=1.0, live=True)
+    turn_slack: float = param(
+        3.0, help="a turn (goal or decision) not done in this many times its time at decision_turn_rate ends, "
+        "saying how far it turned", min=1.0, max=20.0, live=True,
+    )  # fmt: skip
     max_turn_deg: float = param(
         30.0, help="largest |angle| a 'turn' decision may ask for", min=0.0, max=30.0, live=True, bound="max"
     )
