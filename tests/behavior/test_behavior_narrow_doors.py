@@ -5,6 +5,7 @@ resolution and when the map is planned coarse first. Real costmaps from a wall's
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -234,3 +235,17 @@ def test_a_turn_in_place_is_free_where_no_obstacle_lies_in_its_sweep(dr: int, dc
         assert not free
     if d.min() > p.clearance_m + 1e-3:
         assert free
+
+
+def test_a_gap_too_narrow_at_a_creep_is_planned_tight_at_a_crawl() -> None:
+    """A 0.48 m gap: the rectangle (0.31 m) keeps the creep's clearance (0.11 m a side) in 0.53 m only,
+    so the plan keeps the rule standing (0.05 m, the costmap's own padding) and says so ("tight"); the
+    controller and the guard walk it at the speed the gap allows. A 0.38 m gap is refused even so."""
+    p = GlobalParams()
+    assert p.tight_clearance_m < p.clearance_m
+    plan = plan_path(costmap(0.48), (-2.0, 0.0), [(2.0, 0.0)], p)
+    assert plan.ok and "tight" in plan.reason, plan.reason
+    assert not plan_path(costmap(0.48), (-2.0, 0.0), [(2.0, 0.0)], replace(p, tight_clearance_m=p.clearance_m)).ok
+    assert not plan_path(costmap(0.38), (-2.0, 0.0), [(2.0, 0.0)], p).ok
+    wide = plan_path(costmap(0.8), (-2.0, 0.0), [(2.0, 0.0)], p)
+    assert wide.ok and "tight" not in wide.reason

@@ -1,6 +1,5 @@
 """The global planner: the shortest safe path on the map's inflated costmap, as waypoints. Pure (no
-DDS); the commander hands the next waypoint to its approach and its local planner, and the safety
-gate and its collision guard keep the last word.
+DDS); the navigator (behavior/navigate/) follows it, and the safety gate's guard keeps the last word.
 
 The costmap is a ROS-convention grid (nav_msgs/OccupancyGrid's data, the codes of world/occupancy.py):
 int8, rows = y, cols = x; -1 unknown, 0 free, 1..98 the inflation's cost gradient (90..98, from
@@ -17,34 +16,27 @@ which through a doorway is square-on. Waypoints keep the
 check: a shortcut through the band is taken only where the rectangle fits along it.
 
 Search: scikit-image's `graph.MCP_Geometric` (Dijkstra, 8-connected, each step costing its length
-times the mean of the two cells' costs: geometric, so a diagonal costs sqrt(2)). Chosen by
-measurement (benchmarks/bench_planner.py, docs/navigation.md): on a 1200 x 1200 house (60 x 60 m
-at 5 cm, the map's cap) corner to corner it takes 0.54 s of CPU, pyastar2d's A* 0.14 s and scipy's
-csgraph 1.2 s with its graph build. MCP wins on what the planner is for: one search settles the
-costs to *every* goal cell, so the nearest of many frontiers (by path cost), or the nearest free
-cell round an object, comes from one search that stops at the first goal reached; A* needs one
-search per goal. And its costs are Euclidean (pyastar2d's diagonal costs as much as a straight
-step: its paths measure ~9 % longer). A full replan across the largest world (the apartment,
-303 x 223 cells) takes 15 ms. A grid of more than `max_cells` cells is first planned coarse, by the
-smallest whole factor that fits, each coarse cell as cheap as its cheapest fine cell (a coarse cell
-is passable when any of its fine cells is, so a doorway narrower than a coarse cell is never closed
-by it), then again at full resolution within a corridor of coarse cells round that path (and on the
+times the mean of the two cells' costs: geometric, so a diagonal costs sqrt(2)), chosen by
+measurement against pyastar2d's A* and scipy's csgraph (benchmarks/bench_planner.py, the figures in
+docs/navigation.md): one search settles the costs to *every* goal cell (the nearest of many
+frontiers, the nearest free cell round an object), and its costs are Euclidean. A grid of more
+than `max_cells` cells is first planned coarse, by the smallest whole factor that fits, each coarse
+cell as cheap as its cheapest fine cell (so a doorway narrower than a coarse cell is never closed by
+it), then again at full resolution within a corridor of coarse cells round that path (and on the
 whole grid when the corridor holds no way): the plan is always the fine grid's.
 
 Unknown space (`unknown_cost`): the cost per cell of crossing an unknown cell; `math.inf` never
-crosses one. Exploration crosses unknown at a small cost (a frontier's goal is at the edge of the
-known); a go to a remembered object prefers known free space (a high cost: unknown only where no
-known way exists).
+crosses one (exploring crosses it cheaply; a go to a remembered object only where no known way exists).
 
 Start and goal: a start on a lethal cell (the robot inside the inflation, by a wall) plans from the
 nearest passable cell within `escape_m`; any passable cell within `goal_tolerance_m` of the goal is
 the goal (an object is itself an obstacle on the map: the path ends beside it); with `goal_turnable`
-(a stand to look round from) only those where the footprint turns in place, where there are any. With `goal_in_sight`
-(a place to look at: an object) only those in sight of it: the straight line to the goal crosses no
-obstacle cell farther than `goal_body_m` from it, or that belongs to a piece of obstacle lying wholly
-within `goal_body_m + goal_own_m` of it (the object's own cells hide nothing, where a remembered
-place is off by up to `goal_own_m`; a wall running past is no such piece); a cell near
-the goal but behind a wall from it is not there (a duck seen through a doorway from beside its jamb
+(a stand to look round from) only those where the footprint turns in place, where there are any.
+With `goal_in_sight` (a place to look at: an object) only those in sight of it: the straight line to
+the goal crosses no obstacle cell farther than `goal_body_m` from it, or that belongs to a piece of
+obstacle lying wholly within `goal_body_m + goal_own_m` of it (the object's own cells hide nothing,
+where a remembered place is off by up to `goal_own_m`; a wall running past is no such piece); a cell
+near the goal but behind a wall from it is not there (a duck seen through a doorway from beside its jamb
 is within a metre of the jamb's far side). A frontier is not asked: its goal often lies in a gap of
 a wall the map is still drawing, and which side sees it changes with each scan. A refusal says why:
 outside the map, boxed in, the goal inside an obstacle, or cut off.
@@ -83,6 +75,8 @@ __all__ = [
     "passable",
     "plan_path",
 ]
+
+NO_FIT = "unreachable: no way the footprint fits through (every way crosses a gap too narrow)"
 
 
 def cell_costs(cm: Costmap, p: GlobalParams, k: int = 1) -> np.ndarray:
@@ -224,7 +218,17 @@ def plan_path(
 ) -> Plan:
     """The cheapest path from world point `start` to the nearest (by path cost) of `goals` (one
     point, or several: frontiers) along which the footprint fits, or a refusal with its reason (`ok`
-    False)."""
+    False). Where no way keeps `clearance_m`, one that keeps `tight_clearance_m` ("tight": walked at
+    the speed its gaps allow; docs/navigation.md "Tight, at a crawl")."""
+    plan = _plan_path(cm, start, goals, p)
+    if not plan.ok and plan.reason == NO_FIT and p.tight_clearance_m < p.clearance_m:
+        tight = _plan_path(cm, start, goals, replace(p, clearance_m=p.tight_clearance_m))
+        if tight.ok:
+            return replace(tight, reason=f"{tight.reason}, tight ({p.tight_clearance_m:g} m clear: a crawl)")
+    return plan
+
+
+def _plan_path(cm: Costmap, start: tuple[float, float], goals: Sequence[tuple[float, float]], p: GlobalParams) -> Plan:
     goal_list = list(goals)
     if not goal_list:
         return Plan(False, "no goal to plan to")
@@ -344,14 +348,12 @@ def _fitting(
     dense = found.dense
     v = cm.data[dense[:, 0], dense[:, 1]]
     check = (v >= CIRCUMSCRIBED) & (v < p.lethal)
-    # round the start the robot turns where it stands (the local planner's part), and round the goal it
-    # stops short and turns to look (the approach's)
-    check[:skip] = check[-skip:] = False
+    check[:skip] = check[-skip:] = False  # round the start it turns where it stands; round the goal, to look
     idx = np.nonzero(check)[0]
     if not footprint_fits(cm, dense[idx], path_headings(dense)[idx], p).all():
         squared = by_heading(cm, c, found, p)
         if squared is None:
-            return Plan(False, "unreachable: no way the footprint fits through (every way crosses a gap too narrow)")
+            return Plan(False, NO_FIT)
         found = squared
         dense = found.dense
 
@@ -393,5 +395,5 @@ def _dilate(m: np.ndarray) -> np.ndarray:
 def _with_start(c: np.ndarray, s: tuple[int, int]) -> np.ndarray:
     """The cost grid with the (lethal) start cell passable, for pruning a path that escapes from it."""
     c2 = c.copy()
-    c2[s] = np.nanmax(np.where(np.isfinite(c), c, np.nan))
+    c2[s] = np.nanmax(np.where(np.isfinite(c), c, np.nan))  # the dearest passable cell's cost
     return c2

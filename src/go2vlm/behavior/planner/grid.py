@@ -72,6 +72,7 @@ class GlobalParams:
     half_length: float = FOOTPRINT_LENGTH / 2  # the footprint checked in the band (m)
     half_width: float = FOOTPRINT_WIDTH / 2
     clearance_m: float = Clearance().creep  # kept round it there: the clearance at a creep
+    tight_clearance_m: float = Clearance().creep_m  # where no way keeps that: a crawl's, the rule standing
     # in the band, a turn in place of 45 degrees (where the rectangle sweeps clear) costs as much as
     # walking this far there: a path among furniture weaves where it must, and not for a few cm less
     turn_cost_m: float = 0.25
@@ -80,7 +81,8 @@ class GlobalParams:
         if not 1 <= self.lethal <= 100:
             raise ValueError(f"lethal must be within 1..100, got {self.lethal}")
         for name in ("cost_scale", "goal_tolerance_m", "goal_body_m", "goal_own_m", "escape_m", "off_path_m",
-                     "replan_period_s", "half_length", "half_width", "clearance_m", "turn_cost_m"):  # fmt: skip
+                     "replan_period_s", "half_length", "half_width", "clearance_m", "tight_clearance_m",
+                     "turn_cost_m"):  # fmt: skip
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {v}")
