@@ -230,3 +230,26 @@ def test_a_last_bit_the_guard_holds_is_not_walked_for_ever() -> None:
     assert ctx.counters["last_bit_held"] >= 3 and held > 0.0, (ctx.counters, held)
     assert walking < 40.0 - held, (walking, held)
     assert now > 40.0  # reached only once the way opened
+
+
+def test_a_go_to_whose_looks_see_it_from_no_nearer_gives_it_up() -> None:
+    """The guard holds every walk and the way never opens: walked, held, looked at (seen, short of its
+    reach), walked again. After `confirm_looks` such looks in a row from no nearer, the object is
+    given up (`remembered_no_nearer`) and the search takes over, rather than the cycle going on for
+    good (a mug behind a coffee table's corner, 130 s)."""
+    p = MissionParams(nav=NavParams(arrive_m=0.5))
+    ctx = Context(p, goal=parse_goal("go to the blue cylinder"), view=1.27)
+    ctx.costmap = Costmap(np.zeros((80, 120), np.int8), 0.05, (-1.5, -2.0), 0.0)  # open and known
+    nav = GoToRemembered()
+    now, dt, latency = 0.0, 0.05, 0.3
+    while now < 600.0:
+        now += dt
+        ctx.answers.take(now - latency, now)
+        ctx.memory = [obj(0, "blue cylinder", 3.5, 0.0, 0.9, now - latency)]
+        ctx.pose = Pose(2.0, 0.0, 0.0, now)  # it never moves: 0.4 m short
+        ctx.target_obj = nav.pick(ctx)
+        if ctx.target_obj is None or nav.step(ctx, now) is None:
+            break
+    assert ctx.counters["remembered_no_nearer"] == 1, (now, ctx.counters)
+    assert ctx.counters["last_bit_held"] >= p.confirm_looks
+    assert nav.pick(ctx) is None  # given up until it is seen again

@@ -20,7 +20,9 @@ view is. Pure, timestamp-driven.
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
   one out of sight on the map is first walked towards with the navigator until it is in sight
   (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
-- `confirm_looks` answered looks without it: that object is given up and the search goes on.
+- `confirm_looks` answered looks without it: that object is given up and the search goes on; so is
+  a go to's whose looks saw it from short of its reach `confirm_looks` times in a row, each no nearer
+  than the nearest before (`remembered_no_nearer`: the way to it comes no nearer).
 """
 
 from __future__ import annotations
@@ -72,12 +74,15 @@ class GoToRemembered:
         self.closing = Progress()  # the last bit's nearing, the navigator's rule (navigate/progress.py)
         self.closing_to: str | None = None  # ... to this object, walked since the navigator was there
         self.held: str | None = None  # the object whose last bit came no nearer: look before walking again
+        self.stood: tuple[str, float, float] | None = None  # (object, nearest surface, look) seen from short of it
+        self.stood_again = 0  # looks in a row that saw it from no nearer than that
 
     def reset(self, now: float) -> None:
         self.given_up.clear()
         self.failed_looks = 0
         self.closing.new_goal()
-        self.closing_to = self.held = None
+        self.closing_to = self.held = self.stood = None
+        self.stood_again = 0
 
     def pick(self, ctx: Context) -> Remembered | None:
         """The most confident remembered object of the goal's label worth going to (not given up)."""
@@ -135,6 +140,8 @@ class GoToRemembered:
             if goal.kind == "go_to" and seen_here and surface - ap.stop_distance <= ap.tolerance + p.reach_slack_m:
                 return Command.still("reached", f"{surface:.2f} m from the {label}: an answer about this view "
                                      f"placed it here ({where})")  # fmt: skip
+            if goal.kind == "go_to" and seen_here and self._no_nearer_looks(ctx, o, surface):
+                return None
             if seen_here and self.held == o.id:  # seen from as near as it got: the last bit afresh
                 self.held = None
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
@@ -185,6 +192,24 @@ class GoToRemembered:
             ctx.look.forget()  # no answer at all: look again (the search's timeout still runs)
         why = "confirming it is there" if at_place or goal.kind == "look_for" else "looking again before walking"
         return Command.still(state, f"holding still facing {where} ({surface:.2f} m): {why}")
+
+    def _no_nearer_looks(self, ctx: Context, o: Remembered, surface: float) -> bool:
+        """A look saw `o` from `surface` m, short of its reach (once a look): was it no nearer (by
+        `distance_tolerance_m`) than the nearest such look before? `confirm_looks` of them in a row:
+        the way to it comes no nearer (walked, held, looked, walked again), and it is given up
+        (`remembered_no_nearer`). A mug behind a coffee table's corner was looked at from 1.24 m,
+        walked to and looked at again for 130 s."""
+        since = ctx.look.still_since
+        if self.stood is not None and self.stood[0] == o.id and self.stood[2] == since:
+            return False  # this look is counted
+        nearest = self.stood[1] if self.stood is not None and self.stood[0] == o.id else math.inf
+        self.stood_again = self.stood_again + 1 if surface > nearest - ctx.params.distance_tolerance_m else 0
+        self.stood = (o.id, min(nearest, surface), since)
+        if self.stood_again < ctx.params.confirm_looks:
+            return False
+        self.give_up(ctx, o, "remembered_no_nearer")
+        self.stood, self.stood_again = None, 0
+        return True
 
     def _no_nearer(self, ctx: Context, o: Remembered, surface: float, now: float) -> bool:
         """Has the last bit to `o` come no nearer (by `distance_tolerance_m`) within the navigator's
