@@ -249,3 +249,17 @@ def test_a_gap_too_narrow_at_a_creep_is_planned_tight_at_a_crawl() -> None:
     assert not plan_path(costmap(0.38), (-2.0, 0.0), [(2.0, 0.0)], p).ok
     wide = plan_path(costmap(0.8), (-2.0, 0.0), [(2.0, 0.0)], p)
     assert wide.ok and "tight" not in wide.reason
+
+
+def test_the_navigator_says_when_its_route_is_tight() -> None:
+    """The route through the 0.48 m gap is the planner's tight one: the navigator's step says so in its
+    reason (the status line), and counts it."""
+    from go2vlm.behavior.navigate import Navigator
+
+    nav = Navigator()
+    step = nav.step((2.0, 0.0), 0.3, costmap(0.48), (-2.0, 0.0, 0.0), None, 0.0, max_linear=0.4, max_angular=0.8)
+    assert step.status == "moving" and "tight" in step.reason, step
+    assert nav.counters["plans_tight"] == 1
+    wide = Navigator()
+    step = wide.step((2.0, 0.0), 0.3, costmap(0.8), (-2.0, 0.0, 0.0), None, 0.0, max_linear=0.4, max_angular=0.8)
+    assert step.status == "moving" and "tight" not in step.reason and wide.counters["plans_tight"] == 0
