@@ -139,7 +139,7 @@ class Navigator:
         """The global planner's plan, counted (`plans`, `plan_failures`: the commander's status)."""
         plan = plan_path(cm, start, goals, planner)
         self.counters["plans"] += 1
-        self.counters["plans_tight"] += plan.ok and "tight" in plan.reason
+        self.counters["plans_tight"] += plan.tight
         if not plan.ok:
             self.counters["plan_failures"] += 1
         return plan
@@ -215,7 +215,7 @@ class Navigator:
         if self.progress.to_go(d.remaining, now, p.progress_m):
             self.recoveries.reset()  # nearer: the next stall starts from the first recovery again
         reason = f"{d.remaining:.1f} m along the route"
-        tight = "tight" if "tight" in self.route.plan.reason else ""  # the planner's: a gap walked at a crawl
+        tight = "tight" if self.route.plan.tight else ""  # the planner's: a gap walked at a crawl
         notes = ", ".join(n for n in (tight, d.note, f"replanned: {why}" if why else "") if n)
         return NavStep(d.vx, d.wz, "moving", f"{reason} ({notes})" if notes else reason, d.note)
 

@@ -190,7 +190,7 @@ def by_heading(cm: Costmap, c: np.ndarray, found: Found, p: GlobalParams) -> Fou
                     edge(n * (1 + j) + ia, n * (1 + j) + ib, ja & jb, cost)
                 edge(ia, n * (1 + j) + ib, fa & jb, cost)
                 edge(n * (1 + j) + ia, ib, ja & fb, cost)
-    sweep = turn_free(cm, p) & band[None]
+    sweep = turn_free(cm, p)  # fit is the band's already
     turn = p.turn_cost_m / cm.resolution
     for k in range(4):
         k2 = (k + 1) % 4

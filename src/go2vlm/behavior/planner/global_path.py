@@ -224,7 +224,8 @@ def plan_path(
     if not plan.ok and plan.reason == NO_FIT and p.tight_clearance_m < p.clearance_m:
         tight = _plan_path(cm, start, goals, replace(p, clearance_m=p.tight_clearance_m))
         if tight.ok:
-            return replace(tight, reason=f"{tight.reason}, tight ({p.tight_clearance_m:g} m clear: a crawl)")
+            why = f"{tight.reason}, tight ({p.tight_clearance_m:g} m clear: a crawl)"
+            return replace(tight, reason=why, tight=True)
     return plan
 
 

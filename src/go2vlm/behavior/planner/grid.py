@@ -103,6 +103,7 @@ class Plan:
     goal_index: int = -1  # plan_path's goals: which one was reached
     stride: int = 1  # the coarsening factor it was planned at
     cells: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))  # dense (row, col) path, fine grid
+    tight: bool = False  # it keeps tight_clearance_m only: no way kept clearance_m (walked at a crawl)
 
 
 @dataclass

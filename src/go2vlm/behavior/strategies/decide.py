@@ -87,7 +87,7 @@ class Decisions:
         self._turn_at = (now, None if pose is None else pose.yaw)
 
     def turning(self) -> bool:
-        return self.turn_left > 0.0 and self.turn_dir != 0.0
+        return self.turn_left > 0.0  # 0 from the start for a turn of 0 degrees
 
     def step(self, ctx: Context, now: float) -> Command | None:
         """Holding, a turn goal, or a decision's turn; None: no decision acts now."""
