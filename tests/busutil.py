@@ -33,12 +33,16 @@ class Procs:
             stderr=kw.pop("stderr", subprocess.STDOUT),
             text=True,
             env=env(),
+            start_new_session=kw.pop("start_new_session", True),  # its group: `stop` leaves nothing behind
             **kw,
         )
         self.procs.append(p)
         return p
 
-    def stop(self, p: subprocess.Popen[str], sig: int = signal.SIGINT, timeout: float = 5.0) -> int:
+    def stop(self, p: subprocess.Popen[str], sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        """`sig`, then SIGKILL past `timeout` (longer than a launcher takes to stop its children);
+        then whatever is left of its process group, so that no process of this test outlives it and
+        speaks on the domain during the next test."""
         if p.poll() is None:
             p.send_signal(sig)
             try:
@@ -46,11 +50,29 @@ class Procs:
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
+        _kill_group(p.pid)
         return p.returncode
 
     def stop_all(self) -> None:
         for p in reversed(self.procs):
             self.stop(p)
+
+
+def _kill_group(pgid: int, grace_s: float = 5.0) -> None:
+    """SIGKILL the process group `pgid` once its leader has exited, if members remain after grace_s."""
+
+    def alive() -> bool:
+        try:
+            os.killpg(pgid, 0)
+        except (ProcessLookupError, PermissionError):
+            return False
+        return True
+
+    if alive() and not wait_for(lambda: not alive(), grace_s):
+        try:
+            os.killpg(pgid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def echo_json(topic: str, count: int = 1, timeout: float = 20.0, msg_type: str | None = None) -> list[dict]:

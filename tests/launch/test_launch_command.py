@@ -10,6 +10,7 @@ import signal
 import subprocess
 import threading
 import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -77,6 +78,30 @@ def test_launch_processes_reports_pids_and_deaths(procs, probe, tmp_path) -> Non
     for pid in pids.values():
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # signal 0 only checks: every child is gone
+
+
+def _gone(pid: int) -> bool:
+    """The process has ended (a zombie not yet reaped by whoever adopted it counts as ended)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except (FileNotFoundError, IndexError):
+        return True
+
+
+def test_a_launcher_killed_by_sigkill_takes_its_nodes_with_it(procs, probe, tmp_path) -> None:
+    """No node outlives the launch that owns it: a launcher killed by -9 cannot stop its children, so
+    each child stops itself (a clean shutdown on SIGTERM) as soon as its parent dies. Left running, a
+    simulated robot goes on publishing on the domain for whatever starts next."""
+    launch = tmp_path / "pipe.yaml"
+    launch.write_text(yaml.safe_dump([{"node": "safety"}, {"node": "test_pattern", "params": {"period_s": 0.1}}]))
+    p = procs.start("launch", str(launch), "--processes")
+    out = _Lines(p)
+    assert wait_for(lambda: out.text().count(" pid ") == 2, 20.0), out.text()
+    pids = [int(m.group(1)) for m in re.finditer(r"up: \w+ \(\w+\) pid (\d+)", out.text())]
+    assert wait_for(lambda: len(probe.cmd) > 3, 25.0), out.text()  # the gate is up and publishing
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait(10)
+    assert wait_for(lambda: all(_gone(pid) for pid in pids), 30.0), [pid for pid in pids if not _gone(pid)]
 
 
 def test_launch_rejects_a_bad_file(procs, tmp_path) -> None:

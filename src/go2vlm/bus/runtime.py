@@ -27,6 +27,26 @@ from go2vlm.bus.node import Node
 SHUTDOWN_GRACE_S = 4.0
 
 
+# The launcher's pid, set in the environment of each node it starts (`stop_with_parent`).
+PARENT_ENV = "GO2VLM_PARENT_PID"
+
+
+def stop_with_parent() -> None:
+    """In a node the launcher started: SIGTERM (a clean shutdown) when the launcher dies, even by
+    SIGKILL, so that no node outlives the launch that owns it (Linux: PR_SET_PDEATHSIG). A launcher
+    gone before this runs means SIGTERM now. Nothing happens outside a launcher's child."""
+    raw = os.environ.pop(PARENT_ENV, "")  # popped: a node's own children are not the launcher's
+    if not raw.isdigit():
+        return
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+    if os.getppid() != int(raw):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
 def exit_code(signum: int | None) -> int:
     """0 when not stopped by a signal, else 128 + signum (130 for SIGINT, 143 for SIGTERM)."""
     return 0 if signum is None else 128 + int(signum)

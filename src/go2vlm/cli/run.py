@@ -7,6 +7,7 @@ import sys
 import textwrap
 
 from go2vlm.bus import describe_params, exit_code, parse_overrides, spin
+from go2vlm.bus.runtime import stop_with_parent
 from go2vlm.cli.args import add_dds_args, positive
 from go2vlm.cli.view import add_foxglove_args, foxglove_params, make_view
 from go2vlm.errors import ConfigError, UsageError
@@ -72,6 +73,7 @@ def add_node_args(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    stop_with_parent()  # first: a node never outlives the launcher that started it
     try:
         node_class(args.node)
     except ValueError as exc:  # unknown node name: a message, not a traceback

@@ -11,7 +11,8 @@ Launch file: a list of nodes (or a mapping with a `nodes:` list):
       params: {use_sim_time: true}  # every node kind takes use_sim_time (bus/params.py NodeParams)
 
 There is no start-up ordering and no readiness dependency: topics use late-joiner-safe QoS, so any
-start order works. Children that die are reported, not restarted.
+start order works. Children that die are reported, not restarted. A launcher that dies, even by
+SIGKILL, takes its children with it: each stops cleanly (bus/runtime.py `stop_with_parent`).
 
 In-process graphs for programs (the episode runner): `load_launch` -> `with_overrides` (parameters
 per node name, e.g. the episode's world and goal) -> `make_nodes` -> start each node.
@@ -39,7 +40,7 @@ from typing import Any
 import yaml
 
 from go2vlm.bus import Node, ShutdownRequested, build_node_config, exit_code
-from go2vlm.bus.runtime import SHUTDOWN_GRACE_S
+from go2vlm.bus.runtime import PARENT_ENV, SHUTDOWN_GRACE_S
 from go2vlm.errors import ConfigError
 from go2vlm.launch.registry import NODES, make_node, node_class
 
@@ -220,9 +221,10 @@ def run_processes(entries: list[LaunchEntry], duration_s: float | None = None, l
         with open(params_file, "w") as f:
             yaml.safe_dump({e.name: {"ros__parameters": e.params} for e in entries}, f)
         children: list[tuple[LaunchEntry, subprocess.Popen[bytes]]] = []
+        child_env = {**os.environ, PARENT_ENV: str(os.getpid())}  # each child stops when we die
         try:
             for e in entries:
-                p = subprocess.Popen(child_command(e, params_file, log_level))
+                p = subprocess.Popen(child_command(e, params_file, log_level), env=child_env)
                 children.append((e, p))
                 _say(f"up: {e.name} ({e.kind}) pid {p.pid}")
             reported: set[int] = set()
