@@ -1,11 +1,12 @@
 """The remembered place with the navigator (remembered.py over behavior/navigate/): a remembered object
 in the other room is walked to along the route through the doorway; without a map it goes straight
 and says why; a place with no route (a misplaced memory beyond a wall, a door shut) is given up and
-the search goes on; a look for walks until the place is in sight."""
+the search goes on; a look for (or a go to not yet sure of it) walks until the place is in sight."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from scipy import ndimage
@@ -112,6 +113,27 @@ def test_look_for_a_remembered_object_in_the_other_room_walks_until_it_is_in_sig
     ctx2.target_obj = s.pick(ctx2)
     cmd2 = s.step(ctx2, 10.0)
     assert cmd2 is not None and cmd2.state == "aligning" and "turning to" in cmd2.reason and cmd2.vx == 0.0
+
+
+def test_a_go_to_not_yet_sure_of_an_object_behind_a_wall_walks_to_where_it_can_be_seen() -> None:
+    """Seen once through the door, the duck is not yet sure enough to walk to: the go to looks at it
+    first. From beside the wall, 1.2 m from it, no look can see it: it walks (the navigator, through
+    the door) to where the map shows it in sight, rather than looking at the wall until it gives the
+    duck up. In sight, it faces it and looks, as before."""
+    cm, s = two_rooms(), GoToRemembered()
+    unsure = replace(duck(-0.6, -2.6), confidence=0.5)
+    assert unsure.confidence < MissionParams().memory_confirm_confidence
+    ctx = ctx_at(0.6, -2.6, math.pi, cm)  # facing it, the wall between
+    ctx.memory = [unsure]
+    ctx.target_obj = s.pick(ctx)
+    cmd = s.step(ctx, 10.0)
+    assert cmd is not None and cmd.state in ("approaching", "detouring") and "can be seen" in cmd.reason, cmd
+    assert cmd.navigated and ctx.route is not None
+    seen = ctx_at(-2.0, -2.6, 0.0, cm)  # the same room: in sight
+    seen.memory = [unsure]
+    seen.target_obj = s.pick(seen)
+    cmd2 = s.step(seen, 10.0)
+    assert cmd2 is not None and "can be seen" not in cmd2.reason and cmd2.vx == 0.0, cmd2
 
 
 def test_look_for_does_not_walk_the_route_to_what_the_tracker_just_saw() -> None:

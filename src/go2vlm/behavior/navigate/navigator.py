@@ -59,7 +59,7 @@ from go2vlm.behavior.planner.route import BLOCKED, GROWN, Route
 from go2vlm.geometry.footprint import Clearance
 from go2vlm.world.occupancy import LETHAL
 
-__all__ = ["NavStep", "Navigator", "line_of_sight"]
+__all__ = ["NavStep", "Navigator", "in_view", "line_of_sight"]
 
 
 def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, skip_m: float) -> bool:
@@ -76,6 +76,15 @@ def line_of_sight(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p
     near_a = (np.hypot(xy[:, 0] - a[0], xy[:, 1] - a[1]) <= p.escape_m) & (cm.data[line[:, 0], line[:, 1]] < LETHAL)
     check = ~near_a & (np.hypot(xy[:, 0] - b[0], xy[:, 1] - b[1]) > skip_m)
     return bool(passable(cm, line[check], replace(p, unknown_cost=math.inf)).all())
+
+
+def in_view(cm: Costmap, a: tuple[float, float], b: tuple[float, float], p: GlobalParams, body: float) -> bool:
+    """Could a camera at `a` see the object at `b` on `cm`: does the straight line cross no obstacle
+    cell but the object's own (within `body`, and pieces wholly within `body + p.goal_own_m`)? A wall
+    just short of the object hides it, however near (`line_of_sight` skips that stretch)."""
+    res = cm.resolution
+    seen = in_sight(cm.data, np.array([cm.cell(*a)]), cm.cell(*b), body / res, p.goal_own_m / res)
+    return bool(seen[0])
 
 
 @dataclass(frozen=True)

@@ -17,9 +17,11 @@ view is. Pure, timestamp-driven.
   looks: `reached` only when an answer about a frame taken there placed it within reach
   (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A look begun is held until answered
   while the place stays within that reach: its range flickers about the stop distance's edge.
-- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it;
-  one out of sight on the map is first walked towards with the navigator until it is in sight
-  (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw it, whatever the map says).
+- Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it.
+  One out of sight on the map (a look for's, or a go to's not yet sure enough to walk to) is first
+  walked towards with the navigator until it is in sight: a look through a wall neither confirms it
+  nor counts against it (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw
+  it, whatever the map says).
 - `confirm_looks` answered looks without it: that object is given up and the search goes on; so is
   a go to's whose looks saw it from short of its reach `confirm_looks` times in a row, each no nearer
   than the nearest before (`remembered_no_nearer`: the way to it comes no nearer).
@@ -32,7 +34,7 @@ import math
 import numpy as np
 
 from go2vlm.behavior.control import approach_command, face_command
-from go2vlm.behavior.navigate import line_of_sight
+from go2vlm.behavior.navigate import in_view, line_of_sight
 from go2vlm.behavior.navigate.progress import Progress
 from go2vlm.behavior.strategies.base import Command, Context
 from go2vlm.world.labels import label_fits
@@ -146,11 +148,15 @@ class GoToRemembered:
                 self.held = None
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
         reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
-        if goal.kind == "look_for" and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
-            # out of sight on the map (another room): walk to where it is until it is in sight
-            planner = ctx.place_planner
-            if not line_of_sight(ctx.costmap, (ctx.pose.x, ctx.pose.y), (o.x, o.y), planner, reach):
-                out = self._walk(ctx, o, reach, now, "aligning", f"walking to where {where} can be seen")
+        unsure = goal.kind == "go_to" and o.confidence < p.memory_confirm_confidence  # to be looked at first
+        if (goal.kind == "look_for" or unsure) and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
+            # out of sight on the map (another room, behind a wall): no look from here can see it, so
+            # none counts for or against it; walk to where it is until it is in sight
+            cm, at, planner = ctx.costmap, (ctx.pose.x, ctx.pose.y), ctx.place_planner
+            sight = line_of_sight(cm, at, (o.x, o.y), planner, reach) and in_view(cm, at, (o.x, o.y), planner, o.radius)
+            if not sight:
+                state = "aligning" if goal.kind == "look_for" else "approaching"
+                out = self._walk(ctx, o, reach, now, state, f"walking to where {where} can be seen")
                 if out is not None or ctx.target_obj is None:
                     return out
         # A look begun at its place is answered before it walks again, while within the reach slack:
