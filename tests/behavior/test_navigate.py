@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from go2vlm.behavior.navigate import Navigator, NavParams
+from go2vlm.behavior.navigate import Navigator, NavParams, in_view
 from go2vlm.behavior.navigate.controller import Leg, Rect, arc_clearance, pursue, turn_in_place
 from go2vlm.behavior.navigate.params import RECOVERIES
 from go2vlm.behavior.navigate.progress import Progress
@@ -299,6 +299,26 @@ def test_once_there_nearer_is_still_there() -> None:
     assert nav.step(goal, tol, cm, (*past, 0.0), scan_at(pts, *past, 0.0), 2.0, **kw).status == "arrived"
     back = (end[0] - 0.6, end[1])  # pushed farther than where it arrived: it walks back
     assert nav.step(goal, tol, cm, (*back, 0.0), scan_at(pts, *back, 0.0), 3.0, **kw).status == "moving"
+
+
+def test_a_place_to_look_at_is_there_only_while_it_is_in_sight() -> None:
+    """A place to look at (an object: `goal_in_sight`) is there where the robot sees it. Turned and
+    pushed round the door's jamb, no farther from it than where it arrived but with the wall between,
+    the robot is not there any more: the navigator walks it back into sight. (Said "there" for good,
+    the go to behind it walked its last bit into the wall and looked through it, over and over.)"""
+    g = house(1.2)
+    cm, pts = costmap(g), wall_points(g)
+    nav, goal, tol = Navigator(), (0.6, -1.0), 1.0  # the place just past the wall, east of it
+    nav.planner = GlobalParams(goal_in_sight=True, goal_own_m=0.3)
+    kw = {"max_linear": 0.5, "max_angular": 0.8, "body": 0.1}
+    seen = (1.3, -0.5)  # in the same room, 0.86 m away
+    assert nav.step(goal, tol, cm, (*seen, 0.0), scan_at(pts, *seen, 0.0), 0.0, **kw).status == "arrived"
+    hidden = (-0.3, -1.0)  # 0.9 m away, past the wall: no farther than where it arrived, out of sight
+    out = nav.step(goal, tol, cm, (*hidden, 0.0), scan_at(pts, *hidden, 0.0), 1.0, **kw)
+    assert out.status == "moving" and nav.route is not None, out
+    end = nav.route.plan.waypoints[-1]
+    assert in_view(cm, (end[0], end[1]), goal, nav.planner, 0.1), end  # where it sees it (through the door)
+    assert nav.step(goal, tol, cm, (end[0], end[1], 0.0), scan_at(pts, *end, 0.0), 2.0, **kw).status == "arrived"
 
 
 def edge(x: float, y0: float = -0.8, y1: float = 0.8) -> np.ndarray:

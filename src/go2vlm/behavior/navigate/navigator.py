@@ -23,13 +23,15 @@ A caller choosing among places (the explorer, among frontiers) asks the navigato
 (the path cost to each, one search) and `choose` (a plan to the nearest, which becomes the route).
 `line_of_sight` asks the costmap whether a place is in plain view (a strategy that looks at a place
 rather than walks to it asks it first).
-`arrived`: within `tolerance` of the goal (and, for a planner with `goal_in_sight`, in sight of it on
-the map: no obstacle cell between but its own, within `body` of it, planner/global_path.py
-`in_sight`), or within `arrive_m` of the route's end (the passable cell the plan reached); and once
-there, for as long as it is no farther from the goal (less `arrive_m`) than where it arrived: a
-caller that closes the last of the way itself (the approach law, to the stop distance) walks past
-the route's end, and a navigator that took that for "not there" backed it to the end again. `failed`
-also when no route can be planned (the planner's reason).
+`arrived`: within `tolerance` of the goal, or within `arrive_m` of the route's end (the passable cell
+the plan reached); and once there, for as long as it is no farther from the goal (less `arrive_m`)
+than where it arrived: a caller that closes the last of the way itself (the approach law, to the
+stop distance) walks past the route's end, and a navigator that took that for "not there" backed it
+to the end again. For a planner with `goal_in_sight` (a place to look at), each of these holds only
+while the place is in sight on the map (no obstacle cell between but its own, within `body` of it,
+planner/global_path.py `in_sight`): a robot that arrived and was then turned or pushed behind a
+wall is no longer there, and the navigator walks it back into sight. `failed` also when no route can
+be planned (the planner's reason).
 """
 
 from __future__ import annotations
@@ -168,11 +170,12 @@ class Navigator:
         end = self.route.plan.waypoints[-1] if self.route is not None else None
         off = math.hypot(goal[0] - x, goal[1] - y)
         near = off <= tolerance
-        if near and self.planner.goal_in_sight:
-            own = self.planner.goal_own_m / cm.resolution
-            near = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution, own)[0])
         nearer = self._there is not None and off <= self._there + p.arrive_m  # nearer than where it arrived
-        if near or nearer or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m):
+        there = near or nearer or (end is not None and math.hypot(end[0] - x, end[1] - y) <= p.arrive_m)
+        if there and self.planner.goal_in_sight:  # a place to look at: there only while in sight of it
+            own = self.planner.goal_own_m / cm.resolution
+            there = bool(in_sight(cm.data, np.array([cm.cell(x, y)]), cm.cell(*goal), body / cm.resolution, own)[0])
+        if there:
             self._speed = 0.0
             self._there = off if self._there is None else min(self._there, off)
             return NavStep(0.0, 0.0, "arrived", "there")
