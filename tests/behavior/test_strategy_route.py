@@ -136,6 +136,20 @@ def test_a_go_to_not_yet_sure_of_an_object_behind_a_wall_walks_to_where_it_can_b
     assert cmd2 is not None and "can be seen" not in cmd2.reason and cmd2.vx == 0.0, cmd2
 
 
+def test_a_go_to_sure_of_an_object_just_behind_a_wall_does_not_take_the_wall_for_it() -> None:
+    """The duck, sure, 0.35 m past the wall; the robot 0.4 m this side of it, facing it. The scan's
+    return on its bearing is the wall's, 0.4 m away: taken for the duck's surface, the go to was at its
+    place, looked through the wall, and gave the duck up. It walks through the door to where it sees it."""
+    cm, s = two_rooms(), GoToRemembered()
+    ctx = ctx_at(0.45, -2.0, math.pi, cm)
+    ctx.memory = [duck(-0.45, -2.0)]
+    ctx.target_obj = s.pick(ctx)
+    ctx.scan = (np.array([[0.4, dy] for dy in np.arange(-0.5, 0.5, 0.02)]), 10.0)  # the wall ahead
+    cmd = s.step(ctx, 10.0)
+    assert cmd is not None and "can be seen" in cmd.reason and cmd.navigated, cmd
+    assert ctx.counters["remembered_given_up"] == 0
+
+
 def test_look_for_does_not_walk_the_route_to_what_the_tracker_just_saw() -> None:
     s = GoToRemembered()
     ctx = ctx_at(3.0, -2.0, 0.0, two_rooms())

@@ -18,10 +18,10 @@ view is. Pure, timestamp-driven.
   (stop_distance_m + distance_tolerance_m + `reach_slack_m`). A look begun is held until answered
   while the place stays within that reach: its range flickers about the stop distance's edge.
 - Look for turns to face it and ends `found` when an answer about a frame taken facing it saw it.
-  One out of sight on the map (a look for's, or a go to's not yet sure enough to walk to) is first
-  walked towards with the navigator until it is in sight: a look through a wall neither confirms it
-  nor counts against it (not while the tracker confirmed it within `SEEN_LATELY_S`: the camera saw
-  it, whatever the map says).
+- One out of sight on the map (a look for's or a go to's) is first walked towards with the navigator
+  until it is in sight: a look through a wall neither confirms it nor counts against it, and a scan
+  return on its bearing is the wall, not its surface (not while the tracker confirmed it within
+  `SEEN_LATELY_S`: the camera saw it, whatever the map says).
 - `confirm_looks` answered looks without it: that object is given up and the search goes on; so is
   a go to's whose looks saw it from short of its reach `confirm_looks` times in a row, each no nearer
   than the nearest before (`remembered_no_nearer`: the way to it comes no nearer).
@@ -148,10 +148,10 @@ class GoToRemembered:
                 self.held = None
         seen_lately = ctx.last_seen is not None and now - ctx.last_seen < SEEN_LATELY_S
         reach = ap.stop_distance + o.radius + ap.tolerance  # the navigator's "there": its centre this near
-        unsure = goal.kind == "go_to" and o.confidence < p.memory_confirm_confidence  # to be looked at first
-        if (goal.kind == "look_for" or unsure) and not seen_lately and ctx.costmap is not None and ctx.pose is not None:
+        if not seen_lately and ctx.costmap is not None and ctx.pose is not None:
             # out of sight on the map (another room, behind a wall): no look from here can see it, so
-            # none counts for or against it; walk to where it is until it is in sight
+            # none counts for or against it, and a scan return on its bearing is the wall's; walk to
+            # where it is until it is in sight
             cm, at, planner = ctx.costmap, (ctx.pose.x, ctx.pose.y), ctx.place_planner
             sight = line_of_sight(cm, at, (o.x, o.y), planner, reach) and in_view(cm, at, (o.x, o.y), planner, o.radius)
             if not sight:
