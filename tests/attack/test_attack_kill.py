@@ -149,8 +149,10 @@ def test_kill_9_a_node_mid_go_to(procs: Procs, victim: str) -> None:
             still = still_from(probe, t_kill, hold_s=3.0, timeout_s=240.0)
             assert still is not None, f"the robot never came to rest: {last_status(probe)}"
             gap = min_clearance(probe, t_kill)
-            print(f"kill -9 target_tracker mid go to: at rest {still - t_kill:.2f} s (sim) after it, "
-                  f"{last_status(probe).get('state')} ({last_status(probe).get('basis')}), nearest {gap:.2f} m")
+            print(
+                f"kill -9 target_tracker mid go to: at rest {still - t_kill:.2f} s (sim) after it, "
+                f"{last_status(probe).get('state')} ({last_status(probe).get('basis')}), nearest {gap:.2f} m"
+            )
             assert gap > 0.0
             return
         still = still_from(probe, t_kill)
@@ -187,8 +189,10 @@ def test_kill_9_the_vlm_mid_go_to(procs: Procs, tmp_path: Path) -> None:
         still = still_from(probe, t_kill, hold_s=3.0, timeout_s=240.0)
         assert still is not None, f"the robot never came to rest: {last_status(probe)}"
         gap = min_clearance(probe, t_kill)
-        print(f"kill -9 vlm mid go to: at rest {still - t_kill:.2f} s (sim) after it, "
-              f"{last_status(probe).get('state')}: {last_status(probe).get('reason')}; nearest {gap:.2f} m")
+        print(
+            f"kill -9 vlm mid go to: at rest {still - t_kill:.2f} s (sim) after it, "
+            f"{last_status(probe).get('state')}: {last_status(probe).get('reason')}; nearest {gap:.2f} m"
+        )
         assert gap > 0.0
     finally:
         probe.shutdown()

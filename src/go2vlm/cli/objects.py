@@ -46,10 +46,17 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     )  # fmt: skip
     p.add_argument("--where", metavar="LABEL", default=None, help='ask where something is, e.g. "blue cylinder"')
     what = p.add_mutually_exclusive_group()
-    what.add_argument("--save", metavar="NAME", help="the running memory writes itself to NAME: a name (saved as "
-                      "$XDG_STATE_HOME/go2vlm/objects/NAME.json) or a path under $XDG_STATE_HOME/go2vlm")
-    what.add_argument("--load", metavar="NAME", help="the running memory loads NAME (a name or a path under "
-                      "$XDG_STATE_HOME/go2vlm; all or nothing)")
+    what.add_argument(
+        "--save",
+        metavar="NAME",
+        help="the running memory writes itself to NAME: a name (saved as "
+        "$XDG_STATE_HOME/go2vlm/objects/NAME.json) or a path under $XDG_STATE_HOME/go2vlm",
+    )
+    what.add_argument(
+        "--load",
+        metavar="NAME",
+        help="the running memory loads NAME (a name or a path under $XDG_STATE_HOME/go2vlm; all or nothing)",
+    )
     p.add_argument("--overwrite", action="store_true", help="--save: replace an existing file")
     what.add_argument("--file", metavar="FILE", type=Path, help="read a saved memory file instead of a robot")
     p.add_argument("--json", action="store_true", help="the objects as JSON")
