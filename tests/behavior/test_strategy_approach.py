@@ -447,7 +447,9 @@ def test_a_go_to_whose_last_bit_is_blocked_is_reached_as_near_as_the_way_lets_it
     d = duck(-3.0, -2.0)
     cf = p.camera_forward_m
 
-    def at(gap: float, cm: object) -> Command | None:
+    box = np.column_stack([np.full(13, 0.4), np.linspace(-0.3, 0.3, 13)])  # a box face 0.4 m ahead, across the way
+
+    def at(gap: float, cm: object, scan: np.ndarray = box) -> Command | None:
         x = d.x + d.radius + p.stop_distance_m + gap  # east of the duck, facing it
         ctx = ctx_at(x, d.y, math.pi, cm, now=10.0)  # type: ignore[arg-type]
         ctx.target_obj = replace(d, x=d.x + 0.2)  # the memory's place, 0.2 m short
@@ -456,8 +458,7 @@ def test_a_go_to_whose_last_bit_is_blocked_is_reached_as_near_as_the_way_lets_it
         ctx.sighting = s
         ctx.saw(s)
         ctx.last_seen = ctx.seen_since = 0.0  # seen a while: not "just seen"
-        ys = np.linspace(-0.3, 0.3, 13)  # a box face 0.4 m ahead, across the way
-        ctx.scan = (np.column_stack([np.full_like(ys, 0.4), ys]), 10.0)
+        ctx.scan = (scan, 10.0)
         a = Approach()
         return a.step(ctx, 10.0)
 
@@ -467,3 +468,7 @@ def test_a_go_to_whose_last_bit_is_blocked_is_reached_as_near_as_the_way_lets_it
     assert far is not None and far.state != "reached", far
     no_map = at(0.15, None)
     assert no_map is not None and no_map.state == "detouring", no_map
+    # a door's jamb on the left of the way, the duck past it: a way a little right keeps it in view
+    jamb = np.column_stack([np.full(8, 0.3), np.linspace(0.12, 0.5, 8)])
+    past = at(0.15, two_rooms(), jamb)
+    assert past is not None and past.state == "detouring" and past.vx > 0.0, past

@@ -10,8 +10,9 @@ frontier. Once the navigator is there (near the place and in sight of it on the 
 law closes the last of the distance by the frame's range; where the fresh scan shows that last bit
 blocked (the object against furniture or a wall), the go to is `reached` as near as the way lets it,
 within `reach_slack_m` of the stop distance (the remembered place's rule), rather than going round
-an obstacle it is already beside. Out of view on the way, it walks on to the last confirmed place for
-up to `detour_memory_s`.
+an obstacle it is already beside; where the local planner has a free way that keeps it in view (a
+door's jamb beside the way), the way lets it nearer, and the go to takes it. Out of view on the
+way, it walks on to the last confirmed place for up to `detour_memory_s`.
 
 Follow, and a go to without a map, steer with the approach law; the local planner steers round what
 the fresh scan shows in the way (`detouring`), and out of view during such a detour it carries on
@@ -79,10 +80,14 @@ class Approach:
         if method == "memory" and dist is not None:  # what the tracker ranged stands in the way: go round it
             rel = (dist * math.cos(s.bearing), dist * math.sin(s.bearing))
         if rel is not None and not reached:
-            st = ctx.avoid(vx, wz, ap, (math.atan2(rel[1], rel[0]), math.hypot(*rel)), now)
+            bearing = math.atan2(rel[1], rel[0])
+            st = ctx.avoid(vx, wz, ap, (bearing, math.hypot(*rel)), now)
             if st is not None and st.blocked:
                 slack = ap.tolerance + ctx.params.reach_slack_m
-                if not follow and self.there and dist is not None and dist - ap.stop_distance <= slack:
+                view = ctx.view if ctx.view is not None else s.hfov
+                # a free way that keeps it in view (past a jamb, say) is a way nearer: the way lets it
+                nearer = st.way and abs(math.remainder(st.heading - bearing, math.tau)) < view / 2
+                if not follow and self.there and not nearer and dist is not None and dist - ap.stop_distance <= slack:
                     return Command.still("reached", f"{dist:.2f} m from the {label} ({method}): as near as the "
                                          f"way lets it ({st.note})")  # fmt: skip
                 return ctx.detour(st, f"target at {how}: {st.note}", now)
