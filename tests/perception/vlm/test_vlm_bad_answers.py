@@ -140,11 +140,18 @@ def test_a_wrong_label_and_a_box_on_the_wrong_object_move_nothing(procs, tiny_ck
         rig.goal.publish(String(data="go to the red ball"))
         assert wait_for(lambda: rig.counter("tracker", "refused.color_mismatch") >= 3, 60), rig.last("tracker")
         t = time.monotonic()
-        n = rig.counter("tracker", "refused.color_mismatch")
-        assert wait_for(lambda: rig.counter("tracker", "refused.color_mismatch") >= n + 2, 30)
+
+        # Each later answer is refused too: the colour (or, on a busy machine, its frame is too old).
+        def refused_red() -> int:
+            return rig.counter("tracker", "refused.color_mismatch") + rig.counter("tracker", "refused.stale")
+
+        n = refused_red()
+        assert wait_for(lambda: refused_red() >= n + 2, 60), rig.last("tracker")
         _only_searching(rig, t, "red ball")
         assert rig.counter("tracker", "accepted") == 0 and rig.last("tracker")["query"] == "red ball"
-        assert "% red" in rig.last("tracker")["last_refusal"]
+        with rig.lock:
+            said = [st.get("last_refusal", "") for st in rig.status["tracker"]]
+        assert any("% red" in why for why in said), said[-3:]
 
 
 class _FailingServer:
