@@ -25,6 +25,7 @@ import math
 
 from go2vlm.behavior.control import align_command, approach_command
 from go2vlm.behavior.strategies.base import Command, Context
+from go2vlm.world.poses import wrap_angle
 
 __all__ = ["Approach"]
 
@@ -84,9 +85,8 @@ class Approach:
             st = ctx.avoid(vx, wz, ap, (bearing, math.hypot(*rel)), now)
             if st is not None and st.blocked:
                 slack = ap.tolerance + ctx.params.reach_slack_m
-                view = ctx.view if ctx.view is not None else s.hfov
                 # a free way that keeps it in view (past a jamb, say) is a way nearer: the way lets it
-                nearer = st.way and abs(math.remainder(st.heading - bearing, math.tau)) < view / 2
+                nearer = st.way and ctx.view is not None and abs(wrap_angle(st.heading - bearing)) < ctx.view / 2
                 if not follow and self.there and not nearer and dist is not None and dist - ap.stop_distance <= slack:
                     return Command.still("reached", f"{dist:.2f} m from the {label} ({method}): as near as the "
                                          f"way lets it ({st.note})")  # fmt: skip
